@@ -1,0 +1,54 @@
+# hapgate — the people's entry points. Everything real lives in the `hapgate` Python
+# package (models/hapgate/) and in pytest (tb/); this file only wires them together.
+#
+#   make demo     the main job (what it runs grows with each block)
+#   make test     lint + every test (pytest -n auto, Verilator and Icarus)
+#   make lint     verilator -Wall, Icarus elaboration, Yosys synthesis checks
+#   make bench    benchmarks: tables on stdout, CSV/PNG in build/reports/
+#   make versions the tools in use, with their paths
+SHELL   := bash
+PYTHON  ?= python3
+VENV    := .venv
+STAMP   := $(VENV)/.installed
+HG      := $(VENV)/bin/hapgate
+PYTEST  := $(VENV)/bin/pytest
+PYTEST_ARGS ?= -n auto
+
+.PHONY: all venv demo test lint bench versions synth clean distclean fw-test fw-bench
+
+all: test
+
+# The venv is (re)built only when the pin file or the package metadata change.
+$(STAMP): requirements.lock pyproject.toml
+	@command -v $(PYTHON) >/dev/null || { echo "error: $(PYTHON) not found" >&2; exit 1; }
+	$(PYTHON) -m venv $(VENV)
+	$(VENV)/bin/python -m pip install --quiet --disable-pip-version-check -r requirements.lock
+	$(VENV)/bin/python -m pip install --quiet --disable-pip-version-check --no-deps --no-build-isolation -e .
+	@touch $@
+
+venv: $(STAMP)
+
+versions: $(STAMP)
+	$(HG) versions
+
+lint: $(STAMP)
+	$(HG) lint
+
+test: lint
+	$(HG) check-sims
+	$(PYTEST) $(PYTEST_ARGS) tb
+
+demo: $(STAMP)
+	$(HG) demo
+
+bench: $(STAMP)
+	$(HG) bench
+
+synth: $(STAMP)
+	$(HG) synth
+
+clean:
+	rm -rf build
+
+distclean: clean
+	rm -rf $(VENV)

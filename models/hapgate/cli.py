@@ -1,0 +1,96 @@
+"""The `hapgate` command: the project's entry point (installed into .venv/bin by `make`)."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+
+from . import toolenv
+
+
+def cmd_versions(_: argparse.Namespace) -> int:
+    from .report import table
+
+    print(table(["tool", "version", "path"], toolenv.versions()))
+    return 0
+
+
+def cmd_check_sims(_: argparse.Namespace) -> int:
+    from .sim import MissingSimulator, simulators
+
+    toolenv.apply()
+    try:
+        sims = simulators()
+    except MissingSimulator as exc:
+        print(f"error: {exc}", file=sys.stderr)
+        return 1
+    print(f"simulators: {', '.join(sims)}")
+    return 0
+
+
+def cmd_lint(args: argparse.Namespace) -> int:
+    from . import blocks, flow
+    from .report import table
+
+    rows, failed = [], []
+    t0 = time.perf_counter()
+    for name in args.block or list(blocks.BLOCKS):
+        block = blocks.get(name)
+        params = block.params()
+        checks = [flow.lint_verilator(block, params), flow.lint_icarus(block, params)]
+        if not args.no_synth:
+            checks += [flow.synth(block, params, "generic"), flow.synth(block, params, "ice40")]
+        for f in checks:
+            rows.append([f.block, f.tool, "ok" if f.ok else "FAIL", f"{f.seconds:.2f}",
+                         flow.resource_line(f) if f.resources else ""])
+            if not f.ok:
+                failed.append(f)
+    print(table(["block", "check", "result", "seconds", "resources"], rows))
+    for f in failed:
+        print(f"\n--- {f.block}: {f.tool} ---\n{f.detail}", file=sys.stderr)
+    print(f"lint: {len(rows) - len(failed)} ok, {len(failed)} failed "
+          f"in {time.perf_counter() - t0:.1f} s")
+    return 1 if failed else 0
+
+
+def cmd_synth(args: argparse.Namespace) -> int:
+    args.no_synth = False
+    return cmd_lint(args)
+
+
+def cmd_demo(args: argparse.Namespace) -> int:
+    from . import demo
+
+    return demo.main(args)
+
+
+def cmd_bench(args: argparse.Namespace) -> int:
+    from . import bench
+
+    return bench.main(args)
+
+
+def main(argv: list[str] | None = None) -> int:
+    p = argparse.ArgumentParser(prog="hapgate", description=__doc__)
+    sub = p.add_subparsers(dest="cmd", required=True)
+    sub.add_parser("versions", help="tool versions and paths").set_defaults(fn=cmd_versions)
+    sub.add_parser("check-sims", help="which simulators the tests will use (CI: all or error)"
+                   ).set_defaults(fn=cmd_check_sims)
+    for name, fn, hlp in (("lint", cmd_lint, "verilator -Wall, Icarus elaboration, Yosys"),
+                          ("synth", cmd_synth, "Yosys synthesis resource table")):
+        sp = sub.add_parser(name, help=hlp)
+        sp.add_argument("block", nargs="*", help="blocks (default: all)")
+        sp.add_argument("--no-synth", action="store_true", help="skip the Yosys checks")
+        sp.set_defaults(fn=fn)
+    sub.add_parser("demo", help="the main job: run the design on RTL and models, compare"
+                   ).set_defaults(fn=cmd_demo)
+    bp = sub.add_parser("bench", help="benchmarks: run time beside error (build/reports/)")
+    bp.add_argument("--quick", action="store_true", help="smaller runs")
+    bp.set_defaults(fn=cmd_bench)
+    args = p.parse_args(argv)
+    return int(args.fn(args))
+
+
+if __name__ == "__main__":
+    sys.exit(main())

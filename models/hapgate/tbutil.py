@@ -1,0 +1,34 @@
+"""Small helpers shared by the cocotb testbenches (imported inside the simulator process)."""
+
+from __future__ import annotations
+
+import json
+import os
+from pathlib import Path
+
+import cocotb
+from cocotb.clock import Clock
+from cocotb.triggers import ClockCycles, RisingEdge
+
+
+def params() -> dict[str, object]:
+    """The parameter set the runner built the DUT with (strings unquoted, numbers as int)."""
+    raw: dict[str, str] = json.loads(os.environ.get("HG_PARAMS", "{}"))
+    out: dict[str, object] = {}
+    for k, v in raw.items():
+        out[k] = Path(v[1:-1]) if v.startswith('"') else int(v)
+    return out
+
+
+def model_config() -> dict[str, object]:
+    """The golden-model configuration the pytest side passed along (HG_MODEL, JSON)."""
+    return json.loads(os.environ.get("HG_MODEL", "{}"))
+
+
+async def start(dut, period_ns: float, reset_cycles: int = 4) -> None:
+    """Start the clock on dut.clk and pulse dut.rst (synchronous, active high)."""
+    cocotb.start_soon(Clock(dut.clk, period_ns, unit="ns").start())
+    dut.rst.value = 1
+    await ClockCycles(dut.clk, reset_cycles)
+    dut.rst.value = 0
+    await RisingEdge(dut.clk)
