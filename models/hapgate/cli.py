@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import os
 import sys
 import time
 
@@ -33,19 +34,24 @@ def cmd_lint(args: argparse.Namespace) -> int:
     from . import blocks, flow
     from .report import table
 
+    from concurrent.futures import ThreadPoolExecutor
+
     rows, failed = [], []
     t0 = time.perf_counter()
+    jobs = []
     for name in args.block or list(blocks.BLOCKS):
         block = blocks.get(name)
         params = block.params()
-        checks = [flow.lint_verilator(block, params), flow.lint_icarus(block, params)]
+        jobs += [(flow.lint_verilator, block, params), (flow.lint_icarus, block, params)]
         if not args.no_synth:
-            checks += [flow.synth(block, params, "generic"), flow.synth(block, params, "ice40")]
-        for f in checks:
-            rows.append([f.block, f.tool, "ok" if f.ok else "FAIL", f"{f.seconds:.2f}",
-                         flow.resource_line(f) if f.resources else ""])
-            if not f.ok:
-                failed.append(f)
+            jobs += [(flow.synth, block, params, "generic"), (flow.synth, block, params, "ice40")]
+    with ThreadPoolExecutor(max_workers=os.cpu_count() or 2) as pool:  # tools are processes
+        findings = list(pool.map(lambda j: j[0](*j[1:]), jobs))
+    for f in findings:
+        rows.append([f.block, f.tool, "ok" if f.ok else "FAIL", f"{f.seconds:.2f}",
+                     flow.resource_line(f) if f.resources else ""])
+        if not f.ok:
+            failed.append(f)
     print(table(["block", "check", "result", "seconds", "resources"], rows))
     for f in failed:
         print(f"\n--- {f.block}: {f.tool} ---\n{f.detail}", file=sys.stderr)

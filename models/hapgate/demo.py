@@ -24,7 +24,7 @@ def sine_section() -> tuple[list[list[object]], bool]:
     dump.unlink(missing_ok=True)
     t0 = time.perf_counter()
     sim.run_cocotb(blocks.get("sine_lut"), "verilator", "cocotb_sine_lut", TB / "commutation",
-                   params=blocks.sine_lut_params(cfg), testcase="all_codes_bit_exact",
+                   params=sine.rtl_params(cfg), testcase="all_codes_bit_exact",
                    extra_env={"HG_MODEL": json.dumps(asdict(cfg)), "HG_DUMP": str(dump)}, quiet=True)
     t_rtl = time.perf_counter() - t0
     rtl = np.load(dump)

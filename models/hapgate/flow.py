@@ -95,8 +95,9 @@ def synth(block: Block, params: Params, target: str = "ice40", tag: str = "defau
     if rc == 0:
         stat = json.loads((workdir / "stat.json").read_text())
         design = stat.get("design", {})
-        resources = {k: int(v) for k, v in design.get("num_cells_by_type", {}).items()}
-        resources["cells"] = int(design.get("num_cells", sum(resources.values())))
+        resources = {k: int(v) for k, v in design.get("num_cells_by_type", {}).items()
+                     if k != "$scopeinfo"}
+        resources["cells"] = sum(resources.values())
     ok = rc == 0 and not warnings
     return Finding(f"yosys {target}", block.name, ok, time.perf_counter() - t0,
                    "\n".join(warnings) or (text.strip() if rc else ""), resources)
@@ -105,7 +106,7 @@ def synth(block: Block, params: Params, target: str = "ice40", tag: str = "defau
 def resource_line(f: Finding) -> str:
     r = dict(f.resources)
     total = r.pop("cells", 0)
-    if len(r) > 6:  # generic gates: the total says enough
+    if any(k.startswith("$_") for k in r):  # generic gates: the total says enough
         return f"{total} cells"
     parts = ", ".join(f"{n} {k}" for k, n in sorted(r.items()))
     return f"{total} cells ({parts})"

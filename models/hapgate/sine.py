@@ -17,6 +17,7 @@ from pathlib import Path
 
 import numpy as np
 
+from .block import Block, Params
 from .tables import write_hex
 
 ERROR_BUDGET_LSB = 0.5
@@ -86,3 +87,14 @@ def error_vs_truth(outputs: np.ndarray, cfg: SineRomConfig = SineRomConfig()) ->
     """Signed error (LSB) of a full-cycle output array (index = angle code) against the truth."""
     codes = np.arange(4 * cfg.entries)
     return np.asarray(outputs, dtype=np.float64) - sine_truth(codes, cfg)
+
+
+def rtl_params(cfg: SineRomConfig = SineRomConfig()) -> Params:
+    """Parameters of rtl/commutation/sine_lut.v for `cfg` (writes the ROM file)."""
+    return {"ADDR_BITS": cfg.addr_bits, "MAG_BITS": cfg.mag_bits, "LUT_FILE": write_rom(cfg)}
+
+
+def blocks() -> list[Block]:
+    return [Block(name="sine_lut", top="sine_lut", sources=("commutation/sine_lut.v",),
+                  params=rtl_params,
+                  doc="256-entry quarter-wave sine ROM, unfolded over 1024 angle codes")]

@@ -21,7 +21,7 @@ CONFIGS = [sine.SineRomConfig(), sine.SineRomConfig(addr_bits=6, fs=2047)]
 def test_sine_lut_rtl(simulator: str, cfg: sine.SineRomConfig) -> None:
     block = blocks.get("sine_lut")
     sim.run_cocotb(block, simulator, "cocotb_sine_lut", HERE,
-                   params=blocks.sine_lut_params(cfg),
+                   params=sine.rtl_params(cfg),
                    extra_env={"HG_MODEL": json.dumps(asdict(cfg))})
 
 

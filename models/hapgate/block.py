@@ -1,0 +1,23 @@
+"""The description of one RTL block (see blocks.py for the registry)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Callable
+
+from .paths import RTL
+
+Params = dict[str, object]
+
+
+@dataclass(frozen=True)
+class Block:
+    name: str
+    top: str
+    sources: tuple[str, ...]           # relative to rtl/
+    params: Callable[[], Params]       # default parameter set (generates tables)
+    doc: str
+
+    def source_paths(self) -> list[Path]:
+        return [RTL / s for s in self.sources]

@@ -1,0 +1,98 @@
+"""Encoder signal generator and float truth: seeded, vectorised.
+
+A motion profile gives the true position in lines (float, electrical cycles) per sample; the
+signal model turns it into 8-bit A/B ADC codes with the non-idealities of a real encoder and
+front end, plus the index bit (high while the shaft is in quadrant 0 of line 0 of a revolution).
+
+Truth in counts: lines * counts_per_line. Profiles start inside line 0 so the interpolator's
+position (which starts in the line it wakes up in) and the truth share their origin.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, replace
+
+import numpy as np
+
+SAMPLE_HZ = 1_000_000
+LINES = 1024
+MAX_REV_S = SAMPLE_HZ / (4 * LINES)   # 244.14 rev/s: one quadrant per sample
+
+
+@dataclass(frozen=True)
+class SignalSpec:
+    amplitude: float = 127.0    # R, ADC codes (127 = the paper's full scale)
+    offset_a: float = 0.0       # ADC codes
+    offset_b: float = 0.0
+    gain_a: float = 1.0         # relative gain per channel
+    gain_b: float = 1.0
+    phase_deg: float = 0.0      # quadrature error: B = cos(phi + phase)
+    h2: float = 0.0             # 2nd / 3rd harmonic, relative to the fundamental
+    h3: float = 0.0
+    noise_lsb: float = 0.0      # Gaussian noise sigma, LSB, independent per channel
+    seed: int = 0
+
+
+IDEAL = SignalSpec()
+# The benchmark's "paper-like" front end: amplitude -10 %, 2 % offset, 3 % gain mismatch,
+# 1 deg quadrature error, 0.3 LSB noise.
+PAPER_LIKE = SignalSpec(amplitude=127 * 0.9, offset_a=0.02 * 127, offset_b=-0.02 * 127,
+                        gain_a=1.015, gain_b=0.985, phase_deg=1.0, noise_lsb=0.3, seed=7)
+
+
+def adc_codes(lines: np.ndarray, spec: SignalSpec = IDEAL) -> tuple[np.ndarray, np.ndarray]:
+    """A, B as int8 ADC codes (rounded, clipped to -128..127) for true positions in lines."""
+    phi = 2 * np.pi * np.asarray(lines, dtype=np.float64)
+    ph = np.deg2rad(spec.phase_deg)
+    sa = np.sin(phi) + spec.h2 * np.sin(2 * phi) + spec.h3 * np.sin(3 * phi)
+    cb = np.cos(phi + ph) + spec.h2 * np.cos(2 * (phi + ph)) + spec.h3 * np.cos(3 * (phi + ph))
+    a = spec.amplitude * spec.gain_a * sa + spec.offset_a
+    b = spec.amplitude * spec.gain_b * cb + spec.offset_b
+    if spec.noise_lsb > 0:
+        rng = np.random.default_rng(spec.seed)
+        a = a + rng.normal(0.0, spec.noise_lsb, a.shape)
+        b = b + rng.normal(0.0, spec.noise_lsb, b.shape)
+    qa = np.clip(np.floor(a + 0.5), -128, 127).astype(np.int8)
+    qb = np.clip(np.floor(b + 0.5), -128, 127).astype(np.int8)
+    return qa, qb
+
+
+def index_bit(lines: np.ndarray, lines_per_rev: int = LINES) -> np.ndarray:
+    """High while the shaft is in quadrant 0 of line 0 of a revolution."""
+    x = np.asarray(lines, dtype=np.float64)
+    line = np.floor(x)
+    return (np.mod(line, lines_per_rev) == 0) & (x - line < 0.25)
+
+
+# ----------------------------------------------------------------------------------------------
+# Motion profiles: true position in lines per sample
+
+
+def constant(rev_s: float, n: int, start: float = 0.1, sample_hz: float = SAMPLE_HZ,
+             lines_per_rev: int = LINES) -> np.ndarray:
+    return start + np.arange(n) * (rev_s * lines_per_rev / sample_hz)
+
+
+def ramp(to_rev_s: float, n: int, start: float = 0.1, sample_hz: float = SAMPLE_HZ,
+         lines_per_rev: int = LINES) -> np.ndarray:
+    """Constant acceleration from standstill to `to_rev_s` over n samples."""
+    t = np.arange(n) / sample_hz
+    acc = to_rev_s * lines_per_rev / (n / sample_hz)
+    return start + 0.5 * acc * t * t
+
+
+def reversals(amp_lines: float, hz: float, n: int, start: float = 0.1,
+              sample_hz: float = SAMPLE_HZ) -> np.ndarray:
+    """Sinusoidal back-and-forth: peak speed 2*pi*hz*amp_lines lines/s."""
+    t = np.arange(n) / sample_hz
+    return start + amp_lines * np.sin(2 * np.pi * hz * t)
+
+
+def standstill(at_deg: float, n: int) -> np.ndarray:
+    """At rest exactly at an electrical angle (e.g. 90 = a quadrant boundary, 45 = the LUT
+    switch) in line 0: with noise, the samples chatter across the boundary."""
+    return np.full(n, at_deg / 360.0)
+
+
+def with_spec(spec: SignalSpec, **kw: float) -> SignalSpec:
+    return replace(spec, **kw)

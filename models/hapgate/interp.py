@@ -1,0 +1,311 @@
+"""Sin/cos encoder interpolator: the bit-exact integer model of rtl/interp/enc_interp.v.
+
+Everything is vectorised over whole sample arrays (no per-sample Python loop): the quadrant
+counter is a cumulative sum, sticky flags and homing are forward-filled event indices.
+
+Algorithm (one axis, per ADC sample a, b: 8-bit two's complement, A = R sin(phi), B = R cos(phi)):
+
+1. Quadrant from the sign bits: sa = a < 0, sb = b < 0, q = 2*sa + (sa xor sb)
+   (q0: phi in [0, 90deg), q1: [90, 180), q2: [180, 270), q3: [270, 360)).
+2. In the quadrant the two magnitudes play y = sin(theta) and x = cos(theta) of the local angle
+   theta = phi - 90deg*q: even q: y = |a|, x = |b|; odd q: y = |b|, x = |a|. |-128| = 128.
+3. Half-quadrant h = (y >= x). The smaller channel m = h ? x : y addresses the arcsine table
+   T[m] = min(2^L - 1, round(asin(min(m, R_NOM)/R_NOM) * 2^L / 45deg)), m = 0..128 (L = lut_bits,
+   7 by default: 128 codes per 45deg). Fine angle f = h ? 2^(L+1) - T[m] : T[m], in 0..2^(L+1)
+   (f = 2^(L+1) is the next quadrant's start: the mirror is 256 - T, not 255 - T).
+4. Quadrant counter qc (32 - (L+1) bits, wraps): at the first sample qc = q; then
+   dq = (q - q_prev) mod 4: 1 -> +1, 3 -> -1, 0 -> 0, 2 -> overspeed: the counter moves +2 or -2
+   in the direction of the last single step (+2 before any step), so its low two bits stay equal
+   to the sign-bit quadrant; the overspeed flag is set and counted (the position is suspect).
+5. Position pos = (qc << (L+1)) + f, a 32-bit register (wraps mod 2^32, read as signed).
+   Counts per line 2^(L+3) = 1024; 2^20 counts per revolution of a 1024-line encoder.
+6. Index: on a rising edge of the index bit between two samples (the bit is taken as high before
+   the first sample, so an index already high at start is not an edge) the start of the current
+   quadrant, qc << (L+1), is latched (the same whichever way the index is entered) and the index
+   counter (16 bits, wraps) increments. Homing: after an arm, the first index edge makes that
+   latch the home; pos_homed = pos - home (mod 2^32); the raw pos never jumps.
+7. Velocity: a window difference over W = 2^vel_log2w samples,
+   vel[n] = pos[n] - pos[n - W] (0 for n < W), in counts per W samples. A FIR: exactly 0 at
+   standstill without noise, no limit cycle, no overflow (|vel| <= 3 * 2^(L+1) * W < 2^(DW-1)
+   with DW = L + vel_log2w + 4 stored bits).
+8. Faults, sticky until a clear: bit 0 overspeed (a two-quadrant step), bit 1 clipping
+   (a or b at -128 or +127), bit 2 signal loss (a^2 + b^2 outside [amp_min^2, amp_max^2] for
+   loss_samples consecutive samples). A clear applies before its sample is evaluated.
+   Control events (clear, arm) apply to the first sample captured at or after the pulse.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from .block import Block, Params
+from .tables import write_hex
+
+FAULT_OVERSPEED = 1
+FAULT_CLIP = 2
+FAULT_LOSS = 4
+
+
+@dataclass(frozen=True)
+class InterpConfig:
+    lut_bits: int = 7          # arcsine LUT codes per 45deg = 2**lut_bits (5..9 swept by the bench)
+    r_nom: int = 127           # amplitude the arcsine table assumes (ADC codes)
+    vel_log2w: int = 8         # velocity window W = 2**vel_log2w samples
+    amp_min: int = 40          # signal-loss window on sqrt(a^2 + b^2), ADC codes
+    amp_max: int = 170
+    loss_samples: int = 16     # consecutive out-of-window samples that raise signal loss
+    lines: int = 1024          # encoder lines per revolution (for unit conversions only)
+
+    @property
+    def fine_bits(self) -> int:
+        """Bits of the fine angle within a quadrant (f ranges 0..2**fine_bits)."""
+        return self.lut_bits + 1
+
+    @property
+    def counts_per_line(self) -> int:
+        return 8 << self.lut_bits
+
+    @property
+    def counts_per_rev(self) -> int:
+        return self.counts_per_line * self.lines
+
+    @property
+    def vel_store_bits(self) -> int:
+        return self.lut_bits + self.vel_log2w + 4
+
+    @property
+    def lut_name(self) -> str:
+        return f"asin_l{self.lut_bits}_r{self.r_nom}"
+
+    def rtl_params(self) -> Params:
+        """Parameters of rtl/interp/enc_interp.v for this configuration (writes the LUT file)."""
+        return {"LUT_BITS": self.lut_bits, "VEL_LOG2W": self.vel_log2w,
+                "AMP_MIN": self.amp_min, "AMP_MAX": self.amp_max,
+                "LOSS_SAMPLES": self.loss_samples, "LUT_FILE": write_lut(self)}
+
+
+BOARD_CLK_HZ = 48_000_000   # a board-like clock (iCE40 UP5K class)
+MIN_CLK_HZ = 1_000_000      # the lowest clock: one clock per 1 MSPS sample
+
+
+def interp3_params(cfg: "InterpConfig | None" = None, clk_hz: int = BOARD_CLK_HZ,
+                   sample_hz: int = 1_000_000, axes: int = 3) -> Params:
+    """Parameters of rtl/interp/enc_interp3.v (the three-axis top with the sample strobe)."""
+    cfg = cfg or InterpConfig()
+    return {"CLK_HZ": clk_hz, "SAMPLE_HZ": sample_hz, "AXES": axes, **cfg.rtl_params()}
+
+
+def blocks() -> list[Block]:
+    srcs = ("interp/enc_interp.v",)
+    return [
+        Block(name="enc_interp", top="enc_interp", sources=srcs,
+              params=lambda: InterpConfig().rtl_params(),
+              doc="one axis of the sin/cos interpolator"),
+        Block(name="enc_interp3", top="enc_interp3",
+              sources=srcs + ("interp/sample_strobe.v", "interp/enc_interp3.v"),
+              params=interp3_params,
+              doc="three interpolator axes with the ADC sample strobe"),
+    ]
+
+
+def asin_table(cfg: InterpConfig = InterpConfig()) -> np.ndarray:
+    """Arcsine LUT, 129 entries for magnitudes 0..128 (entries above R_NOM saturate)."""
+    m = np.minimum(np.arange(129, dtype=np.float64), cfg.r_nom) / cfg.r_nom
+    codes = np.floor(np.arcsin(m) * (1 << cfg.lut_bits) / (np.pi / 4) + 0.5)
+    return np.minimum(codes, (1 << cfg.lut_bits) - 1).astype(np.int64)
+
+
+def write_lut(cfg: InterpConfig = InterpConfig(), directory: Path | None = None) -> Path:
+    return write_hex(cfg.lut_name, asin_table(cfg), cfg.lut_bits, directory)
+
+
+def quadrant_and_fine(a: np.ndarray, b: np.ndarray, table: np.ndarray, lut_bits: int
+                      ) -> tuple[np.ndarray, np.ndarray]:
+    """Steps 1-3: sign-bit quadrant q (0..3) and fine angle f (0..2**(lut_bits+1))."""
+    a = np.asarray(a, dtype=np.int16)
+    b = np.asarray(b, dtype=np.int16)
+    sa = (a < 0).astype(np.int8)
+    sb = (b < 0).astype(np.int8)
+    q = (sa << 1) | (sa ^ sb)
+    odd = (sa ^ sb).astype(bool)
+    ma, mb = np.abs(a), np.abs(b)
+    y = np.where(odd, mb, ma)
+    x = np.where(odd, ma, mb)
+    half = y >= x
+    t = table[np.where(half, x, y)]
+    f = np.where(half, (2 << lut_bits) - t, t)
+    return q.astype(np.int32), f.astype(np.int32)
+
+
+def _last_true_index(mask: np.ndarray, before: bool = False) -> np.ndarray:
+    """For each n, the largest i <= n (i < n if `before`) with mask[i]; -1 if none.
+
+    Built with np.repeat over the event positions: one pass, fast for sparse and dense masks."""
+    n = mask.size
+    ev = np.flatnonzero(mask)
+    starts = ev + 1 if before else ev
+    keep = starts < n
+    starts, ev = starts[keep], ev[keep]
+    vals = np.concatenate(([-1], ev)).astype(np.int64)
+    reps = np.diff(np.concatenate(([0], starts, [n])))
+    return np.repeat(vals, reps)
+
+
+def _event_mask(n: int, events: np.ndarray | list[int] | None) -> np.ndarray:
+    m = np.zeros(n, dtype=bool)
+    if events is not None and len(events):
+        ev = np.asarray(events, dtype=np.int64)
+        m[ev[(ev >= 0) & (ev < n)]] = True
+    return m
+
+
+def _sticky(event: np.ndarray, clear: np.ndarray) -> np.ndarray:
+    """flag[n] = an event happened at some i <= n, at or after the last clear <= n."""
+    if not event.any():
+        return np.zeros(event.size, dtype=bool)
+    if not clear.any():
+        flag = np.zeros(event.size, dtype=bool)
+        flag[np.argmax(event):] = True
+        return flag
+    last_ev = _last_true_index(event)
+    return (last_ev >= 0) & (last_ev >= _last_true_index(clear))
+
+
+@dataclass
+class InterpOut:
+    """Per-sample outputs of one axis (row n = the result of input sample n)."""
+    pos: np.ndarray            # int32 position register
+    pos_homed: np.ndarray      # int32, pos - home
+    vel: np.ndarray            # int32, counts per W samples
+    index_pos: np.ndarray      # int32, last index latch
+    index_count: np.ndarray    # uint16-range int
+    homed: np.ndarray          # bool
+    faults: np.ndarray         # int, fault bits
+    overspeed_count: np.ndarray  # 16-bit saturating count of overspeed steps
+    extra: dict[str, np.ndarray] = field(default_factory=dict)
+
+    COLUMNS = ("pos", "pos_homed", "vel", "index_pos", "index_count", "homed", "faults",
+               "overspeed_count")
+
+    def as_matrix(self) -> np.ndarray:
+        return np.stack([np.asarray(getattr(self, c), dtype=np.int64) for c in self.COLUMNS], 1)
+
+
+def run(a: np.ndarray, b: np.ndarray, index: np.ndarray | None = None,
+        cfg: InterpConfig = InterpConfig(), clear_at: list[int] | np.ndarray | None = None,
+        arm_at: list[int] | np.ndarray | None = None,
+        table: np.ndarray | None = None) -> InterpOut:
+    """Bit-exact model of one axis over a whole capture (arrays of equal length)."""
+    a = np.asarray(a)
+    b = np.asarray(b)
+    n = a.size
+    if b.size != n:
+        raise ValueError("a and b differ in length")
+    if n == 0:
+        raise ValueError("no samples")
+    idx = np.zeros(n, dtype=bool) if index is None else np.asarray(index).astype(bool)
+    table = asin_table(cfg) if table is None else table
+    fb = cfg.fine_bits
+    q, f = quadrant_and_fine(a, b, table, cfg.lut_bits)
+
+    # 4. quadrant counter: a cumulative sum of steps; overspeed steps follow the last direction.
+    # int32 arithmetic wraps exactly like the 32-bit register.
+    step = np.zeros(n, dtype=np.int32)
+    step[1:] = (q[1:] - q[:-1]) & 3
+    step[step == 3] = -1                                # 0, +1, -1, or 2 (direction unknown)
+    overspeed = step == 2
+    if overspeed.any():
+        last_single = _last_true_index((step == 1) | (step == -1), before=True)
+        last_dir = np.where(last_single >= 0, step[np.maximum(last_single, 0)], 1)
+        step[overspeed] = 2 * last_dir[overspeed]
+    qc = np.cumsum(step, dtype=np.int32) + np.int32(q[0])
+    qc_start = qc << np.int32(fb)
+    pos = qc_start + f.astype(np.int32)
+
+    # 6. index latch and homing
+    prev = np.concatenate(([True], idx[:-1]))
+    rise = idx & ~prev
+    arm = _event_mask(n, arm_at)
+    if rise.any():
+        last_rise = _last_true_index(rise)
+        index_pos = np.where(last_rise >= 0, qc_start[np.maximum(last_rise, 0)], 0)
+        index_count = np.cumsum(rise, dtype=np.int64) & 0xFFFF
+    else:
+        last_rise = np.full(n, -1)
+        index_pos = np.zeros(n, dtype=np.int32)
+        index_count = np.zeros(n, dtype=np.int64)
+    if arm.any() and rise.any():
+        last_arm = _last_true_index(arm)
+        homed = (last_arm >= 0) & (last_rise >= last_arm)
+        # the home is the first rise at or after each arm; it holds until the next homing edge
+        home_edge = rise & homed & ~np.concatenate(([False], homed[:-1]))
+        home_edge |= rise & (last_arm == np.arange(n))  # arm and edge on the same sample
+        last_home = _last_true_index(home_edge)
+        home = np.where(last_home >= 0, qc_start[np.maximum(last_home, 0)], 0)
+        pos_homed = pos - home.astype(np.int32)
+    else:
+        homed = np.zeros(n, dtype=bool)
+        pos_homed = pos
+
+    # 7. velocity: window difference over W samples, in stored DW bits (sign-extended)
+    w = 1 << cfg.vel_log2w
+    dw = cfg.vel_store_bits
+    vel = np.zeros(n, dtype=np.int32)
+    if n > w:
+        d = (pos[w:] - pos[:-w]) & np.int32((1 << dw) - 1)
+        vel[w:] = np.where(d >= 1 << (dw - 1), d - np.int32(1 << dw), d)
+
+    # 8. faults
+    clear = _event_mask(n, clear_at)
+    a16 = a.astype(np.int32)
+    b16 = b.astype(np.int32)
+    clip = (a16 == -128) | (a16 == 127) | (b16 == -128) | (b16 == 127)
+    amp2 = a16 * a16 + b16 * b16
+    bad = (amp2 < cfg.amp_min ** 2) | (amp2 > cfg.amp_max ** 2)
+    if bad.any():
+        loss = (np.arange(n) - _last_true_index(~bad)) >= cfg.loss_samples
+    else:
+        loss = bad
+    faults = (_sticky(overspeed, clear) * FAULT_OVERSPEED + _sticky(clip, clear) * FAULT_CLIP
+              + _sticky(loss, clear) * FAULT_LOSS)
+    ovs_count = (np.minimum(np.cumsum(overspeed, dtype=np.int64), 0xFFFF) if overspeed.any()
+                 else np.zeros(n, dtype=np.int64))
+
+    return InterpOut(pos=pos, pos_homed=pos_homed, vel=vel,
+                     index_pos=index_pos.astype(np.int32), index_count=index_count, homed=homed,
+                     faults=faults.astype(np.int64), overspeed_count=ovs_count,
+                     extra={"q": q, "fine": f, "qc": qc})
+
+
+# ----------------------------------------------------------------------------------------------
+# Float truth and unit conversions
+
+
+def truth_counts_error(pos: np.ndarray, truth_counts: np.ndarray, cfg: InterpConfig
+                       ) -> np.ndarray:
+    """Error (counts) of an unwrapped position against the float truth, constant offset removed
+    only if `truth_counts` is relative (the caller decides); here: the raw difference, with the
+    32-bit wrap of `pos` undone relative to the truth."""
+    p = np.asarray(pos, dtype=np.int64)
+    t = np.asarray(truth_counts, dtype=np.float64)
+    # unwrap the 32-bit register against the truth (the truth is what is continuous)
+    k = np.round((t - p) / 2.0**32)
+    return p + k * 2.0**32 - t
+
+
+def counts_to_elec_deg(err_counts: np.ndarray, cfg: InterpConfig) -> np.ndarray:
+    return np.asarray(err_counts) * 360.0 / cfg.counts_per_line
+
+
+def counts_to_mech_deg(err_counts: np.ndarray, cfg: InterpConfig) -> np.ndarray:
+    return np.asarray(err_counts) * 360.0 / cfg.counts_per_rev
+
+
+def atan2_counts(a: np.ndarray, b: np.ndarray, cfg: InterpConfig) -> np.ndarray:
+    """Float reference interpolator (the best a per-sample method can do): atan2 of the samples,
+    in counts within the line, 0 <= c < counts_per_line."""
+    phi = np.arctan2(np.asarray(a, float), np.asarray(b, float)) % (2 * np.pi)
+    return phi * cfg.counts_per_line / (2 * np.pi)

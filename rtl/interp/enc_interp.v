@@ -1,0 +1,308 @@
+// SPDX-License-Identifier: Apache-2.0
+// Sin/cos encoder interpolator, one axis: sign-bit quadrant + arcsine LUT on the smaller channel
+// (the paper's method), 32-bit position, index latch and homing, window-difference velocity,
+// sticky faults. Bit-exact model and full description: models/hapgate/interp.py.
+// Latency: 5 clocks from the cycle with s_valid high to the cycle with m_valid high.
+`timescale 1ns / 1ps
+`default_nettype none
+
+module enc_interp #(
+    parameter integer LUT_BITS     = 7,         // arcsine LUT codes per 45 deg = 2**LUT_BITS (5..9)
+    parameter         LUT_FILE     = "asin.hex", // $readmemh file, 129 entries (models/hapgate/interp.py)
+    parameter integer VEL_LOG2W    = 8,         // velocity window W = 2**VEL_LOG2W samples (2..12)
+    parameter integer AMP_MIN      = 40,        // signal-loss window on sqrt(a^2+b^2), ADC codes
+    parameter integer AMP_MAX      = 170,
+    parameter integer LOSS_SAMPLES = 16         // consecutive out-of-window samples -> signal loss
+) (
+    input  wire        clk,
+    input  wire        rst,
+    // ADC sample (two's complement), captured when s_valid is high
+    input  wire        s_valid,
+    input  wire [7:0]  s_a,
+    input  wire [7:0]  s_b,
+    input  wire        s_index,
+    // control pulses: apply to the first sample captured at or after the pulse
+    input  wire        ctl_fault_clear,
+    input  wire        ctl_home_arm,
+    // results, one per sample
+    output reg         m_valid,
+    output reg  [31:0] m_pos,             // position, counts (2**(LUT_BITS+3) per line), wraps
+    output reg  [31:0] m_pos_homed,       // m_pos - home (home = 0 until homed)
+    output reg  [31:0] m_vel,             // pos[n] - pos[n-W], counts per W samples (0 while n < W)
+    output reg  [31:0] m_index_pos,       // start of the quadrant latched at the last index edge
+    output reg  [15:0] m_index_count,     // index rising edges seen (wraps)
+    output reg  [15:0] m_overspeed_count, // two-quadrant steps seen (saturates)
+    output reg         m_homed,
+    output reg  [2:0]  m_faults,          // sticky: {loss, clip, overspeed}
+    output wire        m_fault            // any fault: the commutator zeroes this axis's torque
+);
+    localparam integer FB   = LUT_BITS + 1;             // fine bits per quadrant
+    localparam integer QCW  = 32 - FB;                  // quadrant counter width
+    localparam integer DW   = LUT_BITS + VEL_LOG2W + 4; // stored velocity bits (see model)
+    localparam integer W    = 1 << VEL_LOG2W;
+    localparam integer RUNW = $clog2(LOSS_SAMPLES + 1);
+    localparam integer AMP2_MIN_I = AMP_MIN * AMP_MIN;
+    localparam integer AMP2_MAX_I = AMP_MAX * AMP_MAX;
+    localparam integer QUADRANT_I = 1 << FB;            // fine counts per quadrant
+    localparam [16:0]     AMP2_MIN = AMP2_MIN_I[16:0];
+    localparam [16:0]     AMP2_MAX = AMP2_MAX_I[16:0];
+    localparam [FB:0]     QUADRANT = QUADRANT_I[FB:0];
+    localparam [RUNW-1:0] LOSS_N   = LOSS_SAMPLES[RUNW-1:0];
+    localparam [QCW-1:0]  QC_TWO   = {{(QCW - 2){1'b0}}, 2'd2};
+
+    // Elaboration-time checks: a bad configuration instantiates a module that does not exist,
+    // whose name is the message.
+    generate
+        if (LUT_BITS < 2 || LUT_BITS > 10) begin : g_bad_lut_bits
+            enc_interp_LUT_BITS_must_be_2_to_10 u_stop ();
+        end
+        if (VEL_LOG2W < 2 || VEL_LOG2W > 12 || DW > 32) begin : g_bad_vel_log2w
+            enc_interp_VEL_LOG2W_must_be_2_to_12 u_stop ();
+        end
+        if (AMP_MIN < 0 || AMP_MAX > 182 || AMP_MIN >= AMP_MAX) begin : g_bad_amp
+            enc_interp_needs_0_le_AMP_MIN_lt_AMP_MAX_le_182 u_stop ();
+        end
+        if (LOSS_SAMPLES < 1 || LOSS_SAMPLES > 65535) begin : g_bad_loss
+            enc_interp_LOSS_SAMPLES_must_be_1_to_65535 u_stop ();
+        end
+    endgenerate
+
+    // ---------------------------------------------------------------- stage A: capture
+    reg       va;
+    reg [7:0] a_a, b_a;
+    reg       idx_a, clr_a, arm_a;
+    reg       clr_pend, arm_pend_ctl;
+
+    always @(posedge clk) begin
+        if (s_valid) begin
+            a_a   <= s_a;
+            b_a   <= s_b;
+            idx_a <= s_index;
+        end
+    end
+
+    always @(posedge clk) begin
+        if (rst) begin
+            va           <= 1'b0;
+            clr_a        <= 1'b0;
+            arm_a        <= 1'b0;
+            clr_pend     <= 1'b0;
+            arm_pend_ctl <= 1'b0;
+        end else begin
+            va <= s_valid;
+            if (s_valid) begin
+                clr_a        <= clr_pend | ctl_fault_clear;
+                arm_a        <= arm_pend_ctl | ctl_home_arm;
+                clr_pend     <= 1'b0;
+                arm_pend_ctl <= 1'b0;
+            end else begin
+                clr_pend     <= clr_pend | ctl_fault_clear;
+                arm_pend_ctl <= arm_pend_ctl | ctl_home_arm;
+            end
+        end
+    end
+
+    // ---------------------------------------------------------------- stage B: quadrant, LUT
+    wire       sa  = a_a[7];
+    wire       sb  = b_a[7];
+    wire       odd = sa ^ sb;
+    wire [7:0] ma  = sa ? (~a_a + 8'd1) : a_a;  // |a|, 0..128 (|-128| = 128 fits 8 bits unsigned)
+    wire [7:0] mb  = sb ? (~b_a + 8'd1) : b_a;
+    wire [7:0] y   = odd ? mb : ma;             // sin of the local angle
+    wire [7:0] x   = odd ? ma : mb;             // cos of the local angle
+    wire       half = (y >= x);                 // local angle >= 45 deg: the smaller is x
+    wire [7:0] addr = half ? x : y;             // 0..128
+
+    wire signed [15:0] a_sq = $signed(a_a) * $signed(a_a);
+    wire signed [15:0] b_sq = $signed(b_a) * $signed(b_a);
+    wire        [16:0] amp2 = {1'b0, a_sq} + {1'b0, b_sq};
+
+    reg [LUT_BITS-1:0] lut [0:128];
+    initial $readmemh(LUT_FILE, lut);
+
+    reg                vb;
+    reg [LUT_BITS-1:0] lut_b;
+    reg [1:0]          q_b;
+    reg                half_b, idx_b, clr_b, arm_b, clip_b, bad_b;
+
+    always @(posedge clk) begin
+        lut_b  <= lut[addr];
+        q_b    <= {sa, odd};
+        half_b <= half;
+        idx_b  <= idx_a;
+        clip_b <= (a_a == 8'h80) || (a_a == 8'h7f) || (b_a == 8'h80) || (b_a == 8'h7f);
+        bad_b  <= (amp2 < AMP2_MIN) || (amp2 > AMP2_MAX);
+    end
+
+    always @(posedge clk) begin
+        if (rst) begin
+            vb    <= 1'b0;
+            clr_b <= 1'b0;
+            arm_b <= 1'b0;
+        end else begin
+            vb    <= va;
+            clr_b <= va & clr_a;
+            arm_b <= va & arm_a;
+        end
+    end
+
+    // ---------------------------------------------------------------- stage C: count, index, faults
+    wire [FB:0]    lut_ext = {{(FB + 1 - LUT_BITS){1'b0}}, lut_b};
+    wire [FB:0]    fine    = half_b ? QUADRANT - lut_ext : lut_ext;  // mirror: 2**FB - T, not -1
+
+    reg            started, last_up, idx_prev, arm_pend, homed_q;
+    reg [1:0]      q_prev;
+    reg [QCW-1:0]  qc;
+    reg [31:0]     home;
+    reg [RUNW-1:0] run;
+    reg [2:0]      flags;
+
+    wire [1:0]     dq        = q_b - q_prev;
+    wire           overspeed = started && (dq == 2'd2);
+    reg  [QCW-1:0] qc_next;
+    always @(*) begin
+        if (!started)
+            qc_next = {{(QCW - 2){1'b0}}, q_b};
+        else case (dq)
+            2'd1:    qc_next = qc + 1'b1;
+            2'd3:    qc_next = qc - 1'b1;
+            2'd2:    qc_next = last_up ? qc + QC_TWO : qc - QC_TWO;  // overspeed: keep going
+            default: qc_next = qc;
+        endcase
+    end
+
+    wire [31:0]     qstart   = {qc_next, {FB{1'b0}}};
+    wire [31:0]     pos_next = qstart + {{(31 - FB){1'b0}}, fine};
+    wire            rise     = idx_b & ~idx_prev;
+    wire            home_now = rise & (arm_pend | arm_b);
+    wire [31:0]     home_next = home_now ? qstart : home;
+    wire [RUNW-1:0] run_next = !bad_b ? {RUNW{1'b0}}
+                             : (run == LOSS_N) ? run : run + 1'b1;
+    wire            loss     = (run_next == LOSS_N);
+    wire [2:0]      flags_next = (clr_b ? 3'b000 : flags) | {loss, clip_b, overspeed};
+
+    reg        vc;
+    reg [31:0] pos_c, pos_homed_c, index_pos_c;
+    reg [15:0] index_count_c, ovs_count_c;
+
+    always @(posedge clk) begin
+        if (rst) begin
+            vc            <= 1'b0;
+            started       <= 1'b0;
+            last_up       <= 1'b1;
+            idx_prev      <= 1'b1;
+            arm_pend      <= 1'b0;
+            homed_q       <= 1'b0;
+            home          <= 32'd0;
+            run           <= {RUNW{1'b0}};
+            flags         <= 3'b000;
+            q_prev        <= 2'd0;
+            qc            <= {QCW{1'b0}};
+            index_pos_c   <= 32'd0;
+            index_count_c <= 16'd0;
+            ovs_count_c   <= 16'd0;
+        end else begin
+            vc <= vb;
+            if (vb) begin
+                started  <= 1'b1;
+                q_prev   <= q_b;
+                qc       <= qc_next;
+                if (started && dq == 2'd1) last_up <= 1'b1;
+                if (started && dq == 2'd3) last_up <= 1'b0;
+                idx_prev <= idx_b;
+                if (rise) begin
+                    index_pos_c   <= qstart;
+                    index_count_c <= index_count_c + 16'd1;
+                end
+                if (arm_b) begin
+                    arm_pend <= 1'b1;
+                    homed_q  <= 1'b0;
+                end
+                if (home_now) begin
+                    arm_pend <= 1'b0;
+                    homed_q  <= 1'b1;
+                end
+                home  <= home_next;
+                run   <= run_next;
+                flags <= flags_next;
+                if (overspeed && ovs_count_c != 16'hffff) ovs_count_c <= ovs_count_c + 16'd1;
+            end
+        end
+    end
+
+    always @(posedge clk) begin
+        if (vb) begin
+            pos_c       <= pos_next;
+            pos_homed_c <= pos_next - home_next;
+        end
+    end
+
+    // ---------------------------------------------------------------- stage D: velocity delay line
+    reg [DW-1:0]        hist [0:W-1];        // pos of the last W samples (low DW bits)
+    reg [VEL_LOG2W-1:0] wptr;
+    reg                 full, full_d, vd;
+    reg [DW-1:0]        old_d;
+    reg [31:0]          pos_d, pos_homed_d, index_pos_d;
+    reg [15:0]          index_count_d, ovs_count_d;
+    reg                 homed_d;
+    reg [2:0]           flags_d;
+
+    always @(posedge clk) begin
+        if (vc) begin
+            hist[wptr] <= pos_c[DW-1:0];
+            old_d      <= hist[wptr];            // read-before-write: pos[n - W]
+        end
+        pos_d         <= pos_c;
+        pos_homed_d   <= pos_homed_c;
+        index_pos_d   <= index_pos_c;
+        index_count_d <= index_count_c;
+        ovs_count_d   <= ovs_count_c;
+        homed_d       <= homed_q;
+        flags_d       <= flags;
+    end
+
+    always @(posedge clk) begin
+        if (rst) begin
+            vd     <= 1'b0;
+            wptr   <= {VEL_LOG2W{1'b0}};
+            full   <= 1'b0;
+            full_d <= 1'b0;
+        end else begin
+            vd <= vc;
+            if (vc) begin
+                wptr   <= wptr + 1'b1;
+                full_d <= full;
+                if (&wptr) full <= 1'b1;           // wrote entry W-1: every entry valid
+            end
+        end
+    end
+
+    // ---------------------------------------------------------------- stage E: outputs
+    wire [DW-1:0] vdiff = pos_d[DW-1:0] - old_d;
+
+    always @(posedge clk) begin
+        if (vd) begin
+            m_pos             <= pos_d;
+            m_pos_homed       <= pos_homed_d;
+            m_vel             <= full_d ? {{(32 - DW){vdiff[DW-1]}}, vdiff} : 32'd0;
+            m_index_pos       <= index_pos_d;
+            m_index_count     <= index_count_d;
+            m_overspeed_count <= ovs_count_d;
+            m_homed           <= homed_d;
+        end
+    end
+
+    always @(posedge clk) begin
+        if (rst) begin
+            m_valid  <= 1'b0;
+            m_faults <= 3'b000;
+        end else begin
+            m_valid <= vd;
+            if (vd) m_faults <= flags_d;
+        end
+    end
+
+    assign m_fault = |m_faults;
+endmodule
+
+`default_nettype wire

@@ -1,0 +1,73 @@
+// SPDX-License-Identifier: Apache-2.0
+// The interpolator as the FPGA has it: AXES (1..3) axes of enc_interp sharing one ADC sample
+// strobe derived from CLK_HZ. Per-axis buses are packed, axis 0 in the low bits.
+// Latency: 5 clocks from the cycle with adc_strobe high to the cycle with m_valid high.
+`timescale 1ns / 1ps
+`default_nettype none
+
+module enc_interp3 #(
+    parameter integer CLK_HZ       = 48_000_000, // FPGA clock
+    parameter integer SAMPLE_HZ    = 1_000_000,  // ADC sample rate (CLK_HZ a multiple of it)
+    parameter integer AXES         = 3,          // axes built (a scene builds only what it needs)
+    parameter integer LUT_BITS     = 7,          // arcsine LUT codes per 45 deg = 2**LUT_BITS
+    parameter         LUT_FILE     = "asin.hex", // arcsine table, shared by the axes
+    parameter integer VEL_LOG2W    = 8,          // velocity window 2**VEL_LOG2W samples
+    parameter integer AMP_MIN      = 40,         // signal-loss amplitude window, ADC codes
+    parameter integer AMP_MAX      = 170,
+    parameter integer LOSS_SAMPLES = 16          // consecutive bad samples -> signal loss
+) (
+    input  wire                 clk,
+    input  wire                 rst,
+    output wire                 adc_strobe,      // ADC words are captured at the end of this cycle
+    input  wire [8*AXES-1:0]    adc_a,
+    input  wire [8*AXES-1:0]    adc_b,
+    input  wire [AXES-1:0]      enc_index,
+    input  wire [AXES-1:0]      ctl_fault_clear,
+    input  wire [AXES-1:0]      ctl_home_arm,
+    output wire                 m_valid,
+    output wire [32*AXES-1:0]   m_pos,
+    output wire [32*AXES-1:0]   m_pos_homed,
+    output wire [32*AXES-1:0]   m_vel,
+    output wire [32*AXES-1:0]   m_index_pos,
+    output wire [16*AXES-1:0]   m_index_count,
+    output wire [16*AXES-1:0]   m_overspeed_count,
+    output wire [AXES-1:0]      m_homed,
+    output wire [3*AXES-1:0]    m_faults,
+    output wire [AXES-1:0]      m_fault
+);
+    generate
+        if (AXES < 1 || AXES > 3) begin : g_bad_axes
+            enc_interp3_AXES_must_be_1_to_3 u_stop ();
+        end
+    endgenerate
+
+    sample_strobe #(.CLK_HZ(CLK_HZ), .SAMPLE_HZ(SAMPLE_HZ)) u_strobe (
+        .clk(clk), .rst(rst), .strobe(adc_strobe)
+    );
+
+    wire [AXES-1:0] valid;
+    assign m_valid = &valid;  // the axes run in lockstep
+
+    genvar i;
+    generate
+        for (i = 0; i < AXES; i = i + 1) begin : g_axis
+            enc_interp #(
+                .LUT_BITS(LUT_BITS), .LUT_FILE(LUT_FILE), .VEL_LOG2W(VEL_LOG2W),
+                .AMP_MIN(AMP_MIN), .AMP_MAX(AMP_MAX), .LOSS_SAMPLES(LOSS_SAMPLES)
+            ) u_axis (
+                .clk(clk), .rst(rst),
+                .s_valid(adc_strobe),
+                .s_a(adc_a[8*i +: 8]), .s_b(adc_b[8*i +: 8]), .s_index(enc_index[i]),
+                .ctl_fault_clear(ctl_fault_clear[i]), .ctl_home_arm(ctl_home_arm[i]),
+                .m_valid(valid[i]),
+                .m_pos(m_pos[32*i +: 32]), .m_pos_homed(m_pos_homed[32*i +: 32]),
+                .m_vel(m_vel[32*i +: 32]), .m_index_pos(m_index_pos[32*i +: 32]),
+                .m_index_count(m_index_count[16*i +: 16]),
+                .m_overspeed_count(m_overspeed_count[16*i +: 16]),
+                .m_homed(m_homed[i]), .m_faults(m_faults[3*i +: 3]), .m_fault(m_fault[i])
+            );
+        end
+    endgenerate
+endmodule
+
+`default_nettype wire
