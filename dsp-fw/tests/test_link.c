@@ -1,0 +1,202 @@
+/* SPDX-License-Identifier: Apache-2.0 */
+/* PC link: every message, every way a frame can be bad, resynchronisation. */
+#include <string.h>
+#include "hal_sim.h"
+#include "hg_frame.h"
+#include "hg_test.h"
+
+static hg_servo_t S;
+static hg_link_t L;
+
+static void setup(void)
+{
+    hg_servo_cfg_t cfg;
+    hg_servo_default_cfg(&cfg);
+    fx_servo(&S, &cfg);
+    hg_link_init(&L, &S);
+}
+
+/* Feed bytes; return the number of replies, the last one decoded into raw/n. */
+static int feed(const uint8_t *b, size_t n, uint8_t raw[HG_LINK_MAX_RAW], size_t *rn)
+{
+    int replies = 0;
+    for (size_t i = 0; i < n; i++) {
+        uint8_t tx[HG_LINK_MAX_FRAME];
+        const size_t m = hg_link_rx_byte(&L, b[i], tx);
+        if (m) {
+            replies++;
+            CHECK(tx[m - 1] == 0 && memchr(tx, 0, m - 1) == NULL);
+            *rn = hg_cobs_decode(tx, m - 1, raw, HG_LINK_MAX_RAW);
+            CHECK(*rn >= 5 && *rn != HG_COBS_ERR);
+            CHECK(hg_crc16(raw, *rn - 2) == (uint16_t)(raw[*rn - 2] << 8 | raw[*rn - 1]));
+        }
+    }
+    return replies;
+}
+
+/* Send one request; expect exactly one reply of type `want`; return its data length. */
+static size_t request(uint8_t type, const uint8_t *data, size_t n, uint8_t want,
+                      uint8_t raw[HG_LINK_MAX_RAW])
+{
+    static uint8_t seq;
+    uint8_t f[HG_LINK_MAX_FRAME];
+    size_t rn = 0;
+    const size_t m = hg_link_encode(type, ++seq, data, n, f);
+    CHECK(m > 0);
+    CHECK(feed(f, m, raw, &rn) == 1);
+    CHECK(raw[0] == HG_PROTO_VERSION && raw[1] == want && raw[2] == seq);
+    return rn - 5;
+}
+
+static float f32_at(const uint8_t *d)
+{
+    union { uint32_t u; float f; } b;
+    b.u = (uint32_t)d[0] | (uint32_t)d[1] << 8 | (uint32_t)d[2] << 16 | (uint32_t)d[3] << 24;
+    return b.f;
+}
+
+static void put_f32(uint8_t *d, float x)
+{
+    union { uint32_t u; float f; } b;
+    b.f = x;
+    for (int i = 0; i < 4; i++)
+        d[i] = (uint8_t)(b.u >> (8 * i));
+}
+
+void test_link_ping_state(void)
+{
+    uint8_t raw[HG_LINK_MAX_RAW];
+    setup();
+    CHECK(request(HG_MSG_PING, NULL, 0, 0x81, raw) == HG_PING_LEN);
+    CHECK(raw[3] == 0x00 && raw[4] == 0x01);                     /* fw 1.0 */
+    CHECK(raw[5] == 0x01 && raw[7] == 0x47 && raw[8] == 0x48);   /* FPGA ID, little-endian */
+    CHECK(raw[9] == (1000 & 0xFF) && raw[10] == 1000 >> 8);      /* rate */
+    const double q[3] = { 0, DEG_D(45.0), DEG_D(45.0) }, qd[3] = { 0, 1.0, 1.0 };
+    fx_pose(&S, q, qd);
+    hg_servo_step(&S);
+    CHECK(request(HG_MSG_GET_STATE, NULL, 0, 0x82, raw) == HG_STATE_LEN);
+    const uint8_t *d = raw + 3;
+    CHECK(d[0] == 1 && d[1] == 0 && d[2] == 0 && d[3] == 0);     /* SEQ */
+    CHECK_NEAR(f32_at(d + 8), 0.0707107, 1e-6);                   /* y */
+    CHECK_NEAR(f32_at(d + 16 + 8), 0.0, 1e-6);                    /* vz */
+    CHECK_NEAR(f32_at(d + 16 + 4), -2 * 0.05 * sqrt(0.5), 1e-5);  /* vy = -2 L sin45 qd */
+    CHECK_NEAR(f32_at(d + 28 + 4), DEG_D(45.0), 1e-5);            /* beta */
+    CHECK(d[52] == 0 && d[53] == 0 && d[55] == HG_SCENE_NONE);
+}
+
+void test_link_commands(void)
+{
+    uint8_t raw[HG_LINK_MAX_RAW], req[37] = { 0 };
+    setup();
+    /* SET_SCENE: wall at y = 0.07, normal -y, 2000 N/m */
+    req[0] = HG_SCENE_WALL;
+    put_f32(req + 1 + 4, 0.07f);
+    put_f32(req + 13 + 4, -1.0f);
+    put_f32(req + 25, 2000.0f);
+    CHECK(request(HG_MSG_SET_SCENE, req, 37, 0x84, raw) == 0);
+    CHECK(S.scene.type == HG_SCENE_WALL && S.scene.k == 2000.0f && S.scene.n[1] == -1.0f);
+    /* ENABLE */
+    uint8_t on = 1;
+    CHECK(request(HG_MSG_ENABLE, &on, 1, 0x85, raw) == 0 && S.enabled);
+    /* SET_FORCE */
+    uint8_t f[12];
+    put_f32(f, 1.5f);
+    put_f32(f + 4, -2.5f);
+    put_f32(f + 8, 0.25f);
+    CHECK(request(HG_MSG_SET_FORCE, f, 12, 0x83, raw) == 0);
+    CHECK(S.f_pc[0] == 1.5f && S.f_pc[1] == -2.5f && S.f_pc[2] == 0.25f && S.f_pc_age == 0);
+    /* NAKs: out of range, and enabling with an error latched; nothing changes */
+    put_f32(req + 25, 4000.0f);                                  /* > 35 N/cm */
+    CHECK(request(HG_MSG_SET_SCENE, req, 37, HG_MSG_NAK, raw) == 2);
+    CHECK(raw[3] == HG_MSG_SET_SCENE && raw[4] == HG_NAK_RANGE && S.scene.k == 2000.0f);
+    put_f32(f, NAN);
+    CHECK(request(HG_MSG_SET_FORCE, f, 12, HG_MSG_NAK, raw) == 2 && S.f_pc[0] == 1.5f);
+    on = 2;
+    CHECK(request(HG_MSG_ENABLE, &on, 1, HG_MSG_NAK, raw) == 2 && S.enabled);
+    hg_servo_step(&S);                                           /* stale? no: first step */
+    hg_servo_step(&S);                                           /* stale: latches */
+    CHECK(S.err == HG_ERR_STALE && !S.enabled);
+    on = 1;
+    CHECK(request(HG_MSG_ENABLE, &on, 1, HG_MSG_NAK, raw) == 2);
+    CHECK(raw[4] == HG_NAK_ERROR_LATCHED && !S.enabled);
+    CHECK(request(HG_MSG_GET_STATE, NULL, 0, 0x82, raw) == HG_STATE_LEN);
+    CHECK(raw[3 + 52] == (2 | 4) && raw[3 + 53] == HG_ERR_STALE); /* error, PC force live */
+    CHECK(request(HG_MSG_CLEAR_ERROR, NULL, 0, 0x87, raw) == 0 && S.err == HG_ERR_NONE);
+    CHECK(request(HG_MSG_ENABLE, &on, 1, 0x85, raw) == 0 && S.enabled);
+    /* statistics: 10 good frames so far (4 of them refused), this one makes 11 */
+    CHECK(request(HG_MSG_GET_STATS, NULL, 0, 0x86, raw) == HG_STATS_LEN);
+    CHECK(raw[3] == 11 && raw[3 + 24] == 4);
+    CHECK(L.st.bad_framing + L.st.bad_crc + L.st.bad_version + L.st.bad_type + L.st.bad_len == 0);
+}
+
+/* Each kind of bad frame: counted in its own counter, no reply, no action. */
+void test_link_bad_frames(void)
+{
+    uint8_t raw[HG_LINK_MAX_RAW], f[HG_LINK_MAX_FRAME], on = 1;
+    size_t rn = 0;
+    setup();
+    const hg_servo_t before = S;
+    size_t m = hg_link_encode(HG_MSG_ENABLE, 7, &on, 1, f);
+
+    uint8_t bad[HG_LINK_MAX_FRAME];
+    memcpy(bad, f, m);
+    bad[3] ^= 0x10; /* a flipped bit in the data or CRC */
+    if (bad[3] == 0)
+        bad[3] = 0x10;
+    CHECK(feed(bad, m, raw, &rn) == 0 && L.st.bad_crc == 1);
+
+    const uint8_t trunc[] = { 0x02, 0x01, 0x00 }; /* 1 byte: shorter than a header + CRC */
+    CHECK(feed(trunc, 3, raw, &rn) == 0 && L.st.bad_framing == 1);
+    CHECK(feed(f + 2, m - 2, raw, &rn) == 0);     /* frame with its head cut off */
+    CHECK(L.st.bad_framing + L.st.bad_crc == 3);
+    const uint8_t cobs_bad[] = { 0x09, 0x01, 0x02, 0x00 }; /* code runs past the end */
+    CHECK(feed(cobs_bad, 4, raw, &rn) == 0);
+
+    /* right CRC, wrong content: build the raw frame by hand */
+    const uint8_t cases[][6] = {
+        { 4, 2, HG_MSG_ENABLE, 1, 1 },    /* version 2 */
+        { 4, 1, 0x55, 1, 1 },             /* unknown type */
+        { 4, 1, 0x85, 1, 1 },             /* a reply type sent to the device */
+        { 5, 1, HG_MSG_ENABLE, 1, 1, 1 }, /* ENABLE with 2 data bytes */
+        { 3, 1, HG_MSG_ENABLE, 1 },       /* ENABLE with none */
+    };
+    for (unsigned c = 0; c < 5; c++) {
+        uint8_t r[8], e[16];
+        const size_t n = cases[c][0];
+        memcpy(r, cases[c] + 1, n);
+        const uint16_t crc = hg_crc16(r, n);
+        r[n] = (uint8_t)(crc >> 8);
+        r[n + 1] = (uint8_t)crc;
+        const size_t k = hg_cobs_encode(r, n + 2, e, sizeof e);
+        e[k] = 0;
+        CHECK(feed(e, k + 1, raw, &rn) == 0);
+    }
+    CHECK(L.st.bad_version == 1 && L.st.bad_type == 2 && L.st.bad_len == 2);
+    CHECK(L.st.bad_framing == 3 && L.st.good == 0);
+
+    /* over-long: 200 non-zero bytes, then the valid frame still works */
+    uint8_t junk[200];
+    memset(junk, 0x41, sizeof junk);
+    CHECK(feed(junk, sizeof junk, raw, &rn) == 0);
+    CHECK(!S.enabled && S.scene.type == before.scene.type && S.f_pc_age == before.f_pc_age);
+    const uint8_t z = 0;
+    CHECK(feed(&z, 1, raw, &rn) == 0 && L.st.bad_framing == 4);
+    CHECK(feed(&z, 1, raw, &rn) == 0 && L.st.bad_framing == 4); /* idle 0x00: not a frame */
+    CHECK(feed(f, m, raw, &rn) == 1 && S.enabled && L.st.good == 1);
+}
+
+/* Garbage glued to the front of a frame costs that frame; the parser resynchronises on 0x00. */
+void test_link_resync(void)
+{
+    uint8_t raw[HG_LINK_MAX_RAW], f[2 * HG_LINK_MAX_FRAME + 8];
+    size_t rn = 0;
+    setup();
+    const uint8_t g[] = { 0x13, 0x37, 0xFF };
+    memcpy(f, g, 3);
+    size_t m = 3 + hg_link_encode(HG_MSG_PING, 1, NULL, 0, f + 3);
+    CHECK(feed(f, m, raw, &rn) == 0 && L.st.good == 0);
+    f[0] = 0;                                   /* same garbage, then a delimiter */
+    m = 1 + hg_link_encode(HG_MSG_PING, 2, NULL, 0, f + 1);
+    m += hg_link_encode(HG_MSG_GET_STATS, 3, NULL, 0, f + m);
+    CHECK(feed(f, m, raw, &rn) == 2 && L.st.good == 2 && raw[1] == 0x86);
+}
