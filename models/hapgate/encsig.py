@@ -96,3 +96,69 @@ def standstill(at_deg: float, n: int) -> np.ndarray:
 
 def with_spec(spec: SignalSpec, **kw: float) -> SignalSpec:
     return replace(spec, **kw)
+
+
+# ----------------------------------------------------------------------------------------------
+# Named stress scenarios: the same stimulus for cocotb, the native harness, demo and bench.
+
+
+@dataclass
+class Scenario:
+    name: str
+    a: np.ndarray
+    b: np.ndarray
+    index: np.ndarray
+    truth_lines: np.ndarray
+    clear_at: np.ndarray
+    arm_at: np.ndarray
+
+
+def scenario(name: str, n: int, seed: int = 1) -> Scenario:
+    """A named stimulus of n samples (see SCENARIOS for the list)."""
+    rng = np.random.default_rng(seed)
+    noisy = with_spec(PAPER_LIKE, seed=seed)
+    clear_at = np.array([], dtype=np.int64)
+    arm_at = np.array([], dtype=np.int64)
+    if name == "const150_ideal":
+        x, spec = constant(150.0, n, start=rng.uniform(0, 1)), IDEAL
+    elif name == "ramp244_paper":
+        x, spec = ramp(244.0, n, start=rng.uniform(0, 1)), noisy
+    elif name == "reversals_paper":
+        # 200 Hz back and forth over +-122 lines: peak 150 rev/s, through the index line
+        x, spec = reversals(150.0 * LINES / (2 * np.pi * 200.0), 200.0, n, start=0.3), noisy
+    elif name == "reversal_on_boundary":
+        # turn around exactly on the 90-degree quadrant boundary, from above and from below
+        # (noise-free), then likewise on the 45-degree LUT switch
+        k = np.arange(n)
+        bounce = 0.004 * np.abs(np.sin(2 * np.pi * 8 * k / n))
+        seg = (4 * k) // n
+        x = np.choose(seg, [0.25 + bounce, 0.25 - bounce, 0.125 + bounce, 0.125 - bounce])
+        spec = with_spec(IDEAL, amplitude=120.0)
+    elif name == "standstill_chatter":
+        # at rest on the quadrant boundary, then on the 45-degree switch, with 0.7 LSB noise
+        x = np.where(np.arange(n) < n // 2, 0.25, 0.125)
+        spec = with_spec(IDEAL, amplitude=120.0, noise_lsb=0.7, seed=seed)
+    elif name == "clip_harmonics":
+        # over-range amplitude (clips at -128/+127) with 2nd/3rd harmonics
+        x = constant(60.0, n, start=0.05)
+        spec = with_spec(IDEAL, amplitude=135.0, h2=0.03, h3=0.02)
+    elif name == "overspeed":
+        x, spec = ramp(300.0, n, start=0.1), IDEAL
+    elif name == "dropout_controls":
+        # index crossings, homing arms, a dropout (A = B = 0) and fault clears
+        x = constant(-150.0, n, start=0.6)
+        spec = with_spec(IDEAL, amplitude=110.0)
+        arm_at = np.array([n // 10, n // 2])
+        clear_at = np.array([n // 3, 2 * n // 3, 2 * n // 3 + 5])
+    else:
+        raise ValueError(f"unknown scenario {name!r}; known: {', '.join(SCENARIOS)}")
+    a, b = adc_codes(x, spec)
+    if name == "dropout_controls":
+        lo, hi = n // 3 - 40, n // 3 + 60
+        a[lo:hi] = 0
+        b[lo:hi] = 0
+    return Scenario(name, a, b, index_bit(x), x, clear_at, arm_at)
+
+
+SCENARIOS = ("const150_ideal", "ramp244_paper", "reversals_paper", "reversal_on_boundary",
+             "standstill_chatter", "clip_harmonics", "overspeed", "dropout_controls")

@@ -103,8 +103,11 @@ module enc_interp #(
     end
 
     // ---------------------------------------------------------------- stage B: quadrant, LUT
-    wire       sa  = a_a[7];
-    wire       sb  = b_a[7];
+    // Sign bits with the zero code held (+-1/2 LSB hysteresis: every quadrant exactly 90 deg
+    // wide, so the decoder tracks to 244.14 rev/s; the position is the same either way at 0).
+    reg        sa_prev, sb_prev;
+    wire       sa  = (a_a == 8'd0) ? sa_prev : a_a[7];
+    wire       sb  = (b_a == 8'd0) ? sb_prev : b_a[7];
     wire       odd = sa ^ sb;
     wire [7:0] ma  = sa ? (~a_a + 8'd1) : a_a;  // |a|, 0..128 (|-128| = 128 fits 8 bits unsigned)
     wire [7:0] mb  = sb ? (~b_a + 8'd1) : b_a;
@@ -136,13 +139,19 @@ module enc_interp #(
 
     always @(posedge clk) begin
         if (rst) begin
-            vb    <= 1'b0;
-            clr_b <= 1'b0;
-            arm_b <= 1'b0;
+            vb      <= 1'b0;
+            clr_b   <= 1'b0;
+            arm_b   <= 1'b0;
+            sa_prev <= 1'b0;
+            sb_prev <= 1'b0;
         end else begin
             vb    <= va;
             clr_b <= va & clr_a;
             arm_b <= va & arm_a;
+            if (va) begin
+                sa_prev <= sa;
+                sb_prev <= sb;
+            end
         end
     end
 

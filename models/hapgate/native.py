@@ -1,0 +1,163 @@
+"""The native Verilator harness of the three-axis interpolator (tb/native/interp/).
+
+`build_interp()` Verilates rtl/interp/enc_interp3.v with a C++ main that streams samples from a
+file (one build per parameter set, cached under build/native/), `run_interp()` feeds it numpy
+arrays and returns the per-sample outputs as numpy arrays. A scene builds what it asks for:
+only AXES axes, only the output columns requested, at the clock it names (CLK_HZ = SAMPLE_HZ, one
+clock per sample, is the fastest; a board clock gives identical outputs, more slowly).
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import subprocess
+import tempfile
+import time
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Sequence
+
+import numpy as np
+
+from . import interp, toolenv
+from .flow import param_text
+from .interp import InterpConfig
+from .paths import BUILD, RTL, TB, ensure
+from .sim import _locked
+
+HARNESS = TB / "native" / "interp" / "interp_harness.cpp"
+SOURCES = [RTL / "interp" / "enc_interp.v", RTL / "interp" / "sample_strobe.v",
+           RTL / "interp" / "enc_interp3.v"]
+COLUMNS = ("pos", "pos_homed", "vel", "index_pos", "index_count", "homed", "faults",
+           "overspeed_count")
+COLUMN_DTYPES = {"pos": "<i4", "pos_homed": "<i4", "vel": "<i4", "index_pos": "<i4",
+                 "index_count": "<u2", "homed": "u1", "faults": "u1", "overspeed_count": "<u2"}
+FLAG_INDEX, FLAG_CLEAR, FLAG_ARM = 1, 2, 4
+
+
+def build_interp(cfg: InterpConfig = InterpConfig(), clk_hz: int = interp.MIN_CLK_HZ,
+                 axes: int = 3, sample_hz: int = 1_000_000) -> Path:
+    """Verilate and compile the harness for this parameter set; return the executable."""
+    toolenv.apply()
+    params = interp.interp3_params(cfg, clk_hz=clk_hz, sample_hz=sample_hz, axes=axes)
+    key_src = json.dumps({k: param_text(v) for k, v in sorted(params.items())})
+    digest = hashlib.sha1(key_src.encode())
+    for src in [*SOURCES, HARNESS]:
+        digest.update(src.read_bytes())
+    bdir = ensure(BUILD / "native" / f"interp-{digest.hexdigest()[:12]}")
+    exe = bdir / "interp_harness"
+    with _locked(bdir):
+        if exe.exists():
+            return exe
+        cmd = ["verilator", "--cc", "--exe", "--build", "-j", "2", "-O3",
+               "--x-assign", "fast", "--x-initial", "fast", "-Wno-fatal",
+               "--top-module", "enc_interp3", "-Mdir", str(bdir), "-o", "interp_harness",
+               "-CFLAGS", f"-O2 -DAXES={axes}",
+               "-MAKEFLAGS", "OPT_FAST=-O2 OPT_SLOW=-O2 OPT_GLOBAL=-O2"]
+        cmd += [f"-G{k}={param_text(v)}" for k, v in params.items()]
+        cmd += [str(s) for s in SOURCES] + [str(HARNESS)]
+        out = subprocess.run(cmd, capture_output=True, text=True)
+        (bdir / "build.log").write_text(out.stdout + out.stderr)
+        if out.returncode != 0 or not exe.exists():
+            raise RuntimeError(f"native harness build failed; see {bdir / 'build.log'}")
+    return exe
+
+
+@dataclass
+class NativeRun:
+    outputs: list[dict[str, np.ndarray]]   # per axis: column name -> array (row k = sample k)
+    seconds: float                         # harness wall time (simulation only)
+    clocks: int
+
+    def axis(self, i: int) -> dict[str, np.ndarray]:
+        return self.outputs[i]
+
+
+def _as_2d(x: np.ndarray | None, n: int, axes: int, dtype: str) -> np.ndarray:
+    if x is None:
+        return np.zeros((n, axes), dtype=dtype)
+    arr = np.asarray(x)
+    if arr.ndim == 1:
+        arr = arr[:, None]
+    if arr.shape != (n, axes):
+        raise ValueError(f"expected shape ({n}, {axes}), got {arr.shape}")
+    return arr.astype(dtype)
+
+
+def _events_to_mask(events: Sequence[Sequence[int]] | None, n: int, axes: int) -> np.ndarray:
+    m = np.zeros((n, axes), dtype=bool)
+    if events is not None:
+        for ax, ev in enumerate(events):
+            ev = np.asarray(ev, dtype=np.int64)
+            m[ev[(ev >= 0) & (ev < n)], ax] = True
+    return m
+
+
+def run_interp(a: np.ndarray, b: np.ndarray, index: np.ndarray | None = None,
+               cfg: InterpConfig = InterpConfig(), clk_hz: int = interp.MIN_CLK_HZ,
+               columns: Sequence[str] = COLUMNS, clear_at: Sequence[Sequence[int]] | None = None,
+               arm_at: Sequence[Sequence[int]] | None = None) -> NativeRun:
+    """Run samples (arrays of shape (n,) for one axis or (n, axes)) through the Verilated RTL.
+
+    clear_at / arm_at: per axis, the sample numbers at which a fault clear / home arm pulse is
+    applied (the same convention as hapgate.interp.run)."""
+    a = np.asarray(a)
+    axes = 1 if a.ndim == 1 else a.shape[1]
+    n = a.shape[0]
+    if n == 0:
+        raise ValueError("no samples")
+    unknown = set(columns) - set(COLUMNS)
+    if unknown:
+        raise ValueError(f"unknown columns {sorted(unknown)}; known: {', '.join(COLUMNS)}")
+    cols = [c for c in COLUMNS if c in columns]
+    exe = build_interp(cfg, clk_hz=clk_hz, axes=axes)
+    rec = np.zeros((n, axes, 3), dtype=np.uint8)
+    rec[:, :, 0] = _as_2d(a, n, axes, "int8").view(np.uint8)
+    rec[:, :, 1] = _as_2d(b, n, axes, "int8").view(np.uint8)
+    flags = _as_2d(index, n, axes, "bool").astype(np.uint8) * FLAG_INDEX
+    flags |= _events_to_mask(clear_at, n, axes).astype(np.uint8) * FLAG_CLEAR
+    flags |= _events_to_mask(arm_at, n, axes).astype(np.uint8) * FLAG_ARM
+    rec[:, :, 2] = flags
+    mask = sum(1 << COLUMNS.index(c) for c in cols)
+    dtype = np.dtype([(f"{c}{ax}", COLUMN_DTYPES[c]) for ax in range(axes) for c in cols])
+    with tempfile.TemporaryDirectory(dir=ensure(BUILD / "native" / "runs")) as tmp:
+        fin, fout = Path(tmp) / "in.bin", Path(tmp) / "out.bin"
+        rec.tofile(fin)
+        t0 = time.perf_counter()
+        out = subprocess.run([str(exe), str(fin), str(fout), str(n), str(mask)],
+                             capture_output=True, text=True)
+        wall = time.perf_counter() - t0
+        if out.returncode != 0:
+            raise RuntimeError(f"native harness failed ({out.returncode}): {out.stderr.strip()}")
+        stats = dict(kv.split("=") for kv in out.stdout.split())
+        data = np.fromfile(fout, dtype=dtype)
+    if data.size != n:
+        raise RuntimeError(f"native harness wrote {data.size} of {n} samples")
+    outputs = [{c: data[f"{c}{ax}"].astype(np.int64) for c in cols} for ax in range(axes)]
+    return NativeRun(outputs=outputs, seconds=float(stats.get("seconds", wall)),
+                     clocks=int(stats.get("clocks", 0)))
+
+
+def model_matrix(out: interp.InterpOut, columns: Sequence[str] = COLUMNS) -> dict[str, np.ndarray]:
+    """The model's outputs in the harness's column form (for bit-exact comparison)."""
+    res = {}
+    for c in columns:
+        v = np.asarray(getattr(out, c))
+        res[c] = v.astype(np.int64)
+    return res
+
+
+def first_mismatch(rtl: dict[str, np.ndarray], model: dict[str, np.ndarray]
+                   ) -> tuple[int, str, int, int] | None:
+    """(sample, column, rtl value, model value) of the first difference, or None."""
+    first: tuple[int, str, int, int] | None = None
+    for c, r in rtl.items():
+        m = model[c]
+        bad = np.flatnonzero(r != m)
+        if bad.size and (first is None or bad[0] < first[0]):
+            k = int(bad[0])
+            first = (k, c, int(r[k]), int(m[k]))
+    return first
+
+

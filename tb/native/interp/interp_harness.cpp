@@ -1,0 +1,165 @@
+// SPDX-License-Identifier: Apache-2.0
+// Native long-run harness for rtl/interp/enc_interp3.v: streams ADC samples from a binary file
+// through the Verilated RTL and writes the per-sample outputs. The path for 10^7..10^9 samples
+// (cocotb pays ~15 us of Python per clock). Driven by models/hapgate/native.py.
+//
+// usage: interp_harness IN OUT N_SAMPLES COLMASK
+//   IN : N_SAMPLES records of AXES x {int8 a, int8 b, uint8 flags}; flags bit0 index,
+//        bit1 fault clear, bit2 home arm (pulses applied with that sample).
+//   OUT: N_SAMPLES records of AXES x the selected columns, in this order and size:
+//        pos i32, pos_homed i32, vel i32, index_pos i32, index_count u16, homed u8,
+//        faults u8, overspeed_count u16  (COLMASK bit k selects column k).
+// Prints "samples=N clocks=C seconds=S" on stdout.
+#include <chrono>
+#include <cstdint>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <memory>
+#include <vector>
+
+#include "Venc_interp3.h"
+#include "verilated.h"
+
+#ifndef AXES
+#error "AXES must be defined (-DAXES=n) to match the RTL parameter"
+#endif
+
+namespace {
+
+// A field of a packed Verilated port, whatever C type Verilator chose for its width.
+inline uint64_t field(uint64_t v, int lo, int width) {
+    return (v >> lo) & ((width == 64) ? ~0ULL : ((1ULL << width) - 1));
+}
+template <std::size_t N>
+inline uint64_t field(const VlWide<N>& v, int lo, int width) {
+    if (width < 32 && (lo % 32) + width <= 32)  // within one word: the common case
+        return (v[lo / 32] >> (lo % 32)) & ((1U << width) - 1U);
+    if (width == 32 && lo % 32 == 0) return v[lo / 32];
+    uint64_t out = 0;
+    for (int b = 0; b < width; ++b) {
+        const int bit = lo + b;
+        out |= static_cast<uint64_t>((v[bit / 32] >> (bit % 32)) & 1U) << b;
+    }
+    return out;
+}
+
+struct Column {
+    int bytes;
+};
+constexpr Column kColumns[8] = {{4}, {4}, {4}, {4}, {2}, {1}, {1}, {2}};
+
+template <typename T>
+void put(std::vector<uint8_t>& buf, T value, int bytes) {
+    for (int i = 0; i < bytes; ++i) buf.push_back(static_cast<uint8_t>(value >> (8 * i)));
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+    if (argc != 5) {
+        std::fprintf(stderr, "usage: %s IN OUT N_SAMPLES COLMASK\n", argv[0]);
+        return 2;
+    }
+    const uint64_t n = std::strtoull(argv[3], nullptr, 10);
+    const unsigned mask = static_cast<unsigned>(std::strtoul(argv[4], nullptr, 0));
+    FILE* in = std::fopen(argv[1], "rb");
+    FILE* out = std::fopen(argv[2], "wb");
+    if (!in || !out) {
+        std::fprintf(stderr, "error: cannot open %s or %s\n", argv[1], argv[2]);
+        return 2;
+    }
+
+    auto ctx = std::make_unique<VerilatedContext>();
+    auto top = std::make_unique<Venc_interp3>(ctx.get());
+
+    const size_t rec_in = 3 * AXES;
+    const size_t chunk = 1 << 16;  // samples per read
+    std::vector<uint8_t> ibuf(chunk * rec_in);
+    std::vector<uint8_t> obuf;
+    obuf.reserve(chunk * AXES * 22);
+    size_t ibuf_len = 0, ibuf_pos = 0;
+
+    top->clk = 0;
+    top->rst = 1;
+    top->adc_a = top->adc_b = 0;
+    top->enc_index = top->ctl_fault_clear = top->ctl_home_arm = 0;
+    top->eval();
+    for (int i = 0; i < 4; ++i) {
+        top->clk = 1; top->eval();
+        top->clk = 0; top->eval();
+    }
+    top->rst = 0;
+    top->eval();
+
+    uint64_t fed = 0, got = 0, clocks = 0;
+    const auto t0 = std::chrono::steady_clock::now();
+    while (got < n) {
+        // clk low: present the next sample in the cycle the FPGA strobes the ADC
+        if (top->adc_strobe && fed < n) {
+            if (ibuf_pos == ibuf_len) {
+                const size_t want = static_cast<size_t>(std::min<uint64_t>(chunk, n - fed));
+                const size_t r = std::fread(ibuf.data(), rec_in, want, in);
+                if (r == 0) {
+                    std::fprintf(stderr, "error: input ended after %llu samples\n",
+                                 static_cast<unsigned long long>(fed));
+                    return 3;
+                }
+                ibuf_len = r * rec_in;
+                ibuf_pos = 0;
+            }
+            uint32_t a = 0, b = 0, idx = 0, clr = 0, arm = 0;
+            for (int ax = 0; ax < AXES; ++ax) {
+                const uint8_t* r = &ibuf[ibuf_pos + 3 * ax];
+                a |= static_cast<uint32_t>(r[0]) << (8 * ax);
+                b |= static_cast<uint32_t>(r[1]) << (8 * ax);
+                idx |= static_cast<uint32_t>(r[2] & 1U) << ax;
+                clr |= static_cast<uint32_t>((r[2] >> 1) & 1U) << ax;
+                arm |= static_cast<uint32_t>((r[2] >> 2) & 1U) << ax;
+            }
+            ibuf_pos += rec_in;
+            top->adc_a = a;
+            top->adc_b = b;
+            top->enc_index = idx;
+            top->ctl_fault_clear = clr;
+            top->ctl_home_arm = arm;
+            ++fed;
+        } else {
+            top->ctl_fault_clear = 0;
+            top->ctl_home_arm = 0;
+        }
+        top->clk = 1;
+        top->eval();
+        ++clocks;
+        if (top->m_valid) {
+            for (int ax = 0; ax < AXES; ++ax) {
+                const uint64_t v[8] = {
+                    field(top->m_pos, 32 * ax, 32),         field(top->m_pos_homed, 32 * ax, 32),
+                    field(top->m_vel, 32 * ax, 32),         field(top->m_index_pos, 32 * ax, 32),
+                    field(top->m_index_count, 16 * ax, 16), field(top->m_homed, ax, 1),
+                    field(top->m_faults, 3 * ax, 3),        field(top->m_overspeed_count, 16 * ax, 16)};
+                for (int c = 0; c < 8; ++c)
+                    if (mask & (1U << c)) put(obuf, v[c], kColumns[c].bytes);
+            }
+            ++got;
+            if (obuf.size() >= chunk * 16) {
+                std::fwrite(obuf.data(), 1, obuf.size(), out);
+                obuf.clear();
+            }
+        }
+        top->clk = 0;
+        top->eval();
+    }
+    std::fwrite(obuf.data(), 1, obuf.size(), out);
+    const double secs =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    top->final();
+    std::fclose(in);
+    if (std::fclose(out) != 0) {
+        std::fprintf(stderr, "error: writing %s failed\n", argv[2]);
+        return 3;
+    }
+    std::printf("samples=%llu clocks=%llu seconds=%.6f\n", static_cast<unsigned long long>(got),
+                static_cast<unsigned long long>(clocks), secs);
+    return 0;
+}
