@@ -4,8 +4,10 @@ build/reports/. Speed is printed here, never asserted in a test."""
 from __future__ import annotations
 
 import argparse
+import subprocess
 
-from . import toolenv
+from . import bench_interp, toolenv
+from .paths import ROOT
 from .report import table, write_csv
 
 
@@ -13,9 +15,15 @@ def main(args: argparse.Namespace) -> int:
     from . import demo
 
     toolenv.apply()
+    ok = True
     headers = ["engine", "samples", "seconds", "rms err", "max err", "mismatches vs model"]
-    rows, ok = demo.sine_section()
+    rows, sine_ok = demo.sine_section()
     print("== sine ROM (1024 codes; error in DAC LSB) ==")
     print(table(headers, rows))
-    print(f"csv: {write_csv('bench_sine_rom.csv', headers, rows)}")
+    print(f"csv: {write_csv('bench_sine_rom.csv', headers, rows)}\n")
+    ok &= sine_ok
+    ok &= bench_interp.run(args.quick)
+    print("\n== DSP firmware: servo step cost (make -C dsp-fw bench) ==", flush=True)
+    ok &= subprocess.run(["make", "-s", "-C", str(ROOT / "dsp-fw"), "bench"]).returncode == 0
+    print("bench:", "all engines agree with the models" if ok else "MISMATCH or failure above")
     return 0 if ok else 1

@@ -77,6 +77,12 @@ def cmd_bench(args: argparse.Namespace) -> int:
     return bench.main(args)
 
 
+def cmd_replay(args: argparse.Namespace) -> int:
+    from importlib import import_module
+
+    return int(import_module(f"hapgate.replay_{args.block}").main(args))
+
+
 def main(argv: list[str] | None = None) -> int:
     p = argparse.ArgumentParser(prog="hapgate", description=__doc__)
     sub = p.add_subparsers(dest="cmd", required=True)
@@ -91,6 +97,13 @@ def main(argv: list[str] | None = None) -> int:
         sp.set_defaults(fn=fn)
     sub.add_parser("demo", help="the main job: run the design on RTL and models, compare"
                    ).set_defaults(fn=cmd_demo)
+    rp = sub.add_parser("replay", help="run a capture CSV through the RTL or the model")
+    rsub = rp.add_subparsers(dest="block", required=True)
+    from . import replay_interp
+
+    replay_interp.add_arguments(rsub.add_parser(
+        "interp", help="encoder samples -> positions (CAPTURE.csv -> RESULT.csv)"))
+    rp.set_defaults(fn=cmd_replay)
     bp = sub.add_parser("bench", help="benchmarks: run time beside error (build/reports/)")
     bp.add_argument("--quick", action="store_true", help="smaller runs")
     bp.set_defaults(fn=cmd_bench)

@@ -150,8 +150,13 @@ def scenario(name: str, n: int, seed: int = 1) -> Scenario:
         spec = with_spec(IDEAL, amplitude=110.0)
         arm_at = np.array([n // 10, n // 2])
         clear_at = np.array([n // 3, 2 * n // 3, 2 * n // 3 + 5])
+    elif name in ("bench_ideal", "bench_paper"):
+        # the benchmark's accuracy runs: constant speed, not commensurate with the sampling
+        x = constant(37.3, n, start=0.37)
+        spec = IDEAL if name == "bench_ideal" else with_spec(PAPER_LIKE, seed=seed)
     else:
-        raise ValueError(f"unknown scenario {name!r}; known: {', '.join(SCENARIOS)}")
+        raise ValueError(f"unknown scenario {name!r}; known: {', '.join(SCENARIOS)}, "
+                         "bench_ideal, bench_paper")
     a, b = adc_codes(x, spec)
     if name == "dropout_controls":
         lo, hi = n // 3 - 40, n // 3 + 60
