@@ -3,7 +3,7 @@
 #
 #   make demo     the main job (what it runs grows with each block)
 #   make test     lint + every test (pytest -n auto, Verilator and Icarus)
-#   make lint     verilator -Wall, Icarus elaboration, Yosys synthesis checks
+#   make lint     ruff, verilator -Wall, Icarus elaboration, Yosys synthesis checks
 #   make bench    benchmarks: tables on stdout, CSV/PNG in build/reports/
 #   make versions the tools in use, with their paths
 SHELL   := bash
@@ -32,6 +32,7 @@ versions: $(STAMP)
 	$(HG) versions
 
 lint: $(STAMP)
+	$(VENV)/bin/ruff check models tb
 	$(HG) lint
 
 test: lint

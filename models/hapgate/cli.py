@@ -31,10 +31,10 @@ def cmd_check_sims(_: argparse.Namespace) -> int:
 
 
 def cmd_lint(args: argparse.Namespace) -> int:
+    from concurrent.futures import ThreadPoolExecutor
+
     from . import blocks, flow
     from .report import table
-
-    from concurrent.futures import ThreadPoolExecutor
 
     rows, failed = [], []
     t0 = time.perf_counter()

@@ -13,7 +13,7 @@ from dataclasses import asdict
 import numpy as np
 
 from . import blocks, encsig, interp, native, sim, sine, toolenv
-from .paths import TB, ensure, BUILD
+from .paths import BUILD, TB, ensure
 from .report import figure_path, pyplot, table
 
 
@@ -25,7 +25,8 @@ def sine_section() -> tuple[list[list[object]], bool]:
     t0 = time.perf_counter()
     sim.run_cocotb(blocks.get("sine_lut"), "verilator", "cocotb_sine_lut", TB / "commutation",
                    params=sine.rtl_params(cfg), testcase="all_codes_bit_exact",
-                   extra_env={"HG_MODEL": json.dumps(asdict(cfg)), "HG_DUMP": str(dump)}, quiet=True)
+                   extra_env={"HG_MODEL": json.dumps(asdict(cfg)), "HG_DUMP": str(dump)},
+                   quiet=True)
     t_rtl = time.perf_counter() - t0
     rtl = np.load(dump)
     t0 = time.perf_counter()

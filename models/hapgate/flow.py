@@ -21,7 +21,7 @@ WAIVERS = RTL / "lint" / "waivers.vlt"
 
 
 def param_text(value: object, rel_to: Path | None = None) -> str:
-    """A parameter value as HDL text: paths become quoted strings (relative to `rel_to` if given)."""
+    """A parameter value as HDL text: paths become quoted strings (relative to `rel_to`)."""
     if isinstance(value, Path):
         p = os.path.relpath(value, rel_to) if rel_to else str(value)
         return f'"{p}"'

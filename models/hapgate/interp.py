@@ -92,7 +92,7 @@ BOARD_CLK_HZ = 48_000_000   # a board-like clock (iCE40 UP5K class)
 MIN_CLK_HZ = 1_000_000      # the lowest clock: one clock per 1 MSPS sample
 
 
-def interp3_params(cfg: "InterpConfig | None" = None, clk_hz: int = BOARD_CLK_HZ,
+def interp3_params(cfg: InterpConfig | None = None, clk_hz: int = BOARD_CLK_HZ,
                    sample_hz: int = 1_000_000, axes: int = 3) -> Params:
     """Parameters of rtl/interp/enc_interp3.v (the three-axis top with the sample strobe)."""
     cfg = cfg or InterpConfig()

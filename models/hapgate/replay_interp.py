@@ -80,7 +80,8 @@ def main(args: argparse.Namespace) -> int:
             err = err - offset
             rms, mx = float(np.sqrt(np.mean(err**2))), float(np.abs(err).max())
             row += [f"{offset:.3f}", f"{rms:.4f}", f"{mx:.4f}",
-                    f"{rms * 360 / cfg.counts_per_line:.4f}", f"{mx * 360 / cfg.counts_per_line:.4f}",
+                    f"{rms * 360 / cfg.counts_per_line:.4f}",
+                    f"{mx * 360 / cfg.counts_per_line:.4f}",
                     f"{rms * 360 / cfg.counts_per_rev:.3e}", f"{mx * 360 / cfg.counts_per_rev:.3e}"]
         rows.append(row)
     headers = ["engine", "samples", "seconds", "samples/s"]

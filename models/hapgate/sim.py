@@ -12,9 +12,9 @@ import os
 import re
 import shutil
 import sys
+from collections.abc import Iterator, Mapping, Sequence
 from contextlib import contextmanager
 from pathlib import Path
-from typing import Iterator, Mapping, Sequence
 
 from . import toolenv
 from .blocks import Block, Params
@@ -44,7 +44,8 @@ def simulators() -> list[str]:
 
 
 def _tag(params: Params, build_args: Sequence[str]) -> str:
-    text = json.dumps({k: param_text(v) for k, v in sorted(params.items())} | {"_": list(build_args)})
+    key = {k: param_text(v) for k, v in sorted(params.items())} | {"_": list(build_args)}
+    text = json.dumps(key)
     return hashlib.sha1(text.encode()).hexdigest()[:10]
 
 
@@ -118,5 +119,6 @@ def run_cocotb(
     n_tests, n_failed = get_results(Path(results))
     if n_failed or n_tests == 0:  # (under pytest the runner has already raised)
         log = f"; log: {tdir / 'sim.log'}" if quiet else ""
-        raise RuntimeError(f"{block.name} on {sim}: {n_failed} of {n_tests} cocotb tests failed{log}")
+        raise RuntimeError(
+            f"{block.name} on {sim}: {n_failed} of {n_tests} cocotb tests failed{log}")
     return Path(results)

@@ -1,6 +1,7 @@
 """The commutation sine ROM: one generator for the RTL's table, the bit-exact model and the truth.
 
-Quarter-wave table of N = 2**ADDR_BITS entries (default 256): entry i = round(FS*sin((i+1/2)*90deg/N)).
+Quarter-wave table of N = 2**ADDR_BITS entries (default 256):
+entry i = round(FS*sin((i+1/2)*90deg/N)).
 The half-step offset makes mirroring exact, so angle code k of a 4N-code cycle stands for
 (k + 1/2) * 360deg / (4N) and unfolding needs no special case at 90deg or 270deg:
 

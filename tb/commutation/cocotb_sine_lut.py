@@ -4,10 +4,9 @@ from __future__ import annotations
 
 import os
 
-import numpy as np
 import cocotb
+import numpy as np
 from cocotb.triggers import FallingEdge
-
 from hapgate import sine, tbutil
 
 LATENCY = 2  # clocks from in_valid to out_valid: documented in sine_lut.v and asserted here
@@ -61,7 +60,8 @@ async def all_codes_bit_exact(dut):
         want = sine.sine_model(order, cfg)
         bad = np.flatnonzero(got != want)
         assert bad.size == 0, (
-            f"{bad.size} mismatches; first: code {order[bad[0]]} got {got[bad[0]]} want {want[bad[0]]}")
+            f"{bad.size} mismatches; first: code {order[bad[0]]} got {got[bad[0]]} "
+            f"want {want[bad[0]]}")
         assert np.all(lat == LATENCY), f"latency {sorted(set(lat.tolist()))} != {LATENCY}"
     # The full cycle in code order doubles as the error-vs-truth check on the RTL's own outputs.
     got, _ = await drive(dut, codes, np.zeros_like(codes))

@@ -9,7 +9,6 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-
 from hapgate import blocks, sim, sine, tables
 
 HERE = Path(__file__).parent

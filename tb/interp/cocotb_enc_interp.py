@@ -9,11 +9,10 @@ from __future__ import annotations
 
 import os
 
-import numpy as np
 import cocotb
+import numpy as np
 from cocotb.triggers import FallingEdge
 from cocotb.utils import get_sim_time
-
 from hapgate import encsig, interp, native, tbutil
 
 LATENCY = 5        # clocks from the cycle with s_valid high to the cycle with m_valid high

@@ -10,7 +10,6 @@ from dataclasses import asdict
 from pathlib import Path
 
 import pytest
-
 from hapgate import blocks, encsig, interp, sim
 
 HERE = Path(__file__).parent

@@ -7,7 +7,6 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-
 from hapgate import encsig, interp, native
 
 CFG = interp.InterpConfig()
@@ -131,7 +130,8 @@ def test_velocity_mean_and_noise() -> None:
         vel = run.axis(ax)["vel"][w:]
         true = v * CFG.counts_per_rev / encsig.SAMPLE_HZ * w      # counts per W samples
         print(f"{v:+.1f} rev/s: mean {vel.mean():.3f}, true {true:.3f}, noise (std) "
-              f"{vel.std():.3f} counts/W = {vel.std() / w * encsig.SAMPLE_HZ / CFG.counts_per_rev:.4f} rev/s")
+              f"{vel.std():.3f} counts/W = "
+              f"{vel.std() / w * encsig.SAMPLE_HZ / CFG.counts_per_rev:.4f} rev/s")
         assert abs(vel.mean() - true) <= 1.0
     still = encsig.adc_codes(encsig.standstill(33.0, 5000), encsig.with_spec(encsig.IDEAL,
                                                                               amplitude=120))
