@@ -59,10 +59,11 @@ def engines_table(quick: bool) -> list[list[object]]:
         wrap = np.round(sc.truth_lines - ref / cfg.counts_per_line)   # whole lines: unwrap
         rows.append(_row(label, "float atan2 on the samples", n_fast, t_ref,
                          _err_deg(ref + wrap * cfg.counts_per_line, sc.truth_lines, cfg), "-"))
+        interp.run(sc.a, sc.b, None, cfg)      # warm-up: first-touch page faults of the heap
         t0 = time.perf_counter()
         model = interp.run(sc.a, sc.b, None, cfg)
         t_model = time.perf_counter() - t0
-        rows.append(_row(label, "bit-exact model (numpy)", n_fast, t_model,
+        rows.append(_row(label, "bit-exact model (numpy, warm)", n_fast, t_model,
                          _err_deg(model.pos, sc.truth_lines, cfg), "-"))
         native.build_interp(cfg, axes=1)
         for axes in (1, 3):
