@@ -6,7 +6,7 @@ from __future__ import annotations
 import argparse
 import subprocess
 
-from . import bench_interp, toolenv
+from . import bench_commutation, bench_interp, toolenv
 from .paths import ROOT
 from .report import table, write_csv
 
@@ -23,6 +23,8 @@ def main(args: argparse.Namespace) -> int:
     print(f"csv: {write_csv('bench_sine_rom.csv', headers, rows)}\n")
     ok &= sine_ok
     ok &= bench_interp.run(args.quick)
+    print()
+    ok &= bench_commutation.run(args.quick)
     print("\n== DSP firmware: servo step cost (make -C dsp-fw bench) ==", flush=True)
     ok &= subprocess.run(["make", "-s", "-C", str(ROOT / "dsp-fw"), "bench"]).returncode == 0
     print("bench:", "all engines agree with the models" if ok else "MISMATCH or failure above")

@@ -99,10 +99,13 @@ def main(argv: list[str] | None = None) -> int:
                    ).set_defaults(fn=cmd_demo)
     rp = sub.add_parser("replay", help="run a capture CSV through the RTL or the model")
     rsub = rp.add_subparsers(dest="block", required=True)
-    from . import replay_interp
+    from . import replay_commutation, replay_interp
 
     replay_interp.add_arguments(rsub.add_parser(
         "interp", help="encoder samples -> positions (CAPTURE.csv -> RESULT.csv)"))
+    replay_commutation.add_arguments(rsub.add_parser(
+        "commutation", help="positions and torques -> DAC codes and load times "
+                            "(FRAMES.csv -> DAC.csv)"))
     rp.set_defaults(fn=cmd_replay)
     bp = sub.add_parser("bench", help="benchmarks: run time beside error (build/reports/)")
     bp.add_argument("--quick", action="store_true", help="smaller runs")

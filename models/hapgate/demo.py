@@ -12,7 +12,7 @@ from dataclasses import asdict
 
 import numpy as np
 
-from . import blocks, encsig, interp, native, sim, sine, toolenv
+from . import bench_commutation, blocks, encsig, interp, native, sim, sine, toolenv
 from .paths import BUILD, TB, ensure
 from .report import figure_path, pyplot, table
 
@@ -122,5 +122,7 @@ def main(_: argparse.Namespace) -> int:
                  "max err", "first fault", "index edges", "homed", "first mismatch"], rows))
     print(f"plot: {figure_path('demo_interp.png')}")
     ok &= ok_i
+    print()
+    ok &= bench_commutation.demo_section()
     print("demo:", "RTL matches the models bit for bit" if ok else "RTL DIFFERS from a model")
     return 0 if ok else 1

@@ -1,0 +1,84 @@
+"""DAC scheduler (rtl/dac_sched/dac_sched.v): timing in simulation time at two CLK_HZ values and
+a shorter frame, both simulators; bad configurations fail at elaboration; the schedule checker
+itself rejects wrong schedules."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+from hapgate import blocks, flow, sim
+from hapgate import commutation as cm
+from hapgate.dacsched import Load, check_schedule
+
+HERE = Path(__file__).parent
+CONFIGS = {
+    "c50": cm.CommutationConfig(clk_hz=50_000_000),
+    "c12m5": cm.CommutationConfig(clk_hz=12_500_000),
+    # a faster frame: 1 us skew in an 8 us frame with an 8 us DAC (parameters, not registers)
+    "c25_fast": cm.CommutationConfig(clk_hz=25_000_000, skew_ns=1000, frame_ns=8000,
+                                     settle_ns=8000),
+}
+
+
+@pytest.mark.parametrize("simulator", sim.simulators())
+@pytest.mark.parametrize("name", list(CONFIGS))
+def test_schedule_timing_rtl(simulator: str, name: str) -> None:
+    cfg = CONFIGS[name]
+    sim.run_cocotb(blocks.get("commutator"), simulator, "cocotb_dac_sched", HERE,
+                   params=cfg.rtl_params(), extra_env={"HG_MODEL": json.dumps(cfg.to_json())})
+
+
+@pytest.mark.parametrize("change, message", [
+    ({"SKEW_NS": 3000}, "dac_sched_CHANNELS_times_SKEW_must_not_exceed_FRAME"),
+    ({"SETTLE_NS": 20000}, "dac_sched_FRAME_NS_must_be_at_least_SETTLE_NS"),
+    ({"CLK_HZ": 48_001_000}, "dac_sched_SKEW_NS_and_FRAME_NS_must_be_whole_clocks_of_CLK_HZ"),
+    ({"CLK_HZ": 1_000_000},
+     "dac_sched_needs_1_le_WR_CYCLES_le_15_and_SKEW_CYCLES_ge_WR_CYCLES_plus_3"),
+    ({"CLK_HZ": 1_500_000, "PIPE_CYCLES": 20}, "dac_sched_last_write_must_end_within_the_frame"),
+])
+def test_bad_configuration_fails_at_elaboration(change: dict[str, int], message: str) -> None:
+    block = blocks.get("dac_sched")
+    params = {**block.params(), **change}
+    assert flow.lint_verilator(block, block.params()).ok   # the default is fine
+    f = flow.lint_verilator(block, params)
+    assert not f.ok and message in f.detail, f.detail
+    g = flow.lint_icarus(block, params)
+    assert not g.ok and message in g.detail, g.detail
+
+
+def _ideal_loads(cfg: cm.CommutationConfig, starts: list[int]) -> list[Load]:
+    p = 10**12 // cfg.clk_hz
+    return [Load(int(s + c * p), k, 0) for s in starts
+            for k, c in enumerate(cm.load_clocks(cfg))]
+
+
+def test_checker_accepts_spec_and_rejects_wrong_schedules() -> None:
+    cfg = cm.CommutationConfig(clk_hz=50_000_000)
+    fp = cfg.frame_ns * 1000
+    starts = [0, fp, 2 * fp, 3 * fp]
+    good = _ideal_loads(cfg, starts)
+    assert check_schedule(good, starts[1:], cfg, t0_ps=0).shape == (3, 6)
+    late = [Load(ld.t_ps + (20000 if i == 9 else 0), ld.addr, 0) for i, ld in enumerate(good)]
+    with pytest.raises(AssertionError, match="skew"):
+        check_schedule(late, starts[1:], cfg, t0_ps=0)
+    swapped = [Load(ld.t_ps, [1, 0][ld.addr] if ld.addr < 2 else ld.addr, 0) for ld in good]
+    with pytest.raises(AssertionError, match="order"):
+        check_schedule(swapped, starts[1:], cfg, t0_ps=0)
+    nonzero = [Load(ld.t_ps, ld.addr, 5 if i == 2 else 0) for i, ld in enumerate(good)]
+    with pytest.raises(AssertionError, match="not zero"):
+        check_schedule(nonzero, starts[1:], cfg, t0_ps=0)
+    shifted = [Load(ld.t_ps + 20000, ld.addr, 0) for ld in good]
+    with pytest.raises(AssertionError, match="latency"):
+        check_schedule(shifted, starts[1:], cfg, t0_ps=0)
+
+
+def test_load_times_are_the_paper_schedule() -> None:
+    """Model load times at 48 MHz: 2.000 us apart, first one 8 clocks after the frame start."""
+    cfg = cm.CommutationConfig()
+    t = cm.load_times_ns(cfg)
+    assert np.allclose(np.diff(t), 2000.0, rtol=0, atol=1e-9)
+    assert abs(t[0] - 8 * 1e9 / 48e6) < 1e-9
+    assert cfg.frame_clocks == 768 and cfg.skew_clocks == 96
