@@ -33,6 +33,8 @@ Algorithm (one axis, per ADC sample a, b: 8-bit two's complement, A = R sin(phi)
    (a or b at -128 or +127), bit 2 signal loss (a^2 + b^2 outside [amp_min^2, amp_max^2] for
    loss_samples consecutive samples). A clear applies before its sample is evaluated.
    Control events (clear, arm) apply to the first sample captured at or after the pulse.
+9. Direction invert (cfg.invert, RTL INVERT): A and B are swapped at capture, i.e. the angle
+   90deg - phi: the count runs the other way and quadrant 0 (the index quadrant) maps onto itself.
 """
 
 from __future__ import annotations
@@ -59,6 +61,7 @@ class InterpConfig:
     amp_max: int = 170
     loss_samples: int = 16     # consecutive out-of-window samples that raise signal loss
     lines: int = 1024          # encoder lines per revolution (for unit conversions only)
+    invert: bool = False       # count the other way: A and B swapped at capture (90deg - phi)
 
     @property
     def fine_bits(self) -> int:
@@ -85,7 +88,8 @@ class InterpConfig:
         """Parameters of rtl/interp/enc_interp.v for this configuration (writes the LUT file)."""
         return {"LUT_BITS": self.lut_bits, "VEL_LOG2W": self.vel_log2w,
                 "AMP_MIN": self.amp_min, "AMP_MAX": self.amp_max,
-                "LOSS_SAMPLES": self.loss_samples, "LUT_FILE": write_lut(self)}
+                "LOSS_SAMPLES": self.loss_samples, "LUT_FILE": write_lut(self),
+                "INVERT": int(self.invert)}
 
 
 BOARD_CLK_HZ = 48_000_000   # a board-like clock (iCE40 UP5K class)
@@ -94,9 +98,13 @@ MIN_CLK_HZ = 1_000_000      # the lowest clock: one clock per 1 MSPS sample
 
 def interp3_params(cfg: InterpConfig | None = None, clk_hz: int = BOARD_CLK_HZ,
                    sample_hz: int = 1_000_000, axes: int = 3) -> Params:
-    """Parameters of rtl/interp/enc_interp3.v (the three-axis top with the sample strobe)."""
+    """Parameters of rtl/interp/enc_interp3.v (the three-axis top with the sample strobe);
+    `cfg.invert` applies to every axis."""
     cfg = cfg or InterpConfig()
-    return {"CLK_HZ": clk_hz, "SAMPLE_HZ": sample_hz, "AXES": axes, **cfg.rtl_params()}
+    per_axis = {k: v for k, v in cfg.rtl_params().items() if k != "INVERT"}
+    mask = (1 << axes) - 1 if cfg.invert else 0
+    return {"CLK_HZ": clk_hz, "SAMPLE_HZ": sample_hz, "AXES": axes, **per_axis,
+            "INVERT_MASK": mask}
 
 
 def blocks() -> list[Block]:
@@ -226,6 +234,8 @@ def run(a: np.ndarray, b: np.ndarray, index: np.ndarray | None = None,
     idx = np.zeros(n, dtype=bool) if index is None else np.asarray(index).astype(bool)
     table = asin_table(cfg) if table is None else table
     fb = cfg.fine_bits
+    if cfg.invert:
+        a, b = b, a
     q, f = quadrant_and_fine(a, b, table, cfg.lut_bits)
 
     # 4. quadrant counter: a cumulative sum of steps; overspeed steps follow the last direction.

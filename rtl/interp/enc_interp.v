@@ -12,7 +12,8 @@ module enc_interp #(
     parameter integer VEL_LOG2W    = 8,         // velocity window W = 2**VEL_LOG2W samples (2..12)
     parameter integer AMP_MIN      = 40,        // signal-loss window on sqrt(a^2+b^2), ADC codes
     parameter integer AMP_MAX      = 170,
-    parameter integer LOSS_SAMPLES = 16         // consecutive out-of-window samples -> signal loss
+    parameter integer LOSS_SAMPLES = 16,        // consecutive out-of-window samples -> signal loss
+    parameter integer INVERT       = 0          // 1: count the other way (A and B swapped at capture)
 ) (
     input  wire        clk,
     input  wire        rst,
@@ -65,6 +66,9 @@ module enc_interp #(
         if (LOSS_SAMPLES < 1 || LOSS_SAMPLES > 65535) begin : g_bad_loss
             enc_interp_LOSS_SAMPLES_must_be_1_to_65535 u_stop ();
         end
+        if (INVERT != 0 && INVERT != 1) begin : g_bad_invert
+            enc_interp_INVERT_must_be_0_or_1 u_stop ();
+        end
     endgenerate
 
     // ---------------------------------------------------------------- stage A: capture
@@ -75,8 +79,10 @@ module enc_interp #(
 
     always @(posedge clk) begin
         if (s_valid) begin
-            a_a   <= s_a;
-            b_a   <= s_b;
+            // INVERT: A' = B, B' = A is the angle 90deg - phi: the count runs the other way and
+            // quadrant 0 (the index quadrant) maps onto itself.
+            a_a   <= (INVERT != 0) ? s_b : s_a;
+            b_a   <= (INVERT != 0) ? s_a : s_b;
             idx_a <= s_index;
         end
     end

@@ -14,7 +14,8 @@ module enc_interp3 #(
     parameter integer VEL_LOG2W    = 8,          // velocity window 2**VEL_LOG2W samples
     parameter integer AMP_MIN      = 40,         // signal-loss amplitude window, ADC codes
     parameter integer AMP_MAX      = 170,
-    parameter integer LOSS_SAMPLES = 16          // consecutive bad samples -> signal loss
+    parameter integer LOSS_SAMPLES = 16,         // consecutive bad samples -> signal loss
+    parameter integer INVERT_MASK  = 0           // bit i set: axis i counts the other way
 ) (
     input  wire                 clk,
     input  wire                 rst,
@@ -53,7 +54,8 @@ module enc_interp3 #(
         for (i = 0; i < AXES; i = i + 1) begin : g_axis
             enc_interp #(
                 .LUT_BITS(LUT_BITS), .LUT_FILE(LUT_FILE), .VEL_LOG2W(VEL_LOG2W),
-                .AMP_MIN(AMP_MIN), .AMP_MAX(AMP_MAX), .LOSS_SAMPLES(LOSS_SAMPLES)
+                .AMP_MIN(AMP_MIN), .AMP_MAX(AMP_MAX), .LOSS_SAMPLES(LOSS_SAMPLES),
+                .INVERT((INVERT_MASK >> i) & 1)
             ) u_axis (
                 .clk(clk), .rst(rst),
                 .s_valid(adc_strobe),

@@ -36,6 +36,11 @@ def test_gaps_latency_pulses_reset(simulator: str) -> None:
 
 
 @pytest.mark.parametrize("simulator", sim.simulators())
+def test_direction_invert(simulator: str) -> None:
+    _run(simulator, interp.InterpConfig(invert=True), "scenario_bit_exact", "dropout_controls")
+
+
+@pytest.mark.parametrize("simulator", sim.simulators())
 @pytest.mark.parametrize("lut_bits", [5, 9])
 def test_other_lut_density(simulator: str, lut_bits: int) -> None:
     """The LUT density is a parameter (the bench sweeps 5..9): bit-exact at both ends."""

@@ -139,6 +139,23 @@ def test_velocity_mean_and_noise() -> None:
     assert np.all(vel == 0)
 
 
+def test_direction_invert_reverses_the_count() -> None:
+    """INVERT: forward rotation counts down at the same speed; the index still homes."""
+    n = 200_000
+    x = encsig.constant(40.0, n, start=0.1)
+    a, b = encsig.adc_codes(x, encsig.with_spec(encsig.IDEAL, amplitude=120))
+    idx = encsig.index_bit(x)
+    cfg = interp.InterpConfig(invert=True)
+    out = native.run_interp(a, b, idx, cfg, arm_at=[[0]]).axis(0)
+    fwd = native.run_interp(a, b, idx, CFG).axis(0)
+    w = 1 << CFG.vel_log2w
+    assert np.all(out["vel"][w:] < 0) and np.all(fwd["vel"][w:] > 0)
+    assert abs(out["vel"][w:].mean() + fwd["vel"][w:].mean()) <= 1.0
+    assert out["homed"][-1] == 1
+    assert native.first_mismatch(out, native.model_matrix(
+        interp.run(a, b, idx, cfg, arm_at=[0]))) is None
+
+
 def test_fault_timing_and_clear() -> None:
     """Dropout raises signal loss after exactly LOSS_SAMPLES samples, clipping and overspeed
     on the very sample; a clear removes a fault that is gone and not one that persists."""
