@@ -7,7 +7,9 @@
 #include <stdbool.h>
 #include <stdint.h>
 
-#define HAL_SIM_NREGS 0x30u
+#include "hg_fpga_regs.h"
+
+#define HAL_SIM_NREGS HG_NREGS
 
 extern uint32_t hal_sim_regs[HAL_SIM_NREGS];
 extern uint32_t hal_sim_nwrites[HAL_SIM_NREGS]; /* writes per address since reset */

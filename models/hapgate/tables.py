@@ -38,6 +38,7 @@ def write_hex(name: str, values: np.ndarray, width: int, directory: Path | None 
     fd, tmp = tempfile.mkstemp(dir=out_dir, prefix=f".{name}.", suffix=".tmp")
     with os.fdopen(fd, "w") as f:
         f.write(text)
+    os.chmod(tmp, 0o644)        # mkstemp makes 0600; a table is an ordinary build product
     os.replace(tmp, path)
     return path
 

@@ -1,0 +1,89 @@
+// SPDX-License-Identifier: Apache-2.0
+// The DSP-facing half of the FPGA: the EMIF-like bus slave and the register file, joined. The top
+// level (rtl/top/hapgate_top.v) instantiates this; tb/bus tests it alone with the interpolator
+// outputs driven by the testbench.
+`timescale 1ns / 1ps
+`default_nettype none
+
+module hg_bus #(
+    parameter integer CLK_HZ       = 48_000_000, // FPGA clock: a multiple of 1 MHz
+    parameter integer SAMPLE_HZ    = 1_000_000,  // encoder sample rate (velocity unit conversion)
+    parameter integer VEL_LOG2W    = 8,          // velocity window 2**VEL_LOG2W samples
+    parameter integer SKEW_CLOCKS  = 96,         // DAC channel skew in clocks (read-only info)
+    parameter integer FRAME_CLOCKS = 768,        // DAC frame in clocks (read-only info)
+    parameter integer ADDR_BITS    = 8           // word-address lines decoded
+) (
+    input  wire                 clk,
+    input  wire                 rst,
+    input  wire                 bus_ce_n,
+    input  wire                 bus_re_n,
+    input  wire                 bus_we_n,
+    input  wire [ADDR_BITS-1:0] bus_addr,
+    input  wire [31:0]          bus_data_in,
+    output wire [31:0]          bus_data_out,
+    output wire                 bus_data_oe,
+    output wire                 bus_ready,
+    input  wire [95:0]          in_pos,
+    input  wire [95:0]          in_pos_homed,
+    input  wire [95:0]          in_vel,
+    input  wire [95:0]          in_index_pos,
+    input  wire [47:0]          in_index_count,
+    input  wire [47:0]          in_overspeed_count,
+    input  wire [2:0]           in_homed,
+    input  wire [8:0]           in_faults,
+    input  wire [2:0]           in_fault,
+    output wire                 ctl_global_en,
+    output wire [2:0]           ctl_axis_en,
+    output wire                 ctl_fault_clear,
+    output wire [2:0]           ctl_home_arm,
+    output wire [47:0]          ctl_torque,
+    output wire [29:0]          ctl_offset,
+    output wire [5:0]           ctl_mode,
+    output wire [47:0]          ctl_tq_limit,
+    output wire                 wdog_expired,
+    output wire                 irq,
+    output wire                 tick,
+    output wire                 dbg_req,         // observation: a served access (one clock)
+    output wire                 dbg_we,          // ... its direction, word address and write data
+    output wire [ADDR_BITS-1:0] dbg_addr,
+    output wire [31:0]          dbg_wdata,
+    output wire                 dbg_proto_err    // observation: a dropped access (one clock)
+);
+    wire [ADDR_BITS-1:0] raddr, addr;
+    wire [31:0]          rdata, wdata;
+    wire                 req, we, perr;
+
+    emif_slave #(.ADDR_BITS(ADDR_BITS)) u_slave (
+        .clk(clk), .rst(rst),
+        .s_bus_ce_n(bus_ce_n), .s_bus_re_n(bus_re_n), .s_bus_we_n(bus_we_n),
+        .s_bus_addr(bus_addr), .s_bus_data_in(bus_data_in), .s_bus_data_out(bus_data_out),
+        .s_bus_data_oe(bus_data_oe), .s_bus_ready(bus_ready),
+        .m_raddr(raddr), .m_rdata(rdata), .m_req(req), .m_we(we), .m_addr(addr),
+        .m_wdata(wdata), .m_proto_err(perr)
+    );
+
+    hg_regfile #(
+        .CLK_HZ(CLK_HZ), .SAMPLE_HZ(SAMPLE_HZ), .VEL_LOG2W(VEL_LOG2W),
+        .SKEW_CLOCKS(SKEW_CLOCKS), .FRAME_CLOCKS(FRAME_CLOCKS), .ADDR_BITS(ADDR_BITS)
+    ) u_regs (
+        .clk(clk), .rst(rst),
+        .s_raddr(raddr), .s_rdata(rdata), .s_req(req), .s_we(we), .s_addr(addr),
+        .s_wdata(wdata), .s_proto_err(perr),
+        .in_pos(in_pos), .in_pos_homed(in_pos_homed), .in_vel(in_vel),
+        .in_index_pos(in_index_pos), .in_index_count(in_index_count),
+        .in_overspeed_count(in_overspeed_count), .in_homed(in_homed), .in_faults(in_faults),
+        .in_fault(in_fault),
+        .ctl_global_en(ctl_global_en), .ctl_axis_en(ctl_axis_en),
+        .ctl_fault_clear(ctl_fault_clear), .ctl_home_arm(ctl_home_arm),
+        .ctl_torque(ctl_torque), .ctl_offset(ctl_offset), .ctl_mode(ctl_mode),
+        .ctl_tq_limit(ctl_tq_limit), .wdog_expired(wdog_expired), .irq(irq), .tick(tick)
+    );
+
+    assign dbg_req       = req;
+    assign dbg_we        = we;
+    assign dbg_addr      = addr;
+    assign dbg_wdata     = wdata;
+    assign dbg_proto_err = perr;
+endmodule
+
+`default_nettype wire

@@ -1,0 +1,349 @@
+// SPDX-License-Identifier: Apache-2.0
+// The hapgate register file (map: rtl/regs/hapgate.rdl, the one source; this hand-written block
+// is proven against it by tb/bus/test_regfile.py): control, status, the three-axis snapshot
+// latched together on the servo tick or on demand, the servo-tick interrupt and the watchdog.
+`timescale 1ns / 1ps
+`default_nettype none
+
+module hg_regfile #(
+    parameter integer CLK_HZ       = 48_000_000, // FPGA clock: a multiple of 1 MHz
+    parameter integer SAMPLE_HZ    = 1_000_000,  // encoder sample rate (velocity unit conversion)
+    parameter integer VEL_LOG2W    = 8,          // velocity window 2**VEL_LOG2W samples
+    parameter integer SKEW_CLOCKS  = 96,         // DAC channel skew in clocks (read-only info)
+    parameter integer FRAME_CLOCKS = 768,        // DAC frame in clocks (read-only info)
+    parameter integer ADDR_BITS    = 8           // decoded word-address bits (7..30; the map spans 64)
+) (
+    input  wire                 clk,
+    input  wire                 rst,
+    // register access (from emif_slave)
+    input  wire [ADDR_BITS-1:0] s_raddr,
+    output reg  [31:0]          s_rdata,
+    input  wire                 s_req,
+    input  wire                 s_we,
+    input  wire [ADDR_BITS-1:0] s_addr,
+    input  wire [31:0]          s_wdata,
+    input  wire                 s_proto_err,
+    // live interpolator outputs (axis 0 in the low bits)
+    input  wire [95:0]          in_pos,
+    input  wire [95:0]          in_pos_homed,
+    input  wire [95:0]          in_vel,          // counts per 2**VEL_LOG2W samples
+    input  wire [95:0]          in_index_pos,
+    input  wire [47:0]          in_index_count,
+    input  wire [47:0]          in_overspeed_count,
+    input  wire [2:0]           in_homed,
+    input  wire [8:0]           in_faults,
+    input  wire [2:0]           in_fault,
+    // control outputs
+    output wire                 ctl_global_en,
+    output wire [2:0]           ctl_axis_en,
+    output reg                  ctl_fault_clear, // one clock
+    output reg  [2:0]           ctl_home_arm,    // one clock each
+    output wire [47:0]          ctl_torque,
+    output wire [29:0]          ctl_offset,
+    output wire [5:0]           ctl_mode,
+    output wire [47:0]          ctl_tq_limit,
+    output wire                 wdog_expired,    // sticky: all torque to zero
+    output wire                 irq,             // servo tick pending (level)
+    output reg                  tick             // one clock after each servo tick (observation)
+);
+    // ---------------------------------------------------------------- constants
+    localparam integer CLK_PER_US = CLK_HZ / 1_000_000;
+    localparam integer TICK_MIN_I = CLK_HZ / 10_000;  // 10 kHz
+    localparam integer TICK_MAX_I = CLK_HZ / 100;     // 100 Hz
+    localparam integer TICK_RST_I = CLK_HZ / 1_000;   // 1 kHz
+    localparam integer WD_MIN_I   = 100;              // us
+    localparam integer WD_MAX_I   = 1_000_000;        // us
+    localparam integer WD_RST_I   = 10_000;           // us
+    localparam integer PW         = (CLK_PER_US > 1) ? $clog2(CLK_PER_US) : 1;
+    localparam integer PLAST_I    = CLK_PER_US - 1;
+    localparam [PW-1:0] PLAST     = PLAST_I[PW-1:0];
+    localparam [23:0] TICK_MIN = TICK_MIN_I[23:0];
+    localparam [23:0] TICK_MAX = TICK_MAX_I[23:0];
+    localparam [23:0] TICK_RST = TICK_RST_I[23:0];
+    localparam [19:0] WD_MIN   = WD_MIN_I[19:0];
+    localparam [19:0] WD_MAX   = WD_MAX_I[19:0];
+    localparam [19:0] WD_RST   = WD_RST_I[19:0];
+    localparam [31:0] ID_VALUE = 32'h4847_0100;      // magic "HG", map version 1.0
+    localparam [31:0] WD_KEY   = 32'h5AFE_C0DE;
+    localparam [31:0] UNMAPPED = 32'hDEAD_BEEF;
+    localparam [31:0] SAMPLE_C = SAMPLE_HZ;
+    localparam integer CLK_KHZ_I = CLK_HZ / 1000;
+    localparam [31:0] CLK_KHZ  = CLK_KHZ_I;
+    localparam [15:0] SKEW_C   = SKEW_CLOCKS[15:0];
+    localparam [15:0] FRAME_C  = FRAME_CLOCKS[15:0];
+
+    // word addresses (rtl/regs/hapgate.rdl byte offsets / 4)
+    localparam [5:0] A_ID = 6'h00, A_CTRL = 6'h01, A_STATUS = 6'h02, A_SEQ = 6'h03,
+                     A_TICK_DIV = 6'h04, A_IRQ = 6'h05, A_WDOG = 6'h06, A_SCRATCH = 6'h07,
+                     A_WDOG_TO = 6'h08, A_SKEW = 6'h09, A_FRAME = 6'h0A, A_CLK = 6'h0B;
+    localparam [3:0] R_POS = 4'h0, R_VEL = 4'h1, R_IDX_POS = 4'h2, R_COUNTS = 4'h3,
+                     R_POS_HOMED = 4'h4, R_FLAGS = 4'h5, R_TORQUE = 4'h8, R_OFFSET = 4'h9,
+                     R_MODE = 4'hA, R_TQ_LIMIT = 4'hB;
+
+    generate
+        if (CLK_HZ < 1_000_000 || CLK_HZ % 1_000_000 != 0 || CLK_HZ / 100 > 16_777_215)
+        begin : g_bad_clk
+            hg_regfile_CLK_HZ_must_be_a_multiple_of_1MHz_below_1677MHz u_stop ();
+        end
+        if (SKEW_CLOCKS < 1 || SKEW_CLOCKS > 65535 || FRAME_CLOCKS < 1 || FRAME_CLOCKS > 65535)
+        begin : g_bad_dac
+            hg_regfile_SKEW_and_FRAME_CLOCKS_must_fit_16_bits u_stop ();
+        end
+        if (ADDR_BITS < 7 || ADDR_BITS > 30) begin : g_bad_addr_bits
+            hg_regfile_ADDR_BITS_must_be_7_to_30 u_stop ();
+        end
+        if (VEL_LOG2W < 1 || VEL_LOG2W > 16 || SAMPLE_HZ < 1 || SAMPLE_HZ > CLK_HZ)
+        begin : g_bad_vel
+            hg_regfile_needs_1_le_VEL_LOG2W_le_16_and_SAMPLE_HZ_le_CLK_HZ u_stop ();
+        end
+    endgenerate
+
+    // ---------------------------------------------------------------- decode
+    wire [ADDR_BITS-1:0] wa = s_addr;
+    wire hi_zero_w = (wa[ADDR_BITS-1:6] == {(ADDR_BITS - 6){1'b0}});
+    wire glob_w    = hi_zero_w && (wa[5:4] == 2'b00);
+    wire axis_w    = hi_zero_w && (wa[5:4] != 2'b00);
+    wire [1:0] ax_w = wa[5:4] - 2'd1;
+    wire wr        = s_req & s_we;
+
+    function mapped;
+        input [ADDR_BITS-1:0] a;
+        begin
+            if (a[ADDR_BITS-1:6] != {(ADDR_BITS - 6){1'b0}})
+                mapped = 1'b0;
+            else if (a[5:4] == 2'b00)
+                mapped = (a[3:0] <= A_CLK[3:0]);
+            else
+                mapped = (a[3:0] <= R_FLAGS) || (a[3:0] >= R_TORQUE && a[3:0] <= R_TQ_LIMIT);
+        end
+    endfunction
+
+    // ---------------------------------------------------------------- control registers
+    reg        global_en_q;
+    reg [2:0]  axis_en_q;
+    reg [23:0] tick_div_q;
+    reg [19:0] wd_timeout_q;
+    reg [31:0] scratch_q;
+    reg [47:0] torque_q;            // per axis, axis 0 in the low bits
+    reg [29:0] offset_q;
+    reg [5:0]  mode_q;
+    reg [47:0] tq_lim_q;
+    reg        snap_req;            // CTRL.SNAP written this clock
+    reg        cfg_err_set;
+
+    wire fault_clr_w = wr && glob_w && wa[3:0] == A_CTRL[3:0] && s_wdata[4];
+    wire pet_w       = wr && glob_w && wa[3:0] == A_WDOG[3:0] && s_wdata == WD_KEY;
+    wire tick_div_w  = wr && glob_w && wa[3:0] == A_TICK_DIV[3:0];
+    wire tick_ok     = s_wdata[31:24] == 8'd0 && s_wdata[23:0] >= TICK_MIN && s_wdata[23:0] <= TICK_MAX;
+    wire wd_to_w     = wr && glob_w && wa[3:0] == A_WDOG_TO[3:0];
+    wire wd_ok       = s_wdata[31:20] == 12'd0 && s_wdata[19:0] >= WD_MIN && s_wdata[19:0] <= WD_MAX;
+
+    integer i;
+    always @(posedge clk) begin
+        if (rst) begin
+            global_en_q     <= 1'b0;
+            axis_en_q       <= 3'b000;
+            tick_div_q      <= TICK_RST;
+            wd_timeout_q    <= WD_RST;
+            scratch_q       <= 32'd0;
+            ctl_fault_clear <= 1'b0;
+            ctl_home_arm    <= 3'b000;
+            snap_req        <= 1'b0;
+            cfg_err_set     <= 1'b0;
+            torque_q        <= 48'd0;
+            offset_q        <= 30'd0;
+            mode_q          <= 6'b11_11_11;  // OFF
+            tq_lim_q        <= 48'd0;
+        end else begin
+            ctl_fault_clear <= fault_clr_w;
+            ctl_home_arm    <= (wr && glob_w && wa[3:0] == A_CTRL[3:0]) ? s_wdata[7:5] : 3'b000;
+            snap_req        <= wr && glob_w && wa[3:0] == A_CTRL[3:0] && s_wdata[8];
+            cfg_err_set     <= (tick_div_w && !tick_ok) || (wd_to_w && !wd_ok);
+            if (wr && glob_w) begin
+                case (wa[3:0])
+                    A_CTRL[3:0]: begin
+                        global_en_q <= s_wdata[0];
+                        axis_en_q   <= s_wdata[3:1];
+                    end
+                    A_TICK_DIV[3:0]: if (tick_ok) tick_div_q <= s_wdata[23:0];
+                    A_SCRATCH[3:0]:  scratch_q <= s_wdata;
+                    A_WDOG_TO[3:0]:  if (wd_ok) wd_timeout_q <= s_wdata[19:0];
+                    default: ;
+                endcase
+            end
+            if (wr && axis_w && ax_w != 2'd3) begin
+                case (wa[3:0])
+                    R_TORQUE:   torque_q[16*ax_w +: 16] <= s_wdata[15:0];
+                    R_OFFSET:   offset_q[10*ax_w +: 10] <= s_wdata[9:0];
+                    R_MODE:     mode_q[2*ax_w +: 2]     <= s_wdata[1:0];
+                    R_TQ_LIMIT: tq_lim_q[16*ax_w +: 16] <= s_wdata[15:0];
+                    default: ;
+                endcase
+            end
+        end
+    end
+
+    assign ctl_global_en = global_en_q;
+    assign ctl_axis_en   = axis_en_q;
+    assign ctl_torque    = torque_q;
+    assign ctl_offset    = offset_q;
+    assign ctl_mode      = mode_q;
+    assign ctl_tq_limit  = tq_lim_q;
+
+    // ---------------------------------------------------------------- servo tick and snapshot
+    // A tick every tick_div_q clocks, exactly; a TICK_DIV write restarts the period (the first
+    // tick comes tick_div_q clocks after the write's edge).
+    reg [23:0] tick_cnt;
+    wire       tick_now = (tick_cnt == tick_div_q - 24'd1);
+    wire       snap_now = tick_now | snap_req;
+    reg [31:0] seq_q;
+    reg        irq_tick_q, irq_missed_q;
+    wire       irq_w = wr && glob_w && wa[3:0] == A_IRQ[3:0];
+
+    always @(posedge clk) begin
+        if (rst) begin
+            tick_cnt     <= 24'd0;
+            tick         <= 1'b0;
+            seq_q        <= 32'd0;
+            irq_tick_q   <= 1'b0;
+            irq_missed_q <= 1'b0;
+        end else begin
+            tick_cnt <= (tick_now || (tick_div_w && tick_ok)) ? 24'd0 : tick_cnt + 24'd1;
+            tick     <= tick_now;
+            if (snap_now)
+                seq_q <= seq_q + 32'd1;
+            // a tick in the same clock as an acknowledge wins
+            irq_tick_q   <= tick_now | (irq_tick_q & ~(irq_w & s_wdata[0]));
+            irq_missed_q <= (tick_now & irq_tick_q) | (irq_missed_q & ~(irq_w & s_wdata[1]));
+        end
+    end
+    assign irq = irq_tick_q;
+
+    // the snapshot: all axes, all words, in one clock
+    reg [95:0] sn_pos, sn_homed, sn_vel, sn_idx;   // axis 0 in the low bits
+    reg [47:0] sn_icnt, sn_ovs;
+    reg [8:0]  sn_faults;
+    reg [2:0]  sn_homed_f;
+
+    always @(posedge clk) begin
+        if (rst) begin
+            sn_pos     <= 96'd0;
+            sn_homed   <= 96'd0;
+            sn_vel     <= 96'd0;
+            sn_idx     <= 96'd0;
+            sn_icnt    <= 48'd0;
+            sn_ovs     <= 48'd0;
+            sn_faults  <= 9'd0;
+            sn_homed_f <= 3'b000;
+        end else if (snap_now) begin
+            sn_pos     <= in_pos;
+            sn_homed   <= in_pos_homed;
+            sn_vel     <= in_vel;
+            sn_idx     <= in_index_pos;
+            sn_icnt    <= in_index_count;
+            sn_ovs     <= in_overspeed_count;
+            sn_faults  <= in_faults;
+            sn_homed_f <= in_homed;
+        end
+    end
+
+    // ---------------------------------------------------------------- watchdog
+    // Restarted by the key (or CTRL.FAULT_CLR): expires exactly wd_timeout_q * CLK_PER_US clocks
+    // after the restarting edge, then stays expired (sticky) until CTRL.FAULT_CLR.
+    reg [PW-1:0] wd_pre;
+    reg [19:0]   wd_cnt;
+    reg          wd_exp_q;
+    wire         wd_restart = pet_w | fault_clr_w;
+
+    always @(posedge clk) begin
+        if (rst) begin
+            wd_pre   <= {PW{1'b0}};
+            wd_cnt   <= WD_RST;
+            wd_exp_q <= 1'b0;
+        end else if (wd_restart) begin  // a key restarts the count; only FAULT_CLR clears
+            wd_pre   <= {PW{1'b0}};
+            wd_cnt   <= wd_timeout_q;
+            wd_exp_q <= wd_exp_q & ~fault_clr_w;
+        end else if (wd_cnt != 20'd0) begin
+            if (wd_pre == PLAST) begin
+                wd_pre <= {PW{1'b0}};
+                wd_cnt <= wd_cnt - 20'd1;
+                if (wd_cnt == 20'd1)
+                    wd_exp_q <= 1'b1;
+            end else begin
+                wd_pre <= wd_pre + 1'b1;
+            end
+        end
+    end
+    assign wdog_expired = wd_exp_q;
+
+    // ---------------------------------------------------------------- status
+    reg [2:0] index_seen;
+    reg       cfg_err_q, bus_err_q, proto_err_q;
+
+    always @(posedge clk) begin
+        if (rst) begin
+            index_seen  <= 3'b000;
+            cfg_err_q   <= 1'b0;
+            bus_err_q   <= 1'b0;
+            proto_err_q <= 1'b0;
+        end else begin
+            for (i = 0; i < 3; i = i + 1)
+                if (in_index_count[16*i +: 16] != 16'd0) index_seen[i] <= 1'b1;
+            cfg_err_q   <= cfg_err_set | (cfg_err_q & ~fault_clr_w);
+            bus_err_q   <= (s_req && !mapped(s_addr)) | (bus_err_q & ~fault_clr_w);
+            proto_err_q <= s_proto_err | (proto_err_q & ~fault_clr_w);
+        end
+    end
+
+    wire [31:0] status = {16'd0, proto_err_q, bus_err_q, cfg_err_q, wd_exp_q, 1'b0, in_homed,
+                          1'b0, index_seen, 1'b0, in_fault};
+
+    // ---------------------------------------------------------------- read mux
+    wire [ADDR_BITS-1:0] ra = s_raddr;
+    wire [1:0]  ax_d = ra[5:4] - 2'd1;
+    wire [1:0]  ax_r = (ax_d == 2'd3) ? 2'd0 : ax_d;  // (address block 0 is the globals)
+    wire [31:0] vel_sel = sn_vel[32*ax_r +: 32];
+    // counts per second = floor(v * SAMPLE_HZ / 2**VEL_LOG2W)
+    wire signed [63:0] vel_prod = $signed({{32{vel_sel[31]}}, vel_sel}) * $signed({32'd0, SAMPLE_C});
+    wire [63:0] vel_shift = vel_prod >>> VEL_LOG2W;
+    wire [31:0] vel_cps = vel_shift[31:0];
+    wire [31:0] unused_vel_hi = vel_shift[63:32];  // |v| < 2**31 / SAMPLE_HZ * 2**VEL_LOG2W
+
+    always @(*) begin
+        s_rdata = UNMAPPED;
+        if (mapped(ra)) begin
+            if (ra[5:4] == 2'b00) begin
+                case (ra[3:0])
+                    A_ID[3:0]:       s_rdata = ID_VALUE;
+                    A_CTRL[3:0]:     s_rdata = {28'd0, axis_en_q, global_en_q};
+                    A_STATUS[3:0]:   s_rdata = status;
+                    A_SEQ[3:0]:      s_rdata = seq_q;
+                    A_TICK_DIV[3:0]: s_rdata = {8'd0, tick_div_q};
+                    A_IRQ[3:0]:      s_rdata = {30'd0, irq_missed_q, irq_tick_q};
+                    A_WDOG[3:0]:     s_rdata = 32'd0;
+                    A_SCRATCH[3:0]:  s_rdata = scratch_q;
+                    A_WDOG_TO[3:0]:  s_rdata = {12'd0, wd_timeout_q};
+                    A_SKEW[3:0]:     s_rdata = {16'd0, SKEW_C};
+                    A_FRAME[3:0]:    s_rdata = {16'd0, FRAME_C};
+                    default:         s_rdata = CLK_KHZ;
+                endcase
+            end else begin
+                case (ra[3:0])
+                    R_POS:       s_rdata = sn_pos[32*ax_r +: 32];
+                    R_VEL:       s_rdata = vel_cps;
+                    R_IDX_POS:   s_rdata = sn_idx[32*ax_r +: 32];
+                    R_COUNTS:    s_rdata = {sn_icnt[16*ax_r +: 16], sn_ovs[16*ax_r +: 16]};
+                    R_POS_HOMED: s_rdata = sn_homed[32*ax_r +: 32];
+                    R_FLAGS:     s_rdata = {27'd0, sn_homed_f[ax_r], 1'b0, sn_faults[3*ax_r +: 3]};
+                    R_TORQUE:    s_rdata = {16'd0, torque_q[16*ax_r +: 16]};
+                    R_OFFSET:    s_rdata = {22'd0, offset_q[10*ax_r +: 10]};
+                    R_MODE:      s_rdata = {30'd0, mode_q[2*ax_r +: 2]};
+                    default:     s_rdata = {16'd0, tq_lim_q[16*ax_r +: 16]};
+                endcase
+            end
+        end
+    end
+endmodule
+
+`default_nettype wire

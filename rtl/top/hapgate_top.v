@@ -1,0 +1,220 @@
+// SPDX-License-Identifier: Apache-2.0
+// The hapgate FPGA: three encoder interpolators, sinusoidal commutation of three motors through
+// the six-channel DAC scheduler, and the DSP bus with the register file (snapshot, servo-tick
+// interrupt, watchdog). A DAC output stage forces zero torque within one frame on a watchdog
+// timeout, global or axis disable, or axis fault. Signals and timing: rtl/top/README.md.
+`timescale 1ns / 1ps
+`default_nettype none
+
+module hapgate_top #(
+    parameter integer CLK_HZ        = 48_000_000, // FPGA clock: a multiple of 1 MHz and of SAMPLE_HZ
+    parameter integer SAMPLE_HZ     = 1_000_000,  // ADC sample rate
+    parameter integer LUT_BITS      = 7,          // arcsine LUT codes per 45 deg (1024 counts/line)
+    parameter         ASIN_FILE     = "asin.hex", // arcsine table (hapgate.interp.write_lut)
+    parameter integer VEL_LOG2W     = 8,          // velocity window 2**VEL_LOG2W samples
+    parameter integer AMP_MIN       = 40,         // signal-loss amplitude window, ADC codes
+    parameter integer AMP_MAX       = 170,        // (upper bound of that window)
+    parameter integer LOSS_SAMPLES  = 16,         // consecutive bad samples -> signal loss
+    parameter integer LINES_LOG2    = 10,         // encoder lines per revolution = 2**LINES_LOG2
+    parameter integer POLE_PAIRS    = 2,          // motor electrical cycles per revolution
+    parameter integer SKEW_NS       = 2000,       // DAC channel-to-channel skew
+    parameter integer FRAME_NS      = 16000,      // commutation frame
+    parameter integer SETTLE_NS     = 16000,      // DAC settling time
+    parameter integer WR_CYCLES     = 1,          // DAC write strobe length, clocks
+    parameter integer ADDR_BITS     = 8,          // sine ROM: 2**ADDR_BITS quarter-wave entries
+    parameter integer MAG_BITS      = 13,         // sine ROM entry width
+    parameter integer FS            = 8191,       // sine ROM full scale
+    parameter         SINE_FILE     = "sine.hex", // sine ROM (hapgate.sine.write_rom)
+    parameter integer DAC_BITS      = 14,         // DAC width
+    parameter integer OFFSET_BINARY = 0,          // DAC coding: 0 two's complement, 1 offset binary
+    parameter integer BUS_ADDR_BITS = 8           // DSP word-address lines decoded
+) (
+    input  wire                     clk,
+    input  wire                     rst,
+    // ADCs and encoders (axis 0 in the low bits)
+    output wire                     adc_strobe,     // words captured at the end of this cycle
+    input  wire [23:0]              adc_a,
+    input  wire [23:0]              adc_b,
+    input  wire [2:0]               enc_index,
+    // DACs
+    output reg  [DAC_BITS-1:0]      dac_data,
+    output reg  [2:0]               dac_addr,
+    output reg                      dac_wr_n,       // the DAC loads on the rising edge
+    // DSP bus (asynchronous) and interrupt
+    input  wire                     bus_ce_n,
+    input  wire                     bus_re_n,
+    input  wire                     bus_we_n,
+    input  wire [BUS_ADDR_BITS-1:0] bus_addr,
+    input  wire [31:0]              bus_data_in,
+    output wire [31:0]              bus_data_out,
+    output wire                     bus_data_oe,
+    output wire                     bus_ready,
+    output wire                     irq
+);
+    localparam integer COUNT_BITS  = LUT_BITS + 3 + LINES_LOG2;  // counts per revolution, log2
+    localparam integer AB          = ADDR_BITS + 2;              // commutation angle bits
+    localparam integer CLK_KHZ     = CLK_HZ / 1000;
+    localparam integer SKEW_CLOCKS = CLK_KHZ * SKEW_NS / 1_000_000;
+    localparam integer FRAME_CLOCKS = CLK_KHZ * FRAME_NS / 1_000_000;
+    localparam integer ZERO_I      = (OFFSET_BINARY != 0) ? (1 << (DAC_BITS - 1)) : 0;
+    localparam [DAC_BITS-1:0] ZERO = ZERO_I[DAC_BITS-1:0];       // the zero-torque DAC word
+
+    generate
+        if (AB != 10) begin : g_bad_offset
+            hapgate_top_needs_ADDR_BITS_8_for_the_10_bit_OFFSET_register u_stop ();
+        end
+        if (COUNT_BITS > 26) begin : g_bad_counts
+            hapgate_top_LUT_BITS_plus_LINES_LOG2_must_be_at_most_23 u_stop ();
+        end
+    endgenerate
+
+    // ---------------------------------------------------------------- interpolators
+    wire        m_valid;
+    wire [95:0] pos, pos_homed, vel, index_pos;
+    wire [47:0] index_count, overspeed_count;
+    wire [2:0]  homed, fault;
+    wire [8:0]  faults;
+    wire        fault_clear;
+    wire [2:0]  home_arm;
+
+    enc_interp3 #(
+        .CLK_HZ(CLK_HZ), .SAMPLE_HZ(SAMPLE_HZ), .AXES(3), .LUT_BITS(LUT_BITS),
+        .LUT_FILE(ASIN_FILE), .VEL_LOG2W(VEL_LOG2W), .AMP_MIN(AMP_MIN), .AMP_MAX(AMP_MAX),
+        .LOSS_SAMPLES(LOSS_SAMPLES)
+    ) u_interp (
+        .clk(clk), .rst(rst), .adc_strobe(adc_strobe), .adc_a(adc_a), .adc_b(adc_b),
+        .enc_index(enc_index), .ctl_fault_clear({3{fault_clear}}), .ctl_home_arm(home_arm),
+        .m_valid(m_valid), .m_pos(pos), .m_pos_homed(pos_homed), .m_vel(vel),
+        .m_index_pos(index_pos), .m_index_count(index_count),
+        .m_overspeed_count(overspeed_count), .m_homed(homed), .m_faults(faults),
+        .m_fault(fault)
+    );
+    // The interpolator's data outputs are registers held between samples but not reset: until
+    // the first sample they are masked where the register file would remember them (the sticky
+    // "index seen") or show them live (homed).
+    reg interp_ok;
+    always @(posedge clk) begin
+        if (rst)
+            interp_ok <= 1'b0;
+        else if (m_valid)
+            interp_ok <= 1'b1;
+    end
+    wire        ok_now         = interp_ok | m_valid;
+    wire [47:0] index_count_ok = ok_now ? index_count : 48'd0;
+    wire [2:0]  homed_ok       = ok_now ? homed : 3'b000;
+
+    // ---------------------------------------------------------------- bus and registers
+    wire        global_en, wdog_expired, tick;
+    wire [2:0]  axis_en;
+    wire [47:0] torque, tq_limit;
+    wire [29:0] offset;
+    wire [5:0]  mode;
+    wire        dbg_req, dbg_we, dbg_proto_err;
+    wire [BUS_ADDR_BITS-1:0] dbg_addr;
+    wire [31:0] dbg_wdata;
+
+    hg_bus #(
+        .CLK_HZ(CLK_HZ), .SAMPLE_HZ(SAMPLE_HZ), .VEL_LOG2W(VEL_LOG2W),
+        .SKEW_CLOCKS(SKEW_CLOCKS), .FRAME_CLOCKS(FRAME_CLOCKS), .ADDR_BITS(BUS_ADDR_BITS)
+    ) u_bus (
+        .clk(clk), .rst(rst),
+        .bus_ce_n(bus_ce_n), .bus_re_n(bus_re_n), .bus_we_n(bus_we_n), .bus_addr(bus_addr),
+        .bus_data_in(bus_data_in), .bus_data_out(bus_data_out), .bus_data_oe(bus_data_oe),
+        .bus_ready(bus_ready),
+        .in_pos(pos), .in_pos_homed(pos_homed), .in_vel(vel), .in_index_pos(index_pos),
+        .in_index_count(index_count_ok), .in_overspeed_count(overspeed_count),
+        .in_homed(homed_ok), .in_faults(faults), .in_fault(fault),
+        .ctl_global_en(global_en), .ctl_axis_en(axis_en), .ctl_fault_clear(fault_clear),
+        .ctl_home_arm(home_arm), .ctl_torque(torque), .ctl_offset(offset), .ctl_mode(mode),
+        .ctl_tq_limit(tq_limit), .wdog_expired(wdog_expired), .irq(irq), .tick(tick),
+        .dbg_req(dbg_req), .dbg_we(dbg_we), .dbg_addr(dbg_addr), .dbg_wdata(dbg_wdata),
+        .dbg_proto_err(dbg_proto_err)
+    );
+    wire unused_dbg = &{1'b0, tick, dbg_req, dbg_we, dbg_addr, dbg_wdata, dbg_proto_err};
+
+    // ---------------------------------------------------------------- commutation inputs
+    // Per-axis torque clamp to +-TQ_LIMIT (>= 32768: none); an axis that is not enabled is OFF.
+    reg  [47:0]             tq_cl;
+    reg  [5:0]              mode_eff;
+    wire [3*COUNT_BITS-1:0] s_pos;
+    integer k;
+    always @(*) begin
+        for (k = 0; k < 3; k = k + 1) begin
+            tq_cl[16*k +: 16]  = clamp(torque[16*k +: 16], tq_limit[16*k +: 16]);
+            mode_eff[2*k +: 2] = axis_en[k] ? mode[2*k +: 2] : 2'd3;
+        end
+    end
+
+    function [15:0] clamp;
+        input [15:0] t;
+        input [15:0] lim;
+        reg   [16:0] l17;
+        reg signed [16:0] t17;
+        begin
+            l17 = lim[15] ? 17'h08000 : {1'b0, lim};
+            t17 = {t[15], t};
+            if (t17 > $signed(l17))
+                clamp = l17[15:0];
+            else if (t17 < -$signed(l17))
+                clamp = ~l17[15:0] + 16'd1;
+            else
+                clamp = t;
+        end
+    endfunction
+
+    genvar g;
+    generate
+        for (g = 0; g < 3; g = g + 1) begin : g_pos
+            assign s_pos[COUNT_BITS*g +: COUNT_BITS] = pos_homed[32*g +: COUNT_BITS];
+        end
+    endgenerate
+    wire [95:0] unused_pos = pos_homed;
+
+    // ---------------------------------------------------------------- commutator
+    wire [DAC_BITS-1:0] c_data;
+    wire [2:0]          c_addr;
+    wire                c_wr_n;
+    wire                m_frame;
+    wire                kill_all = wdog_expired | ~global_en;
+
+    commutator #(
+        .CLK_HZ(CLK_HZ), .SKEW_NS(SKEW_NS), .FRAME_NS(FRAME_NS), .SETTLE_NS(SETTLE_NS),
+        .WR_CYCLES(WR_CYCLES), .COUNT_BITS(COUNT_BITS), .POLE_PAIRS(POLE_PAIRS),
+        .ADDR_BITS(ADDR_BITS), .MAG_BITS(MAG_BITS), .FS(FS), .LUT_FILE(SINE_FILE),
+        .DAC_BITS(DAC_BITS), .OFFSET_BINARY(OFFSET_BINARY)
+    ) u_comm (
+        .clk(clk), .rst(rst), .s_pos(s_pos), .s_torque(tq_cl), .ctl_offset(offset),
+        .ctl_mode(mode_eff), .ctl_enable(~kill_all), .ctl_torque_limit(16'hFFFF),
+        .axis_fault(fault), .m_frame(m_frame),
+        .dac_data(c_data), .dac_addr(c_addr), .dac_wr_n(c_wr_n)
+    );
+    wire unused_frame = m_frame;
+
+    // ---------------------------------------------------------------- DAC output stage
+    // One register stage on every DAC pin (the timing between them is the commutator's). The
+    // word of a channel whose motor must not move (watchdog expired, global or axis disabled,
+    // axis fault) is replaced by ZERO. The decision may change at any clock except inside a load
+    // (from the clock the commutator's strobe falls to the clock after the pins' strobe rises),
+    // so a load in progress completes unchanged and every later load is zero: all six channels
+    // are at zero torque at most one frame (+ 3 clocks) after the cause.
+    wire       [1:0] c_motor = (c_addr[2:1] == 2'd3) ? 2'd0 : c_addr[2:1];
+    wire             kill_ch = kill_all | fault[c_motor] | ~axis_en[c_motor];
+    wire             in_load = ~c_wr_n | ~dac_wr_n;
+    reg              kill_q;
+    wire             kill_use = in_load ? kill_q : kill_ch;
+
+    always @(posedge clk) begin
+        kill_q   <= kill_use;
+        dac_data <= kill_use ? ZERO : c_data;
+        dac_addr <= c_addr;
+    end
+
+    always @(posedge clk) begin
+        if (rst)
+            dac_wr_n <= 1'b1;
+        else
+            dac_wr_n <= c_wr_n;
+    end
+endmodule
+
+`default_nettype wire
