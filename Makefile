@@ -5,6 +5,7 @@
 #   make test     lint + every test (pytest -n auto, Verilator and Icarus)
 #   make lint     ruff, verilator -Wall, Icarus elaboration, Yosys synthesis checks
 #   make bench    benchmarks: tables on stdout, CSV/PNG in build/reports/
+#   make synth    Yosys resource table per block, then nextpnr place and route of the board tops
 #   make versions the tools in use, with their paths
 #   make regs     regenerate the register header/document from rtl/regs/hapgate.rdl
 SHELL   := bash
@@ -48,6 +49,7 @@ bench: $(STAMP)
 
 synth: $(STAMP)
 	$(HG) synth
+	$(HG) pnr
 
 # Regenerate the committed register header and document from rtl/regs/hapgate.rdl
 # (tb/bus/test_regmap.py fails while they are stale).

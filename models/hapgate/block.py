@@ -18,6 +18,9 @@ class Block:
     sources: tuple[str, ...]           # relative to rtl/
     params: Callable[[], Params]       # default parameter set (generates tables)
     doc: str
+    lint_synth: tuple[str, ...] = ("generic", "ice40")  # Yosys checks run by `make lint`
+    # Yosys warnings waived for this block: (substring of the warning, the written reason)
+    yosys_waivers: tuple[tuple[str, str], ...] = ()
 
     def source_paths(self) -> list[Path]:
         return [RTL / s for s in self.sources]

@@ -15,7 +15,7 @@ from .block import Block, Params
 __all__ = ["Block", "Params", "BLOCKS", "get"]
 
 # Model modules that own RTL blocks, in lint/report order.
-OWNERS = ("sine", "interp", "commutation", "regmap", "top")
+OWNERS = ("sine", "interp", "commutation", "regmap", "top", "boards")
 
 BLOCKS: dict[str, Block] = {
     b.name: b for owner in OWNERS for b in import_module(f"hapgate.{owner}").blocks()

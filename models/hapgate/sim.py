@@ -17,7 +17,7 @@ from contextlib import contextmanager
 from pathlib import Path
 
 from . import toolenv
-from .blocks import Block, Params
+from .block import Block, Params
 from .flow import param_text
 from .paths import SIM, ensure
 
