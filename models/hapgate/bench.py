@@ -6,7 +6,7 @@ from __future__ import annotations
 import argparse
 import subprocess
 
-from . import bench_commutation, bench_interp, toolenv
+from . import bench_commutation, bench_interp, cosim, toolenv
 from .paths import ROOT
 from .report import table, write_csv
 
@@ -25,6 +25,8 @@ def main(args: argparse.Namespace) -> int:
     ok &= bench_interp.run(args.quick)
     print()
     ok &= bench_commutation.run(args.quick)
+    print()
+    ok &= cosim.bench_section(args.quick)
     print("\n== DSP firmware: servo step cost (make -C dsp-fw bench) ==", flush=True)
     ok &= subprocess.run(["make", "-s", "-C", str(ROOT / "dsp-fw"), "bench"]).returncode == 0
     print("bench:", "all engines agree with the models" if ok else "MISMATCH or failure above")

@@ -12,7 +12,7 @@ from dataclasses import asdict
 
 import numpy as np
 
-from . import bench_commutation, blocks, encsig, interp, native, sim, sine, toolenv
+from . import bench_commutation, blocks, cosim, encsig, interp, native, sim, sine, toolenv
 from .paths import BUILD, TB, ensure
 from .report import figure_path, pyplot, table
 
@@ -124,5 +124,7 @@ def main(_: argparse.Namespace) -> int:
     ok &= ok_i
     print()
     ok &= bench_commutation.demo_section()
+    print()
+    ok &= cosim.demo_section()
     print("demo:", "RTL matches the models bit for bit" if ok else "RTL DIFFERS from a model")
     return 0 if ok else 1

@@ -21,10 +21,13 @@ Algorithm (one axis, per ADC sample a, b: 8-bit two's complement, A = R sin(phi)
 5. Position pos = (qc << (L+1)) + f, a 32-bit register (wraps mod 2^32, read as signed).
    Counts per line 2^(L+3) = 1024; 2^20 counts per revolution of a 1024-line encoder.
 6. Index: on a rising edge of the index bit between two samples (the bit is taken as high before
-   the first sample, so an index already high at start is not an edge) the start of the current
-   quadrant, qc << (L+1), is latched (the same whichever way the index is entered) and the index
-   counter (16 bits, wraps) increments. Homing: after an arm, the first index edge makes that
-   latch the home; pos_homed = pos - home (mod 2^32); the raw pos never jumps.
+   the first sample, so an index already high at start is not an edge) the nearest line start,
+   ((qc + 2) & ~3) << (L+1), is latched and the index counter (16 bits, wraps) increments. The
+   index is high in quadrant 0 of line 0, so its edge marks that line's start; at the edge the
+   decoder may still show the neighbouring quadrant (q3 entering forwards, q1 backwards: the
+   channel crossing zero reads 0 and holds its sign), and rounding qc to a multiple of 4 gives
+   the same line start whichever way the index is entered. Homing: after an arm, the first
+   index edge makes that latch the home; pos_homed = pos - home (mod 2^32); the raw pos never jumps.
 7. Velocity: a window difference over W = 2^vel_log2w samples,
    vel[n] = pos[n] - pos[n - W] (0 for n < W), in counts per W samples. A FIR: exactly 0 at
    standstill without noise, no limit cycle, no overflow (|vel| <= 3 * 2^(L+1) * W < 2^(DW-1)
@@ -249,8 +252,9 @@ def run(a: np.ndarray, b: np.ndarray, index: np.ndarray | None = None,
         last_dir = np.where(last_single >= 0, step[np.maximum(last_single, 0)], 1)
         step[overspeed] = 2 * last_dir[overspeed]
     qc = np.cumsum(step, dtype=np.int32) + np.int32(q[0])
-    qc_start = qc << np.int32(fb)
-    pos = qc_start + f.astype(np.int32)
+    pos = (qc << np.int32(fb)) + f.astype(np.int32)
+    # index latch: the nearest line start (qc rounded to a multiple of 4), see step 6
+    line_start = ((qc + np.int32(2)) & np.int32(~3)) << np.int32(fb)
 
     # 6. index latch and homing
     prev = np.concatenate(([True], idx[:-1]))
@@ -258,7 +262,7 @@ def run(a: np.ndarray, b: np.ndarray, index: np.ndarray | None = None,
     arm = _event_mask(n, arm_at)
     if rise.any():
         last_rise = _last_true_index(rise)
-        index_pos = np.where(last_rise >= 0, qc_start[np.maximum(last_rise, 0)], 0)
+        index_pos = np.where(last_rise >= 0, line_start[np.maximum(last_rise, 0)], 0)
         index_count = np.cumsum(rise, dtype=np.int64) & 0xFFFF
     else:
         last_rise = np.full(n, -1)
@@ -271,7 +275,7 @@ def run(a: np.ndarray, b: np.ndarray, index: np.ndarray | None = None,
         home_edge = rise & homed & ~np.concatenate(([False], homed[:-1]))
         home_edge |= rise & (last_arm == np.arange(n))  # arm and edge on the same sample
         last_home = _last_true_index(home_edge)
-        home = np.where(last_home >= 0, qc_start[np.maximum(last_home, 0)], 0)
+        home = np.where(last_home >= 0, line_start[np.maximum(last_home, 0)], 0)
         pos_homed = pos - home.astype(np.int32)
     else:
         homed = np.zeros(n, dtype=bool)

@@ -188,9 +188,14 @@ module enc_interp #(
 
     wire [31:0]     qstart   = {qc_next, {FB{1'b0}}};
     wire [31:0]     pos_next = qstart + {{(31 - FB){1'b0}}, fine};
+    // The index is high in quadrant 0 of line 0, so its edge marks a line start; the decoder may
+    // still show the neighbouring quadrant there (the channel crossing zero reads 0 and holds its
+    // sign), so the latch takes the nearest line start: qc rounded to a multiple of 4.
+    wire [QCW-3:0]  qline      = qc_next[QCW-1:2] + {{(QCW - 3){1'b0}}, qc_next[1]};  // (qc+2)/4
+    wire [31:0]     line_start = {qline, 2'b00, {FB{1'b0}}};
     wire            rise     = idx_b & ~idx_prev;
     wire            home_now = rise & (arm_pend | arm_b);
-    wire [31:0]     home_next = home_now ? qstart : home;
+    wire [31:0]     home_next = home_now ? line_start : home;
     wire [RUNW-1:0] run_next = !bad_b ? {RUNW{1'b0}}
                              : (run == LOSS_N) ? run : run + 1'b1;
     wire            loss     = (run_next == LOSS_N);
@@ -226,7 +231,7 @@ module enc_interp #(
                 if (started && dq == 2'd3) last_up <= 1'b0;
                 idx_prev <= idx_b;
                 if (rise) begin
-                    index_pos_c   <= qstart;
+                    index_pos_c   <= line_start;
                     index_count_c <= index_count_c + 16'd1;
                 end
                 if (arm_b) begin

@@ -156,6 +156,35 @@ def test_direction_invert_reverses_the_count() -> None:
         interp.run(a, b, idx, cfg, arm_at=[0]))) is None
 
 
+@pytest.mark.parametrize("speed", [0.0002, 0.004, 0.13])
+def test_index_latch_is_the_line_start_from_either_side(speed: float) -> None:
+    """The index latch (and the home) is the start of line 0 whether the index is entered
+    forwards or backwards, slowly (the zero code sits on the boundary for several samples) or
+    fast; regression for the +-1 quadrant home the firmware co-simulation found."""
+    n = int(0.6 / speed)
+    fwd = -0.3 + speed * np.arange(n)          # through lines = 0 (quadrant 3 -> quadrant 0)
+    bwd = 0.55 - speed * np.arange(n)          # through lines = 0.25 (quadrant 1 -> quadrant 0)
+    xs = [fwd, bwd]
+    ab = [encsig.adc_codes(x) for x in xs]
+    a = np.stack([p[0] for p in ab], 1)
+    b = np.stack([p[1] for p in ab], 1)
+    idx = np.stack([encsig.index_bit(x) for x in xs], 1)
+    run = native.run_interp(a, b, idx, CFG, columns=["pos", "index_pos", "index_count",
+                                                     "pos_homed", "homed"], arm_at=[[0], [0]])
+    for ax, x in enumerate(xs):
+        out = run.axis(ax)
+        assert out["index_count"][-1] == 1 and out["homed"][-1] == 1
+        # the interpolator counts from the line it woke up in (line -1 forwards, 0 backwards):
+        # the true line 0 starts at this position
+        truth_line0 = -np.floor(x[0]) * CFG.counts_per_line
+        assert out["index_pos"][-1] == truth_line0, (ax, out["index_pos"][-1], truth_line0)
+        homed = out["homed"] == 1
+        err = out["pos_homed"][homed] - x[homed] * CFG.counts_per_line
+        assert np.abs(err).max() < 2.0
+        model = interp.run(a[:, ax], b[:, ax], idx[:, ax], CFG, arm_at=[0])
+        assert model.index_pos[-1] == out["index_pos"][-1]
+
+
 def test_fault_timing_and_clear() -> None:
     """Dropout raises signal loss after exactly LOSS_SAMPLES samples, clipping and overspeed
     on the very sample; a clear removes a fault that is gone and not one that persists."""

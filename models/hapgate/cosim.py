@@ -1,0 +1,362 @@
+"""Firmware co-simulation: the DSP firmware (dsp-fw/src, C99, unchanged) against the Verilated FPGA
+top over the modelled EMIF bus (tb/native/cosim/).
+
+`build()` compiles the firmware with its own warning flags into a static library and Verilates
+rtl/top/hapgate_top.v with the C++ harness and the co-sim HAL (one cached build per parameter
+set and source hash, under build/native/cosim-<hash>/). `run()` runs one scenario and returns its
+summary and per-frame / per-ISR records as numpy arrays. `check()` re-checks a run independently
+of the harness: the torques reconstructed from the DAC codes with `hapgate.commutation`'s motor
+model, the endpoint force through `hapgate.kinematics`, and the safety reaction times from the
+raw DAC loads. `demo_section()` / `bench_section()` are the `make demo` / `make bench` entries.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import subprocess
+import tempfile
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from . import commutation, encsig, interp, kinematics, report, toolenv
+from .flow import param_text
+from .paths import BUILD, ROOT, TB, ensure
+from .sim import _locked
+from .top import TopConfig, blocks
+
+HERE = TB / "native" / "cosim"
+HARNESS = [HERE / "cosim_harness.cpp", HERE / "hal_cosim.cpp"]
+HEADERS = [HERE / "cosim.h", HERE / "public.vlt"]
+FW = ROOT / "dsp-fw"
+FW_WARN = ("-Wall -Wextra -Werror -Wconversion -Wdouble-promotion -Wshadow -Wstrict-prototypes "
+           "-Wmissing-prototypes -Wcast-qual -Wvla").split()   # dsp-fw/Makefile's WARN
+SCENARIOS = ("wall", "wdog", "hang", "dropout", "miscal", "bus")
+ERR_NONE, ERR_AXIS_FAULT, ERR_WATCHDOG = 0, 2, 6   # dsp-fw/README.md, "latched error codes"
+STAT_FAULT0, STAT_WDOG = 1 << 0, 1 << 12           # rtl/regs/REGISTERS.md, STATUS
+KT, AMP_GAIN, DAC_FS_V, CODE_FS = 0.06, 0.8, 10.0, 32767   # dsp-fw/README.md motor defaults
+
+
+@dataclass(frozen=True)
+class BusTiming:
+    """EMIF-like access in FPGA clocks (rtl/bus/README.md: strobe >= 5, recovery >= 3)."""
+    setup: int = 1
+    strobe: int = 5
+    hold: int = 2
+    use_ready: bool = False
+
+    def args(self) -> list[str]:
+        return [str(self.setup), str(self.strobe), str(self.hold), str(int(self.use_ready))]
+
+
+def _fw_lib(bdir: Path) -> Path:
+    """dsp-fw/src/*.c compiled as C99 with the firmware's own -Werror flags."""
+    objs = []
+    for src in sorted((FW / "src").glob("*.c")):
+        obj = bdir / "fw" / (src.stem + ".o")
+        ensure(obj.parent)
+        cmd = ["gcc", "-std=c99", *FW_WARN, "-O2", "-I", str(FW / "include"), "-c", str(src),
+               "-o", str(obj)]
+        out = subprocess.run(cmd, capture_output=True, text=True)
+        if out.returncode != 0:
+            raise RuntimeError(f"firmware build failed: {src.name}\n{out.stderr}")
+        objs.append(obj)
+    lib = bdir / "fw" / "libhgfw.a"
+    subprocess.run(["ar", "rcs", str(lib), *map(str, objs)], check=True)
+    return lib
+
+
+def build(cfg: TopConfig = TopConfig()) -> Path:
+    """Verilate the top with the harness and link the firmware; return the executable (cached)."""
+    toolenv.apply()
+    block = blocks()[0]
+    params = cfg.rtl_params()   # = block.params() for the default configuration
+    srcs = [ROOT / "rtl" / s for s in block.sources]
+    key = json.dumps({k: param_text(v) for k, v in sorted(params.items())})
+    digest = hashlib.sha1(key.encode())
+    fw_srcs = sorted((FW / "src").glob("*.c")) + sorted((FW / "include").glob("*.h"))
+    for p in [*srcs, *HARNESS, *HEADERS, *fw_srcs]:
+        digest.update(p.read_bytes())
+    bdir = ensure(BUILD / "native" / f"cosim-{digest.hexdigest()[:12]}")
+    exe = bdir / "cosim_harness"
+    with _locked(bdir):
+        if exe.exists():
+            return exe
+        lib = _fw_lib(bdir)
+        cmd = ["verilator", "--cc", "--exe", "--build", "-j", "2", "-O3",
+               "--x-assign", "fast", "--x-initial", "fast", "-Wno-fatal",
+               "--top-module", block.top, "-Mdir", str(bdir), "-o", "cosim_harness",
+               "-CFLAGS", f"-O2 -std=c++17 -DCLK_HZ={cfg.clk_hz} -I{HERE} -I{FW / 'include'}",
+               "-LDFLAGS", f"{lib} -lm",
+               "-MAKEFLAGS", "OPT_FAST=-O2 OPT_SLOW=-O2 OPT_GLOBAL=-O2"]
+        cmd += [f"-G{k}={param_text(v)}" for k, v in params.items()]
+        cmd += [str(HERE / "public.vlt"), *map(str, srcs), *map(str, HARNESS)]
+        out = subprocess.run(cmd, capture_output=True, text=True)
+        (bdir / "build.log").write_text(out.stdout + out.stderr)
+        if out.returncode != 0 or not exe.exists():
+            raise RuntimeError(f"co-sim harness build failed; see {bdir / 'build.log'}")
+    return exe
+
+
+@dataclass
+class CosimRun:
+    scenario: str
+    rate_hz: int
+    ok: bool                      # the harness's own verdict (exit code 0 and result=PASS)
+    summary: dict[str, str]       # key=value lines of its stdout
+    frames: np.ndarray            # structured, one row per DAC frame (frames.csv)
+    isr: np.ndarray               # structured, one row per ISR call (isr.csv)
+    loads: np.ndarray             # structured: edge i8, ch i4, code i4 (every DAC load)
+    wall_s: float                 # wall-clock time of the harness process
+    fails: list[str] = field(default_factory=list)
+    warns: list[str] = field(default_factory=list)
+
+    def num(self, key: str) -> float:
+        return float(self.summary[key])
+
+    def vec(self, key: str) -> np.ndarray:
+        return np.array([float(x) for x in self.summary[key].split(",")])
+
+
+def run(scenario: str = "wall", rate_hz: int = 1000, bus: BusTiming = BusTiming(),
+        cfg: TopConfig = TopConfig()) -> CosimRun:
+    if scenario not in SCENARIOS:
+        raise ValueError(f"unknown scenario {scenario}; known: {', '.join(SCENARIOS)}")
+    exe = build(cfg)
+    tag = f"{scenario}-{rate_hz}-{bus.setup}{bus.strobe}{bus.hold}{int(bus.use_ready)}-"
+    with tempfile.TemporaryDirectory(prefix=tag, dir=ensure(exe.parent / "runs")) as tmp:
+        out = Path(tmp)
+        t0 = time.perf_counter()
+        proc = subprocess.run([str(exe), scenario, str(rate_hz), str(out), *bus.args()],
+                              capture_output=True, text=True)
+        wall = time.perf_counter() - t0
+        if proc.returncode not in (0, 1) or "result=" not in proc.stdout:
+            raise RuntimeError(f"co-sim harness failed ({proc.returncode}): {proc.stderr.strip()}")
+        load_dt = [("edge", "<i8"), ("ch", "<i4"), ("code", "<i4")]
+        if scenario == "bus":   # no firmware, no frames
+            frames = isr = np.zeros(0)
+            loads = np.zeros(0, dtype=load_dt)
+        else:
+            frames = np.genfromtxt(out / "frames.csv", delimiter=",", names=True, dtype=None)
+            isr = np.genfromtxt(out / "isr.csv", delimiter=",", names=True, dtype=None)
+            loads = np.fromfile(out / "loads.bin", dtype=load_dt)
+    summary: dict[str, str] = {}
+    fails, warns = [], []
+    for line in proc.stdout.splitlines():
+        head, _, rest = line.partition("=")
+        if head in ("fail", "warn"):
+            (fails if head == "fail" else warns).append(rest)
+            continue
+        for kv in line.split(" "):
+            k, _, v = kv.partition("=")
+            summary[k] = v
+    ok = proc.returncode == 0 and summary.get("result") == "PASS"
+    return CosimRun(scenario, rate_hz, ok, summary, np.atleast_1d(frames), np.atleast_1d(isr),
+                    loads, wall, fails, warns)
+
+
+# ---------------------------------------------------------------------------- independent check
+
+@dataclass
+class Check:
+    torque_err: np.ndarray        # (frames, 3) |reconstructed - commanded| (command codes)
+    torque_budget: np.ndarray     # (frames, 3)
+    force: np.ndarray             # (m, 3) reconstructed endpoint force, N (attributable frames)
+    force_expected: np.ndarray    # (m, 3) n * k * max(0, depth)
+    force_budget: np.ndarray      # (m,)
+    depth: np.ndarray             # (m,) m, at the pose the firmware sampled
+    t_force: np.ndarray           # (m,) s
+    t_cmd: np.ndarray             # (frames, 3) commanded (upper candidate)
+    t_rec: np.ndarray             # (frames, 3) reconstructed
+    t_frame: np.ndarray           # (frames,) s
+
+    @property
+    def max_force_err(self) -> float:
+        e = np.linalg.norm(self.force - self.force_expected, axis=1)
+        return float(e.max()) if e.size else 0.0
+
+
+def _frame_torque_budget(tmax: np.ndarray, cc: commutation.CommutationConfig) -> np.ndarray:
+    """Worst-case |reconstructed - commanded| torque code for a sine frame: +-1/2 LSB output
+    rounding and +-1/2 ROM LSB x t/2^SH per phase, through the amplifier's 2-of-3 reconstruction
+    (<= sqrt(3)(|ea| + |eb|)), scaled to command codes, plus the commutation's ripple budget."""
+    scale = (1 << cc.shift) / (1.5 * cc.rom.fs)
+    per_phase = 0.5 + 0.5 * tmax / (1 << cc.shift)
+    return 2 * np.sqrt(3) * per_phase * scale + commutation.SINE_RIPPLE_BUDGET * tmax
+
+
+def check(r: CosimRun, cfg: TopConfig = TopConfig()) -> Check:
+    """Recompute the torque and force checks from the run's raw outputs with the golden models."""
+    cc = cfg.comm
+    f = r.frames
+    clk = r.num("clk_hz")
+    normal = r.scenario in ("wall", "miscal")
+    normal_end = np.inf if normal else (r.num("cause_edge") or r.num("fault_cmd_edge"))
+    sel = (f["start"] > 0) & (f["start"] < normal_end)
+    f = f[sel]
+    codes = np.stack([f[f"c{i}"] for i in range(6)], 1).astype(np.float64)
+    q = np.stack([f[f"q{i}"] for i in range(3)], 1)
+    q_index = r.vec("q_index")
+    home = home_error(r)
+    home_q = 256 * np.round(home / 256) * 2 * np.pi / 2**20   # whole quadrants, rad
+    theta = cc.pole_pairs * (q - q_index)            # electrical angle from the index (winding 0)
+    tlo = np.stack([f[f"tlo{i}"] for i in range(3)], 1).astype(np.float64)
+    thi = np.stack([f[f"thi{i}"] for i in range(3)], 1).astype(np.float64)
+    t_rec = np.empty_like(tlo)
+    for m in range(3):
+        ia, ib = codes[:, 2 * m] / cc.rom.fs, codes[:, 2 * m + 1] / cc.rom.fs
+        _, s = commutation.motor_torque(ia, ib, theta[:, m])
+        # a matched drive of command t gives s = 1.5 * (FS * t / 2^SH) / FS
+        t_rec[:, m] = s / 1.5 * (1 << cc.shift)
+    err = np.minimum(np.abs(t_rec - tlo), np.abs(t_rec - thi))
+    budget = _frame_torque_budget(np.maximum(np.abs(tlo), np.abs(thi)), cc)
+
+    # endpoint force at the pose the firmware sampled (frames attributable to one ISR)
+    fs = (f["snap_edge"] >= 0) & np.all(tlo == thi, axis=1)
+    qs = np.stack([f[f"qs{i}"] for i in range(3)], 1)[fs] + home_q   # in the firmware's homed frame
+    nm_per_code = KT * AMP_GAIN * DAC_FS_V / CODE_FS
+    tau = t_rec[fs] * nm_per_code
+    jac = kinematics.jacobian(qs)
+    force = np.linalg.solve(np.swapaxes(jac, -1, -2), tau[..., None])[..., 0]
+    n, p0, k = r.vec("wall_n"), r.vec("wall_p0"), r.num("wall_k")
+    depth = (p0 - kinematics.fk(qs)) @ n
+    mag = np.where(f["drive"][fs] == 1, k * np.maximum(depth, 0.0), 0.0)
+    expected = n[None, :] * mag[:, None]
+    # budget: torque budget through J^-T, 4 counts + 3 us of motion per joint through k J, float
+    jit = np.linalg.inv(np.swapaxes(jac, -1, -2))
+    s_jit = np.linalg.norm(jit, ord=2, axis=(1, 2))
+    s_j = np.linalg.norm(jac, ord=2, axis=(1, 2))
+    qd = np.gradient(q, f["start"] / clk, axis=0)[fs]
+    dq = np.linalg.norm(qd, axis=1) * 3e-6 + np.sqrt(3) * interp_budget_counts() * 2 * np.pi / 2**20
+    fb = (s_jit * np.linalg.norm(budget[fs] * nm_per_code, axis=1) + k * s_j * dq + 1e-4 * mag)
+    return Check(torque_err=err, torque_budget=budget, force=force, force_expected=expected,
+                 force_budget=fb, depth=depth, t_force=f["start"][fs] / clk, t_cmd=thi,
+                 t_rec=t_rec, t_frame=f["start"] / clk)
+
+
+def home_error(r: CosimRun) -> np.ndarray:
+    """Firmware joint angle minus the truth, counts, at the last driving tick before the push
+    (the joints stand still at the free pose there)."""
+    i = r.isr
+    clk = r.num("clk_hz")
+    k = np.flatnonzero((i["drive"] == 1) & (i["irq_edge"] / clk < r.num("t_push")))[-1]
+    qf = np.array([i[f"qf{j}"][k] for j in range(3)])
+    qt = np.array([i[f"qt{j}"][k] for j in range(3)])
+    return (qf - qt) * 2**20 / (2 * np.pi)
+
+
+def interp_budget_counts(amplitude: float = 110.0, sweep_lines: int = 4) -> float:
+    """Worst |interpolated - true| position of hapgate.interp on ideal signals of this amplitude,
+    counts (measured on a fine sweep with the golden model), plus 1/2 count of float."""
+    n = sweep_lines * 4096
+    lines = 0.1 + np.arange(n) * (sweep_lines / n)
+    a, b = encsig.adc_codes(lines, encsig.SignalSpec(amplitude=amplitude))
+    out = interp.run(a, b)
+    err = out.pos - (lines - np.floor(lines[0])) * 1024
+    return float(np.abs(err).max()) + 0.5
+
+
+def reaction_clocks(r: CosimRun, channels: list[int]) -> int:
+    """Clocks from the cause edge to the first load after which every load of these channels is
+    zero (max over the channels); -1 if some channel never settles at zero."""
+    cause = int(r.num("cause_edge"))
+    worst = 0
+    for c in channels:
+        ld = r.loads[(r.loads["ch"] == c) & (r.loads["edge"] >= cause)]
+        nz = np.flatnonzero(ld["code"] != 0)
+        rest = ld[nz[-1] + 1:] if nz.size else ld
+        if rest.size == 0:
+            return -1
+        worst = max(worst, int(rest["edge"][0]) - cause)
+    return worst
+
+
+# ---------------------------------------------------------------------------- make demo / bench
+
+def _row(r: CosimRun, c: Check | None) -> list[object]:
+    tx = r.num("bus_reads") + r.num("bus_writes")
+    ferr = c.max_force_err if c is not None else float("nan")
+    react = "-"
+    if r.scenario not in ("wall", "miscal"):
+        clocks = int(r.summary["reaction_clocks"])
+        react = f"{clocks / r.num('clk_hz') * 1e6:.2f} us ({clocks} clk)"
+    return [f"{r.scenario} @ {r.rate_hz} Hz", f"{r.num('sim_s') * 1e3:.1f} ms",
+            f"{r.num('wall_s'):.2f} s", f"{tx / r.num('wall_s') / 1e3:.0f} k",
+            int(r.num("ticks")), f"{ferr * 1e3:.2f} mN", react,
+            "PASS" if r.ok else "FAIL " + "; ".join(r.fails)]
+
+
+def demo_section() -> bool:
+    print("== firmware co-simulation (dsp-fw against the Verilated top over the EMIF bus) ==")
+    t0 = time.perf_counter()
+    exe = build()
+    print(f"build: {exe.parent.name} ({time.perf_counter() - t0:.1f} s)")
+    runs = [run("wall", 1000), run("wall", 10000), run("wdog"), run("hang"), run("dropout")]
+    checks = [check(r) for r in runs]
+    rows = [_row(r, c) for r, c in zip(runs, checks)]
+    bound = TopConfig().comm.frame_clocks + TopConfig().comm.wr_cycles + 1
+    print(report.table(["scenario", "simulated", "wall clock", "bus tx/s", "ticks",
+                        "max |F err|", f"zero torque after cause (<= {bound} clk)", "result"],
+                       rows))
+    for w in sorted({w for r in runs for w in r.warns}):
+        print(f"note: {w} (tb/native/cosim/README.md, 'Known issue')")
+    plt = report.pyplot()
+    fig, ax = plt.subplots(1, 3, figsize=(15, 4))
+    w, c = runs[0], checks[0]
+    ax[0].plot(c.t_force * 1e3, np.maximum(c.depth, 0) * 1e3)
+    ax[0].set(xlabel="time (ms)", ylabel="penetration depth (mm)", title="wall @ 1 kHz")
+    for m in range(3):
+        ax[1].plot(c.t_frame * 1e3, c.t_cmd[:, m], lw=2, alpha=0.5, label=f"commanded m{m}")
+        ax[1].plot(c.t_frame * 1e3, c.t_rec[:, m], "k:", lw=0.8)
+    ax[1].set(xlabel="time (ms)", ylabel="torque command code",
+              title="commanded vs reconstructed (dotted)")
+    ax[1].legend(fontsize=7)
+    n = w.vec("wall_n")
+    ax[2].plot(np.maximum(c.depth, 0) * 1e3, c.force @ n, ".", ms=2, label="F.n reconstructed")
+    dd = np.linspace(0, max(c.depth.max(), 0) * 1e3, 10)
+    ax[2].plot(dd, w.num("wall_k") * dd / 1e3, "r-", lw=1, label="k d")
+    ax[2].set(xlabel="depth (mm)", ylabel="force along n (N)", title="force vs depth")
+    ax[2].legend(fontsize=7)
+    fig.tight_layout()
+    path = report.figure_path("demo_cosim.png")
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    print(f"figure: {path}")
+    return all(r.ok for r in runs) and all(
+        bool(np.all(ck.torque_err <= ck.torque_budget)) for ck in checks)
+
+
+def bench_section(quick: bool = False) -> bool:
+    print("== firmware co-simulation speed ==")
+    build()
+    rows = []
+    ok = True
+    buses = [BusTiming()] if quick else [BusTiming(), BusTiming(use_ready=True)]
+    for bus in buses:
+        for rate in (1000, 10000):
+            r = run("wall", rate, bus)
+            ok = ok and r.ok
+            tx = r.num("bus_reads") + r.num("bus_writes")
+            rows.append([f"{rate} Hz", "ready" if bus.use_ready else
+                         f"{bus.setup}/{bus.strobe}/{bus.hold}", f"{r.num('sim_s') * 1e3:.0f} ms",
+                         f"{r.num('wall_s'):.2f} s", int(tx), f"{tx / r.num('wall_s') / 1e3:.1f} k",
+                         f"{r.num('clocks') / r.num('wall_s') / 1e6:.2f} M",
+                         f"{r.num('sim_per_wall'):.4f}", "PASS" if r.ok else "FAIL"])
+    for bus in buses:   # bus-bound: back-to-back SCRATCH write / read-back, no firmware
+        r = run("bus", bus=bus)
+        ok = ok and r.ok
+        tx = r.num("bus_reads") + r.num("bus_writes")
+        timing = "ready" if bus.use_ready else f"{bus.setup}/{bus.strobe}/{bus.hold}"
+        rows.append(["bus only", timing,
+                     f"{r.num('sim_s') * 1e3:.0f} ms", f"{r.num('wall_s'):.2f} s", int(tx),
+                     f"{tx / r.num('wall_s') / 1e3:.1f} k",
+                     f"{r.num('clocks') / r.num('wall_s') / 1e6:.2f} M",
+                     f"{r.num('sim_per_wall'):.4f}", "PASS" if r.ok else "FAIL"])
+    print(report.table(["tick", "bus setup/strobe/hold", "simulated", "wall", "bus tx",
+                        "bus tx/s", "clocks/s", "sim us / wall us", "result"], rows))
+    report.write_csv("bench_cosim.csv", ["tick", "bus", "simulated", "wall", "bus_tx", "tx_per_s",
+                                         "clocks_per_s", "sim_per_wall", "result"], rows)
+    return ok

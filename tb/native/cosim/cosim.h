@@ -1,0 +1,84 @@
+// SPDX-License-Identifier: Apache-2.0
+// Firmware co-simulation: the testbench around the Verilated hapgate_top (tick/reset, ADC
+// stimulus, DAC monitor, irq edge) shared by the co-sim HAL (hal_cosim.cpp) and the scenario
+// runner (cosim_harness.cpp). ZipCPU testb.h / ibex simulator_ctrl style.
+#pragma once
+
+#include <cstdint>
+#include <functional>
+#include <memory>
+#include <vector>
+
+#include "Vhapgate_top.h"
+#include "verilated.h"
+
+#ifndef CLK_HZ
+#error "CLK_HZ must be defined (-DCLK_HZ=...) to match the RTL parameter"
+#endif
+
+namespace cosim {
+
+// EMIF-like access timing in FPGA clocks (rtl/bus/README.md: strobe >= 5, recovery >= 3,
+// setup >= 0; or wait for ready).
+struct BusTiming {
+    int setup = 1;       // CE low and address/data valid before the strobe falls
+    int strobe = 5;      // strobe low (ignored when use_ready: then until ready is seen)
+    int hold = 2;        // after the strobe rises, before CE rises / the next setup
+    bool use_ready = false;
+};
+
+struct DacLoad {
+    uint64_t edge;  // clock edge at which dac_wr_n rose (the DAC load)
+    int addr;       // channel 0..5 (m0a, m0b, m1a, m1b, m2a, m2b)
+    int code;       // signed DAC code (two's complement word decoded)
+};
+
+struct BusWrite {
+    uint64_t fall, rise;  // strobe fall / rise edges
+    uint32_t addr, data;
+    bool dropped;         // not issued (a fault injected by the scenario)
+    int64_t isr;          // index of the ISR it was issued from (-1: background)
+};
+
+// The testbench: owns the model, counts clock edges from reset release.
+class Testbench {
+public:
+    Testbench();
+    ~Testbench();
+    void reset();
+    void tick();  // one full clock: posedge (monitors run) then negedge (stimulus presented)
+
+    std::unique_ptr<VerilatedContext> ctx;
+    std::unique_ptr<Vhapgate_top> top;
+    uint64_t edge = 0;  // posedges since the last edge that sampled rst high (edge 0)
+
+    // stimulus: called in the clock-low phase of an adc_strobe cycle; the words are captured
+    // at the next posedge (edge + 1). Writes a, b (packed 3 x int8) and index (3 bits).
+    std::function<void(uint64_t capture_edge, uint32_t& a, uint32_t& b, uint32_t& idx)> adc;
+
+    // monitors
+    std::vector<DacLoad> loads;
+    bool irq_rose = false;          // set on a rising edge of irq; the runner clears it
+    uint64_t irq_rise_edge = 0;
+    uint64_t wdog_expired_edge = 0; // first edge at which the top's wdog_expired is high (0: never)
+    uint64_t fault_edge[3] = {0, 0, 0};  // first edge with the top's fault[i] high (0: never)
+
+private:
+    int prev_wr_n_ = 1;
+    int prev_irq_ = 0;
+};
+
+extern Testbench* tb;  // the one the HAL drives
+
+struct BusStats {
+    uint64_t reads = 0, writes = 0, dropped = 0, not_oe = 0;
+};
+extern BusTiming bus_timing;
+extern BusStats bus_stats;
+extern std::vector<BusWrite> bus_writes;
+extern int64_t current_isr;
+// fault injection: drop writes to this word address (e.g. WDOG) when set
+extern bool drop_enable;
+extern uint32_t drop_addr;
+
+}  // namespace cosim

@@ -1,0 +1,655 @@
+// SPDX-License-Identifier: Apache-2.0
+// Firmware co-simulation runner: the DSP firmware (dsp-fw/src/*.c, unchanged, C99) runs natively
+// against the Verilated FPGA top over the modelled EMIF bus (hal_cosim.cpp). The harness moves
+// three encoders along a prescribed "hand" trajectory (into a virtual wall and back), feeds the
+// ADC codes at every adc_strobe, calls hg_servo_isr() on every rising edge of irq, records every
+// DAC load, and checks the result itself: it exits 0 and prints "result=PASS" only if every
+// check holds. Driven by models/hapgate/cosim.py, which re-checks the outputs independently.
+//
+// usage: cosim_harness SCENARIO RATE_HZ OUTDIR [setup strobe hold use_ready]
+//   SCENARIO: wall    normal run: home, enable, push into the wall and back
+//             wdog    as wall, but from t_fault on every watchdog key write is lost
+//             hang    as wall, but from t_fault on the ISR is not called (the DSP hangs)
+//             dropout as wall, but from t_fault on axis 1's encoder signal is gone (A = B = 0)
+//             bus     bus-bound throughput: SCRATCH write/read-back pairs, no firmware
+//             miscal  negative control: wall with motor 0's commutation offset wrong (must FAIL)
+// Outputs in OUTDIR: frames.csv (one row per DAC frame), isr.csv (one row per ISR), loads.bin
+// (int64 edge, int32 channel, int32 code per DAC load); a key=value summary on stdout.
+#include <algorithm>
+#include <array>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <string>
+
+#include "cosim.h"
+
+extern "C" {
+#include "hg_fpga_regs.h"
+#include "hg_hal.h"
+#include "hg_servo.h"
+}
+
+using namespace cosim;
+using Vec3 = std::array<double, 3>;
+using Mat3 = std::array<std::array<double, 3>, 3>;  // m[row][col]
+
+namespace {
+
+// ------------------------------------------------------------------ plant constants
+constexpr double kPi = 3.14159265358979323846;
+constexpr double kLines = 1024.0;        // encoder lines per revolution
+constexpr double kAdcR = 110.0;          // ADC amplitude (codes)
+constexpr int kPolePairs = 2;
+constexpr double kL = 0.05;              // arm lengths (KINEMATICS.md default), m
+constexpr double kDacFs = 8191.0;        // DAC code at full scale (14-bit, symmetric)
+constexpr int kLoadClocks = 9;           // frame start -> channel 0 load (rtl/top/README.md)
+constexpr double kWallK = 2000.0;        // N/m (20 N/cm)
+
+double deg(double x) { return x * kPi / 180.0; }
+
+// ------------------------------------------------------------------ kinematics (independent
+// double implementation of shared/KINEMATICS.md, h = 0; the firmware's is the code under test)
+Vec3 fk(const Vec3& q) {
+    const double ca = std::cos(q[0]), sa = std::sin(q[0]);
+    const double cb = std::cos(q[1]), sb = std::sin(q[1]), cg = std::cos(q[2]), sg = std::sin(q[2]);
+    const double db = std::sqrt(cb * cb + ca * ca * sb * sb), dg = std::sqrt(cg * cg + ca * ca * sg * sg);
+    const double rho = kL * cb / db + kL * cg / dg;
+    return {-rho * sa, rho * ca, ca * (-kL * sb / db + kL * sg / dg)};
+}
+
+Mat3 jac(const Vec3& q) {
+    const double ca = std::cos(q[0]), sa = std::sin(q[0]);
+    const double cb = std::cos(q[1]), sb = std::sin(q[1]), cg = std::cos(q[2]), sg = std::sin(q[2]);
+    const double kb = kL / std::pow(std::sqrt(cb * cb + ca * ca * sb * sb), 3);
+    const double kg = kL / std::pow(std::sqrt(cg * cg + ca * ca * sg * sg), 3);
+    const Vec3 da = {kb * -ca * cb + kg * -ca * cg, kb * -sa * cb * cb * cb + kg * -sa * cg * cg * cg,
+                     kb * sa * sb * cb * cb + kg * -sa * sg * cg * cg};
+    const Vec3 dbv = {kb * ca * sa * ca * sb, kb * ca * -ca * ca * sb, kb * ca * -cb};
+    const Vec3 dgv = {kg * ca * sa * ca * sg, kg * ca * -ca * ca * sg, kg * ca * cg};
+    Mat3 m{};
+    for (int i = 0; i < 3; ++i) {
+        m[i][0] = da[i];
+        m[i][1] = dbv[i];
+        m[i][2] = dgv[i];
+    }
+    return m;
+}
+
+// Solve A x = b (Cramer; A well conditioned in the workspace used here).
+Vec3 solve(const Mat3& a, const Vec3& b) {
+    auto det = [](const Mat3& m) {
+        return m[0][0] * (m[1][1] * m[2][2] - m[1][2] * m[2][1]) -
+               m[0][1] * (m[1][0] * m[2][2] - m[1][2] * m[2][0]) +
+               m[0][2] * (m[1][0] * m[2][1] - m[1][1] * m[2][0]);
+    };
+    const double d = det(a);
+    Vec3 x{};
+    for (int c = 0; c < 3; ++c) {
+        Mat3 m = a;
+        for (int r = 0; r < 3; ++r) m[r][c] = b[r];
+        x[c] = det(m) / d;
+    }
+    return x;
+}
+
+// Largest singular value of a 3x3 matrix (power iteration on M^T M).
+double norm2(const Mat3& m) {
+    Vec3 v = {1.0, 0.7, 0.4};
+    double s = 0.0;
+    for (int it = 0; it < 60; ++it) {
+        Vec3 w{}, u{};
+        for (int i = 0; i < 3; ++i)
+            for (int j = 0; j < 3; ++j) w[i] += m[i][j] * v[j];
+        for (int i = 0; i < 3; ++i)
+            for (int j = 0; j < 3; ++j) u[j] += m[i][j] * w[i];
+        const double n = std::sqrt(u[0] * u[0] + u[1] * u[1] + u[2] * u[2]);
+        for (int j = 0; j < 3; ++j) v[j] = u[j] / n;
+        s = std::sqrt(n);
+    }
+    return s;
+}
+
+Mat3 inv_t(const Mat3& j) {  // (J^T)^-1 by columns
+    Mat3 jt{}, r{};
+    for (int i = 0; i < 3; ++i)
+        for (int k = 0; k < 3; ++k) jt[i][k] = j[k][i];
+    for (int c = 0; c < 3; ++c) {
+        Vec3 e{};
+        e[c] = 1.0;
+        const Vec3 x = solve(jt, e);
+        for (int i = 0; i < 3; ++i) r[i][c] = x[i];
+    }
+    return r;
+}
+
+double dot(const Vec3& a, const Vec3& b) { return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]; }
+
+// ------------------------------------------------------------------ the hand trajectory
+struct Trajectory {
+    Vec3 q_free{deg(4.0), deg(46.0), deg(43.0)};
+    Vec3 q_deep{deg(3.0), deg(42.0), deg(40.0)};
+    Vec3 q_index{};           // joint angle at the index (line 0 starts there)
+    double sweep = deg(0.5);  // homing sweep: start this far before q_free
+    double t_home = 6e-3;     // s, the sweep (the index is crossed half-way)
+    double t_push = 15e-3;    // s, start of the push
+    double t_in = 100e-3;     // s, into the wall (raised cosine), the same back
+    double t_hold = 20e-3;    // s, held at the deepest point
+    double t_end = 250e-3;
+
+    Trajectory() {
+        for (int i = 0; i < 3; ++i) q_index[i] = q_free[i] - sweep / 2;
+    }
+    double s(double t) const {  // 0 free .. 1 deep
+        const double u = t - t_push;
+        if (u <= 0) return 0.0;
+        if (u < t_in) return 0.5 * (1 - std::cos(kPi * u / t_in));
+        if (u < t_in + t_hold) return 1.0;
+        if (u < 2 * t_in + t_hold) return 0.5 * (1 + std::cos(kPi * (u - t_in - t_hold) / t_in));
+        return 0.0;
+    }
+    Vec3 q(double t) const {
+        Vec3 r{};
+        const double sw = t < t_home ? (t / t_home - 1.0) * sweep : 0.0;
+        const double ss = s(t);
+        for (int i = 0; i < 3; ++i) r[i] = q_free[i] + sw + ss * (q_deep[i] - q_free[i]);
+        return r;
+    }
+    Vec3 qdot(double t) const {
+        const double h = 1e-6;
+        const Vec3 a = q(t - h), b = q(t + h);
+        return {(b[0] - a[0]) / (2 * h), (b[1] - a[1]) / (2 * h), (b[2] - a[2]) / (2 * h)};
+    }
+    double lines(double t, int i) const { return (q(t)[i] - q_index[i]) / (2 * kPi) * kLines; }
+};
+
+double edge_time(uint64_t e) { return static_cast<double>(e) / CLK_HZ; }
+
+struct IsrRec {
+    uint64_t irq_edge, start, end;
+    uint8_t err, err_axis;
+    bool drive;
+    uint32_t status;
+    float p[3], f[3], tau[3], q[3];
+    int16_t code[3];
+};
+
+struct Frame {
+    uint64_t start;
+    int code[6];
+    int n = 0;
+};
+
+int8_t adc_code(double x) { return static_cast<int8_t>(std::clamp(std::floor(x + 0.5), -128.0, 127.0)); }
+
+}  // namespace
+
+int main(int argc, char** argv) {
+    if (argc != 4 && argc != 8) {
+        std::fprintf(stderr, "usage: %s wall|wdog|hang|dropout|miscal|bus RATE_HZ OUTDIR [setup strobe hold ready]\n", argv[0]);
+        return 2;
+    }
+    const std::string scenario = argv[1];
+    const uint32_t rate = static_cast<uint32_t>(std::strtoul(argv[2], nullptr, 10));
+    const std::string outdir = argv[3];
+    if (argc == 8) {
+        bus_timing.setup = std::atoi(argv[4]);
+        bus_timing.strobe = std::atoi(argv[5]);
+        bus_timing.hold = std::atoi(argv[6]);
+        bus_timing.use_ready = std::atoi(argv[7]) != 0;
+    }
+    // miscal: a negative control, the wall run with motor 0's commutation offset 32/1024 of an
+    // electrical cycle (11.25 deg) off: the torque check must fail
+    const bool s_miscal = scenario == "miscal";
+    if (scenario == "bus") {  // bus-bound throughput: back-to-back SCRATCH write / read-back pairs
+        Testbench bench;
+        tb = &bench;
+        bench.reset();
+        const auto t0 = std::chrono::steady_clock::now();
+        uint64_t bad = 0;
+        const uint32_t n = 200000;
+        for (uint32_t i = 0; i < n; ++i) {
+            const uint32_t v = i * 2654435761u;
+            fpga_write32(HG_REG_SCRATCH, v);
+            bad += fpga_read32(HG_REG_SCRATCH) != v;
+        }
+        const double w = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+        const uint32_t st = fpga_read32(HG_REG_STATUS);
+        const bool ok = bad == 0 && (st & (HG_STAT_BUS_ERR | HG_STAT_PROTO_ERR)) == 0;
+        std::printf("scenario=bus clk_hz=%d setup=%d strobe=%d hold=%d ready=%d\n", CLK_HZ, bus_timing.setup,
+                    bus_timing.strobe, bus_timing.hold, int(bus_timing.use_ready));
+        std::printf("sim_s=%.9g wall_s=%.6g clocks=%llu bus_reads=%llu bus_writes=%llu mismatches=%llu tx_per_s=%.6g "
+                    "sim_per_wall=%.6g status=%u\n", edge_time(bench.edge), w, static_cast<unsigned long long>(bench.edge),
+                    static_cast<unsigned long long>(bus_stats.reads), static_cast<unsigned long long>(bus_stats.writes),
+                    static_cast<unsigned long long>(bad), 2.0 * n / w, edge_time(bench.edge) / w, st);
+        std::printf("result=%s\n", ok ? "PASS" : "FAIL");
+        return ok ? 0 : 1;
+    }
+    const bool s_wall = scenario == "wall" || s_miscal, s_wdog = scenario == "wdog", s_hang = scenario == "hang",
+               s_drop = scenario == "dropout";
+    if (!(s_wall || s_wdog || s_hang || s_drop)) {
+        std::fprintf(stderr, "error: unknown scenario %s\n", scenario.c_str());
+        return 2;
+    }
+
+    Trajectory tr;
+    const double t_fault = tr.t_push + 60e-3 + 0.5 / rate;  // mid-tick, while in the wall
+    if (!s_wall) tr.t_end = t_fault + 14e-3;                // wdog timeout is 10 ms
+    const int drop_axis = 1;
+
+    // wall plane: through a point 45 % of the way from the free to the deep pose, normal into free space
+    const Vec3 pf = fk(tr.q_free), pd = fk(tr.q_deep);
+    Vec3 nrm{}, p0{};
+    {
+        double l = 0;
+        for (int i = 0; i < 3; ++i) l += (pf[i] - pd[i]) * (pf[i] - pd[i]);
+        l = std::sqrt(l);
+        for (int i = 0; i < 3; ++i) {
+            nrm[i] = (pf[i] - pd[i]) / l;
+            p0[i] = pf[i] + 0.45 * (pd[i] - pf[i]);
+        }
+    }
+
+    Testbench bench;
+    tb = &bench;
+    bool dropout_on = false;
+    bench.adc = [&](uint64_t cap, uint32_t& a, uint32_t& b, uint32_t& idx) {
+        const double t = edge_time(cap);
+        for (int i = 0; i < 3; ++i) {
+            const double x = tr.lines(t, i);
+            const double phi = 2 * kPi * x;
+            int8_t ca = adc_code(kAdcR * std::sin(phi)), cb = adc_code(kAdcR * std::cos(phi));
+            if (dropout_on && i == drop_axis) ca = cb = 0;
+            a |= static_cast<uint32_t>(static_cast<uint8_t>(ca)) << (8 * i);
+            b |= static_cast<uint32_t>(static_cast<uint8_t>(cb)) << (8 * i);
+            const double line = std::floor(x);
+            const bool ix = std::fmod(std::fmod(line, kLines) + kLines, kLines) == 0.0 && x - line < 0.25;
+            idx |= static_cast<uint32_t>(ix) << i;
+        }
+    };
+    bench.reset();
+
+    const auto w0 = std::chrono::steady_clock::now();
+    // ---------------------------------------------------------------- firmware init (board code)
+    hg_servo_cfg_t cfg;
+    hg_servo_default_cfg(&cfg);
+    cfg.rate_hz = rate;
+    cfg.fpga_clk_hz = CLK_HZ;
+    for (int i = 0; i < 3; ++i)  // q = index_to_zero counts before the index (calibration)
+        cfg.enc[i].index_to_zero = static_cast<int32_t>(std::lround(-tr.q_index[i] / (2 * kPi) * HG_ENC_COUNTS_PER_REV));
+    if (s_miscal) cfg.motor[0].comm_offset = 32;
+    static hg_servo_t s;
+    const uint8_t init_err = hg_servo_init(&s, &cfg);
+    const uint32_t dac_skew = fpga_read32(HG_WORD(offsetof(hapgate_t, DAC_SKEW))),
+                   dac_frame = fpga_read32(HG_WORD(offsetof(hapgate_t, DAC_FRAME)));
+    const uint32_t clk_khz = fpga_read32(HG_REG_CLK_KHZ);
+    fpga_write32(HG_REG_CTRL, HG_CTRL_HOME_ARM);  // arm homing of all three axes
+    hg_servo_isr_ctx = &s;
+
+    std::vector<IsrRec> isrs;
+    int64_t homed_isr = -1;
+    uint64_t enable_edge = 0, fault_edge_cmd = 0;
+    uint32_t idx_pos[3] = {0, 0, 0}, status_after = 0;
+    bool enabled_once = false, resumed = false;
+    const uint64_t end_edge = static_cast<uint64_t>(tr.t_end * CLK_HZ);
+    const uint64_t fault_edge_at = static_cast<uint64_t>(t_fault * CLK_HZ);
+    uint64_t post_hang_status_edge = 0;
+
+    while (bench.edge < end_edge) {
+        bench.tick();
+        const bool after_fault = bench.edge >= fault_edge_at && !s_wall;
+        if (after_fault && !fault_edge_cmd) {
+            fault_edge_cmd = bench.edge;
+            if (s_wdog) {
+                drop_enable = true;
+                drop_addr = HG_REG_WDOG;
+            }
+            if (s_drop) dropout_on = true;
+        }
+        const bool rose = bench.irq_rose;
+        bench.irq_rose = false;
+        bool call = rose;
+        if (s_hang && after_fault && !resumed) {
+            // the DSP hangs; 2 ms after the watchdog expiry it comes back: a "debugger" reads
+            // STATUS, then the pending interrupt is serviced and the firmware must refuse to drive
+            call = false;
+            if (bench.wdog_expired_edge && bench.edge >= bench.wdog_expired_edge + CLK_HZ / 500) {
+                status_after = fpga_read32(HG_REG_STATUS);
+                post_hang_status_edge = bench.edge;
+                resumed = true;
+                call = bench.top->irq != 0;
+            }
+        }
+        if (!call) continue;
+        IsrRec r{};
+        r.irq_edge = rose ? bench.irq_rise_edge : bench.edge;
+        r.start = bench.edge;
+        current_isr = static_cast<int64_t>(isrs.size());
+        hg_servo_isr();
+        current_isr = -1;
+        r.end = bench.edge;
+        r.err = s.err;
+        r.err_axis = s.err_axis;
+        r.drive = s.enabled && s.err == HG_ERR_NONE;
+        r.status = s.status;
+        for (int i = 0; i < 3; ++i) {
+            r.p[i] = s.p[i];
+            r.f[i] = s.f[i];
+            r.tau[i] = s.tau[i];
+            r.code[i] = s.code[i];
+            r.q[i] = s.q[i];
+        }
+        isrs.push_back(r);
+        // ---- background loop (between ticks): homing, then enable the wall
+        if (!enabled_once) {
+            const uint32_t homed = HG_STAT_HOMED(0) | HG_STAT_HOMED(1) | HG_STAT_HOMED(2);
+            if (homed_isr < 0 && (s.status & homed) == homed) {
+                homed_isr = static_cast<int64_t>(isrs.size()) - 1;
+            } else if (homed_isr >= 0) {  // one tick later: the snapshot holds the index latch
+                for (uint32_t i = 0; i < 3; ++i) {
+                    idx_pos[i] = fpga_read32(HG_REG_AXIS(i, HG_AX_IDX_POS));
+                    hg_enc_home(&s.cfg.enc[i], static_cast<int32_t>(idx_pos[i]));
+                }
+                hg_scene_t wall{};
+                wall.type = HG_SCENE_WALL;
+                for (int i = 0; i < 3; ++i) {
+                    wall.p0[i] = static_cast<hg_real>(p0[i]);
+                    wall.n[i] = static_cast<hg_real>(nrm[i]);
+                }
+                wall.k = static_cast<hg_real>(kWallK);
+                wall.b = 0;
+                const int sc = hg_servo_set_scene(&s, &wall);
+                const int en = hg_servo_enable(&s, true);
+                if (sc != 0 || en != 0) {
+                    std::fprintf(stderr, "error: scene %d enable %d refused\n", sc, en);
+                    return 1;
+                }
+                enabled_once = true;
+                enable_edge = bench.edge;
+            }
+        }
+    }
+    if (!status_after) status_after = fpga_read32(HG_REG_STATUS);
+    const uint32_t irq_reg = fpga_read32(HG_REG_IRQ);
+    const double wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - w0).count();
+
+    // ---------------------------------------------------------------- DAC frames
+    const uint64_t frame = dac_frame, skew = dac_skew;
+    std::vector<Frame> frames;
+    bool frame_timing_ok = true;
+    for (const auto& ld : bench.loads) {
+        const uint64_t st = ld.edge - kLoadClocks - static_cast<uint64_t>(ld.addr) * skew;
+        if (frames.empty() || frames.back().start != st) {
+            if (!frames.empty() && (frames.back().n != 6 || st != frames.back().start + frame)) frame_timing_ok = false;
+            frames.push_back({st, {0, 0, 0, 0, 0, 0}, 0});
+        }
+        Frame& f = frames.back();
+        if (ld.addr != f.n) frame_timing_ok = false;
+        f.code[ld.addr] = ld.code;
+        f.n++;
+    }
+    if (!frames.empty() && frames.back().n != 6) frames.pop_back();  // cut by the end of the run
+    if (!frames.empty() && frames.front().start % frame != 0) frame_timing_ok = false;
+
+    // TORQUE writes per axis; the register value a frame latch at edge L sees
+    struct TW { uint64_t fall, rise; int16_t v; int64_t isr; };
+    std::vector<TW> tw[3];
+    uint32_t tq_limit[3] = {0, 0, 0};
+    uint64_t last_key_rise = 0;
+    for (const auto& w : bus_writes) {
+        for (uint32_t i = 0; i < 3; ++i) {
+            if (w.addr == HG_REG_AXIS(i, HG_AX_TORQUE))
+                tw[i].push_back({w.fall, w.rise, static_cast<int16_t>(w.data & 0xFFFFU), w.isr});
+            if (w.addr == HG_REG_AXIS(i, HG_AX_TQ_LIMIT)) tq_limit[i] = w.data;
+        }
+        if (w.addr == HG_REG_WDOG && !w.dropped) last_key_rise = w.rise;
+    }
+    auto clampt = [&](int v, int i) { const int l = static_cast<int>(tq_limit[i]); return std::clamp(v, -l, l); };
+
+    // ---------------------------------------------------------------- homing error
+    // firmware joint angle minus the truth at the last tick before the push (standstill at
+    // q_free), in counts. The interpolator latches the quadrant the sign bits show at the index
+    // edge; on a slow approach that is the quadrant before the index quadrant (see README).
+    double home_err[3] = {0, 0, 0};
+    {
+        const IsrRec* ref = nullptr;
+        for (const auto& r : isrs)
+            if (r.drive && edge_time(r.irq_edge) < tr.t_push) ref = &r;
+        if (!ref) { std::fprintf(stderr, "error: no standstill tick after enable\n"); return 1; }
+        const Vec3 qt = tr.q(edge_time(ref->irq_edge));
+        for (int i = 0; i < 3; ++i) home_err[i] = (double(ref->q[i]) - qt[i]) * HG_ENC_COUNTS_PER_REV / (2 * kPi);
+    }
+    // interpolation accuracy at this ADC amplitude, counts: the arcsine table assumes R = 127, so
+    // the fine angle is asin(g sin t) instead of t (worst at 45 deg, g = R/127), plus 1/2 LUT
+    // step and 1/2 ADC LSB of angle (1024 counts per 360 deg electrical)
+    const double g = kAdcR / 127.0, cnt_per_rad = 1024.0 / (2 * kPi);
+    const double interp_cnt = (kPi / 4 - std::asin(g * std::sin(kPi / 4))) * cnt_per_rad + 0.5 * 1024.0 / 1024.0 +
+                              0.5 / kAdcR * cnt_per_rad;
+    double home_q[3];  // the homing error rounded to whole quadrants (256 counts)
+    for (int i = 0; i < 3; ++i) home_q[i] = 256.0 * std::round(home_err[i] / 256.0);
+    auto qref = [&](const Vec3& qt) {  // the truth in the firmware's homed frame
+        Vec3 r = qt;
+        for (int i = 0; i < 3; ++i) r[i] += home_q[i] * 2 * kPi / HG_ENC_COUNTS_PER_REV;
+        return r;
+    };
+
+    // ---------------------------------------------------------------- checks and output
+    const uint64_t cause_edge = s_drop ? bench.fault_edge[drop_axis]
+                              : (s_wall ? 0 : bench.wdog_expired_edge);
+    const uint64_t normal_end = s_wall ? UINT64_MAX : (cause_edge ? cause_edge : fault_edge_cmd);
+    const double t_scale = 32768.0 / (1.5 * kDacFs);  // sum_j code_j sin(theta_j) -> torque command
+    const double nm_per_code = 0.06 * 0.8 * 10.0 / 32767.0;
+    double max_terr = 0, max_terr_ratio = 0, max_ferr = 0, max_ferr_ratio = 0, max_free = 0;
+    double max_depth = 0, max_force = 0, min_cos = 1;
+    uint64_t n_tq = 0, n_force = 0, n_wall = 0, n_torn = 0, n_nonzero = 0;
+    FILE* fcsv = std::fopen((outdir + "/frames.csv").c_str(), "w");
+    if (!fcsv) { std::fprintf(stderr, "error: cannot write %s\n", outdir.c_str()); return 2; }
+    std::fprintf(fcsv, "start,c0,c1,c2,c3,c4,c5,q0,q1,q2,tlo0,tlo1,tlo2,thi0,thi1,thi2,snap_edge,drive,qs0,qs1,qs2\n");
+    for (const auto& f : frames) {
+        const uint64_t L = f.start;
+        const double t = edge_time(L);
+        const Vec3 q = tr.q(t);
+        int tlo[3], thi[3];
+        int64_t isr_of[3];
+        bool amb = false;
+        for (int i = 0; i < 3; ++i) {
+            int lo = 0, hi = 0;
+            int64_t is = -1;
+            for (const auto& w : tw[i]) {  // few hundred per axis per second: fine
+                if (w.fall >= L) break;
+                hi = w.v;
+                is = w.isr;
+                if (w.rise + 1 < L) lo = w.v;
+            }
+            tlo[i] = clampt(lo, i);
+            thi[i] = clampt(hi, i);
+            isr_of[i] = is;
+            amb = amb || tlo[i] != thi[i];
+        }
+        const bool same = isr_of[0] == isr_of[1] && isr_of[1] == isr_of[2] && isr_of[0] >= 0;
+        const IsrRec* ir = same ? &isrs[static_cast<size_t>(isr_of[0])] : nullptr;
+        const Vec3 qs = ir ? tr.q(edge_time(ir->irq_edge)) : Vec3{0, 0, 0};
+        std::fprintf(fcsv, "%llu,%d,%d,%d,%d,%d,%d,%.12g,%.12g,%.12g,%d,%d,%d,%d,%d,%d,%lld,%d,%.12g,%.12g,%.12g\n",
+                     static_cast<unsigned long long>(L), f.code[0], f.code[1], f.code[2], f.code[3], f.code[4],
+                     f.code[5], q[0], q[1], q[2], tlo[0], tlo[1], tlo[2], thi[0], thi[1], thi[2],
+                     ir ? static_cast<long long>(ir->irq_edge) : -1LL, ir ? int(ir->drive) : 0, qs[0], qs[1], qs[2]);
+        if (L == 0 || L >= normal_end) continue;
+        // (b1) torque reconstruction: amplifier third phase -(a + b), sinusoidal windings
+        double trec[3], tbud[3];
+        for (int m = 0; m < 3; ++m) {
+            const double th = 2 * kPi * kPolePairs * (q[m] - tr.q_index[m]) / (2 * kPi);
+            const double ia = f.code[2 * m], ib = f.code[2 * m + 1], ic = -(ia + ib);
+            const double sum = ia * std::sin(th) + ib * std::sin(th - 2 * kPi / 3) + ic * std::sin(th + 2 * kPi / 3);
+            trec[m] = sum * t_scale;
+            const double tmax = std::max(std::abs(tlo[m]), std::abs(thi[m]));
+            // budget: +-0.5 LSB output rounding and +-0.5 LSB ROM rounding x t/2^15 per phase,
+            // through the 2-of-3 reconstruction (<= sqrt(3)(|ea|+|eb|)), plus the commutation's
+            // 0.3 % angle/phase ripple budget (hapgate.commutation.SINE_RIPPLE_BUDGET)
+            tbud[m] = 2 * std::sqrt(3.0) * (0.5 + 0.5 * tmax / 32768.0) * t_scale + 0.003 * tmax;
+            const double e = std::min(std::abs(trec[m] - tlo[m]), std::abs(trec[m] - thi[m]));
+            max_terr = std::max(max_terr, e);
+            max_terr_ratio = std::max(max_terr_ratio, e / tbud[m]);
+            n_tq++;
+            if (f.code[2 * m] || f.code[2 * m + 1]) n_nonzero++;
+        }
+        // (b2) endpoint force at the pose the firmware sampled vs the wall law
+        if (amb || !ir) { n_torn++; continue; }
+        const Vec3 qsr = qref(qs);
+        const Mat3 J = jac(qsr), JiT = inv_t(J);
+        Vec3 tau{}, F{}, taub{};
+        for (int m = 0; m < 3; ++m) {
+            tau[m] = trec[m] * nm_per_code;
+            taub[m] = tbud[m] * nm_per_code;
+        }
+        for (int i = 0; i < 3; ++i)
+            for (int m = 0; m < 3; ++m) F[i] += JiT[i][m] * tau[m];
+        const Vec3 ps = fk(qsr);
+        const double d = dot({p0[0] - ps[0], p0[1] - ps[1], p0[2] - ps[2]}, nrm);
+        const double fmag = ir->drive ? kWallK * std::max(0.0, d) : 0.0;
+        Vec3 err{};
+        for (int i = 0; i < 3; ++i) err[i] = F[i] - nrm[i] * fmag;
+        const double en = std::sqrt(dot(err, err));
+        const Vec3 qd = tr.qdot(edge_time(ir->irq_edge));
+        const double dq = std::sqrt(dot(qd, qd)) * 3e-6 + std::sqrt(3.0) * interp_cnt * 2 * kPi / HG_ENC_COUNTS_PER_REV;
+        const double fbud = norm2(JiT) * std::sqrt(dot(taub, taub)) + kWallK * norm2(J) * dq + 1e-4 * fmag;
+        max_ferr = std::max(max_ferr, en);
+        max_ferr_ratio = std::max(max_ferr_ratio, en / fbud);
+        n_force++;
+        if (fmag > 0) {
+            n_wall++;
+            max_depth = std::max(max_depth, d);
+            max_force = std::max(max_force, fmag);
+            if (fmag > 10 * fbud) min_cos = std::min(min_cos, dot(F, nrm) / std::sqrt(dot(F, F)));
+        } else {
+            max_free = std::max(max_free, std::sqrt(dot(F, F)));
+        }
+    }
+    std::fclose(fcsv);
+
+    FILE* icsv = std::fopen((outdir + "/isr.csv").c_str(), "w");
+    std::fprintf(icsv, "irq_edge,start,end,err,err_axis,drive,status,p0,p1,p2,f0,f1,f2,tau0,tau1,tau2,code0,code1,code2,qt0,qt1,qt2,qf0,qf1,qf2\n");
+    for (const auto& r : isrs) {
+        const Vec3 qt = tr.q(edge_time(r.irq_edge));
+        std::fprintf(icsv, "%llu,%llu,%llu,%u,%u,%d,%u,%.9g,%.9g,%.9g,%.9g,%.9g,%.9g,%.9g,%.9g,%.9g,%d,%d,%d,%.12g,%.12g,%.12g,%.9g,%.9g,%.9g\n",
+                     static_cast<unsigned long long>(r.irq_edge), static_cast<unsigned long long>(r.start),
+                     static_cast<unsigned long long>(r.end), r.err, r.err_axis, int(r.drive), r.status,
+                     double(r.p[0]), double(r.p[1]), double(r.p[2]), double(r.f[0]), double(r.f[1]), double(r.f[2]),
+                     double(r.tau[0]), double(r.tau[1]), double(r.tau[2]), r.code[0], r.code[1], r.code[2],
+                     qt[0], qt[1], qt[2], double(r.q[0]), double(r.q[1]), double(r.q[2]));
+    }
+    std::fclose(icsv);
+    FILE* lb = std::fopen((outdir + "/loads.bin").c_str(), "wb");
+    for (const auto& ld : bench.loads) {
+        const int64_t e = static_cast<int64_t>(ld.edge);
+        const int32_t ad = ld.addr, c = ld.code;
+        std::fwrite(&e, 8, 1, lb);
+        std::fwrite(&ad, 4, 1, lb);
+        std::fwrite(&c, 4, 1, lb);
+    }
+    std::fclose(lb);
+
+    // ---------------------------------------------------------------- safety reaction
+    // per channel: the first load at or after the cause from which on every load is zero
+    const uint64_t bound = frame + 1 + 1;  // FRAME + WR_CYCLES + 1 (rtl/top/README.md)
+    int64_t reaction = -1;
+    bool nonzero_before = false;
+    if (cause_edge) {
+        const int ch_lo = s_drop ? 2 * drop_axis : 0, ch_hi = s_drop ? 2 * drop_axis + 1 : 5;
+        for (int c = ch_lo; c <= ch_hi; ++c) {
+            uint64_t z = 0;
+            for (const auto& ld : bench.loads) {
+                if (ld.addr != c) continue;
+                if (ld.edge < cause_edge) { if (ld.edge + frame >= cause_edge && ld.code) nonzero_before = true; continue; }
+                if (ld.code != 0) z = 0;
+                else if (!z) z = ld.edge;
+            }
+            reaction = z ? std::max<int64_t>(reaction, static_cast<int64_t>(z - cause_edge)) : INT64_MAX;
+        }
+    }
+    // after the firmware latched its error every channel must be zero (one frame later)
+    uint64_t latch_edge = 0;
+    for (const auto& r : isrs)
+        if (r.err != HG_ERR_NONE) { latch_edge = r.end; break; }
+    bool all_zero_after_latch = true;
+    for (const auto& ld : bench.loads)
+        if (latch_edge && ld.edge > latch_edge + bound && ld.code) all_zero_after_latch = false;
+
+    // ---------------------------------------------------------------- verdict
+    std::vector<std::string> fails;
+    auto need = [&](bool ok, const char* what) { if (!ok) fails.emplace_back(what); };
+    const uint32_t sticky = HG_STAT_WDOG | HG_STAT_CFG_ERR | HG_STAT_BUS_ERR | HG_STAT_PROTO_ERR;
+    need(init_err == HG_ERR_NONE && (s.fpga_id >> 16) == HG_ID_MAGIC, "init/ID");
+    need(clk_khz == CLK_HZ / 1000, "CLK_KHZ");
+    need(frame_timing_ok && !frames.empty(), "DAC frame timing");
+    need(bus_stats.not_oe == 0, "bus_data_oe low during a read");
+    need(enabled_once, "homing/enable");
+    need(max_terr_ratio <= 1.0, "torque reconstruction within budget");
+    need(max_ferr_ratio <= 1.0, "force within budget");
+    need(n_wall > 0 && max_depth > 0, "the trajectory penetrates the wall");
+    double home_res = 0, home_qmax = 0;
+    for (int i = 0; i < 3; ++i) {
+        home_res = std::max(home_res, std::abs(home_err[i] - home_q[i]));
+        home_qmax = std::max(home_qmax, std::abs(home_q[i]));
+    }
+    need(home_res <= interp_cnt && home_qmax <= 256.0, "homing within one quadrant");
+    if (home_qmax > 0) std::printf("warn=homing off by %.0f counts = one quadrant (interpolator index latch)\n", home_qmax);
+    need(min_cos > 0.99, "force along the wall normal (out of the wall)");
+    uint8_t fw_err = s.err, fw_axis = s.err_axis;
+    if (s_wall) {
+        need(fw_err == HG_ERR_NONE, "no latched firmware error");
+        need((status_after & (sticky | HG_STAT_FAULT_ALL)) == 0, "no FPGA fault/sticky status");
+        need((irq_reg & HG_IRQ_MISSED) == 0, "no missed tick");
+        need(n_nonzero > 0, "motors driven");
+    } else {
+        need(cause_edge != 0, "safety cause happened");
+        need(nonzero_before, "torque non-zero just before the cause");
+        need(reaction >= 0 && reaction <= static_cast<int64_t>(bound), "zero torque within one frame");
+        need(latch_edge != 0 && all_zero_after_latch, "firmware latched an error and all torque is zero");
+    }
+    if (s_wdog) {
+        need(fw_err == HG_ERR_WATCHDOG, "firmware error WATCHDOG");
+        need((status_after & HG_STAT_WDOG) != 0, "STATUS.WDOG set");
+        need(cause_edge > last_key_rise && cause_edge - last_key_rise <= 10000ULL * (CLK_HZ / 1000000) + 8,
+             "expiry = last key + WDOG_TIMEOUT");
+    }
+    if (s_hang) {
+        need((status_after & HG_STAT_WDOG) != 0, "STATUS.WDOG set");
+        need(fw_err != HG_ERR_NONE, "firmware refuses to drive after the hang");
+    }
+    if (s_drop) {
+        need(fw_err == HG_ERR_AXIS_FAULT && fw_axis == drop_axis, "firmware error AXIS_FAULT on the dropped axis");
+        need((status_after & HG_STAT_FAULT(drop_axis)) != 0, "STATUS.FAULT set");
+    }
+
+    const double sim_s = edge_time(bench.edge);
+    const uint64_t tx = bus_stats.reads + bus_stats.writes;
+    std::printf("scenario=%s rate_hz=%u clk_hz=%d setup=%d strobe=%d hold=%d ready=%d\n", scenario.c_str(), rate,
+                CLK_HZ, bus_timing.setup, bus_timing.strobe, bus_timing.hold, int(bus_timing.use_ready));
+    std::printf("sim_s=%.9g wall_s=%.6g clocks=%llu bus_reads=%llu bus_writes=%llu dropped=%llu tx_per_s=%.6g sim_per_wall=%.6g\n",
+                sim_s, wall_s, static_cast<unsigned long long>(bench.edge),
+                static_cast<unsigned long long>(bus_stats.reads), static_cast<unsigned long long>(bus_stats.writes),
+                static_cast<unsigned long long>(bus_stats.dropped), tx / wall_s, sim_s / wall_s);
+    std::printf("ticks=%zu frames=%zu loads=%zu enable_edge=%llu dac_skew=%u dac_frame=%u tq_limit=%u\n", isrs.size(),
+                frames.size(), bench.loads.size(), static_cast<unsigned long long>(enable_edge), dac_skew, dac_frame,
+                tq_limit[0]);
+    std::printf("t_push=%.9g t_fault=%.9g\n", tr.t_push, s_wall ? 0.0 : t_fault);
+    std::printf("wall_k=%.9g wall_n=%.12g,%.12g,%.12g wall_p0=%.12g,%.12g,%.12g q_index=%.12g,%.12g,%.12g\n", kWallK,
+                nrm[0], nrm[1], nrm[2], p0[0], p0[1], p0[2], tr.q_index[0], tr.q_index[1], tr.q_index[2]);
+    std::printf("home_err_counts=%.3f,%.3f,%.3f interp_budget_counts=%.4f\n", home_err[0], home_err[1], home_err[2], interp_cnt);
+    std::printf("torque_frames=%llu max_torque_err=%.6g max_torque_err_ratio=%.6g force_frames=%llu torn=%llu wall_frames=%llu "
+                "max_force_err=%.6g max_force_err_ratio=%.6g max_free_force=%.6g max_depth=%.6g max_force=%.6g min_cos=%.9g\n",
+                static_cast<unsigned long long>(n_tq), max_terr, max_terr_ratio, static_cast<unsigned long long>(n_force),
+                static_cast<unsigned long long>(n_torn), static_cast<unsigned long long>(n_wall), max_ferr, max_ferr_ratio,
+                max_free, max_depth, max_force, min_cos);
+    std::printf("fw_err=%u fw_err_axis=%u status=%u irq=%u fault_cmd_edge=%llu cause_edge=%llu reaction_clocks=%lld bound_clocks=%llu "
+                "latch_edge=%llu last_key_rise=%llu post_hang_status_edge=%llu\n",
+                fw_err, fw_axis, status_after, irq_reg, static_cast<unsigned long long>(fault_edge_cmd),
+                static_cast<unsigned long long>(cause_edge), static_cast<long long>(reaction),
+                static_cast<unsigned long long>(bound), static_cast<unsigned long long>(latch_edge),
+                static_cast<unsigned long long>(last_key_rise), static_cast<unsigned long long>(post_hang_status_edge));
+    for (const auto& f : fails) std::printf("fail=%s\n", f.c_str());
+    std::printf("result=%s\n", fails.empty() ? "PASS" : "FAIL");
+    return fails.empty() ? 0 : 1;
+}
