@@ -12,8 +12,6 @@ raw DAC loads. `demo_section()` / `bench_section()` are the `make demo` / `make 
 
 from __future__ import annotations
 
-import hashlib
-import json
 import subprocess
 import tempfile
 import time
@@ -22,15 +20,12 @@ from pathlib import Path
 
 import numpy as np
 
-from . import commutation, encsig, interp, kinematics, report, toolenv
-from .flow import param_text
-from .paths import BUILD, ROOT, TB, ensure
-from .sim import _locked
+from . import commutation, encsig, interp, kinematics, native, report
+from .paths import ROOT, TB, ensure
 from .top import TopConfig, blocks
 
 HERE = TB / "native" / "cosim"
 HARNESS = [HERE / "cosim_harness.cpp", HERE / "hal_cosim.cpp"]
-HEADERS = [HERE / "cosim.h", HERE / "public.vlt"]
 FW = ROOT / "dsp-fw"
 FW_WARN = ("-Wall -Wextra -Werror -Wconversion -Wdouble-promotion -Wshadow -Wstrict-prototypes "
            "-Wmissing-prototypes -Wcast-qual -Wvla").split()   # dsp-fw/Makefile's WARN
@@ -71,34 +66,14 @@ def _fw_lib(bdir: Path) -> Path:
 
 def build(cfg: TopConfig = TopConfig()) -> Path:
     """Verilate the top with the harness and link the firmware; return the executable (cached)."""
-    toolenv.apply()
     block = blocks()[0]
-    params = cfg.rtl_params()   # = block.params() for the default configuration
     srcs = [ROOT / "rtl" / s for s in block.sources]
-    key = json.dumps({k: param_text(v) for k, v in sorted(params.items())})
-    digest = hashlib.sha1(key.encode())
     fw_srcs = sorted((FW / "src").glob("*.c")) + sorted((FW / "include").glob("*.h"))
-    for p in [*srcs, *HARNESS, *HEADERS, *fw_srcs]:
-        digest.update(p.read_bytes())
-    bdir = ensure(BUILD / "native" / f"cosim-{digest.hexdigest()[:12]}")
-    exe = bdir / "cosim_harness"
-    with _locked(bdir):
-        if exe.exists():
-            return exe
-        lib = _fw_lib(bdir)
-        cmd = ["verilator", "--cc", "--exe", "--build", "-j", "2", "-O3",
-               "--x-assign", "fast", "--x-initial", "fast", "-Wno-fatal",
-               "--top-module", block.top, "-Mdir", str(bdir), "-o", "cosim_harness",
-               "-CFLAGS", f"-O2 -std=c++17 -DCLK_HZ={cfg.clk_hz} -I{HERE} -I{FW / 'include'}",
-               "-LDFLAGS", f"{lib} -lm",
-               "-MAKEFLAGS", "OPT_FAST=-O2 OPT_SLOW=-O2 OPT_GLOBAL=-O2"]
-        cmd += [f"-G{k}={param_text(v)}" for k, v in params.items()]
-        cmd += [str(HERE / "public.vlt"), *map(str, srcs), *map(str, HARNESS)]
-        out = subprocess.run(cmd, capture_output=True, text=True)
-        (bdir / "build.log").write_text(out.stdout + out.stderr)
-        if out.returncode != 0 or not exe.exists():
-            raise RuntimeError(f"co-sim harness build failed; see {bdir / 'build.log'}")
-    return exe
+    return native.verilate_harness(
+        "cosim_harness", block.top, [HERE / "public.vlt", *srcs], cfg.rtl_params(), HARNESS,
+        cflags=f"-std=c++17 -DCLK_HZ={cfg.clk_hz} -I{HERE} -I{FW / 'include'}",
+        ldflags="fw/libhgfw.a -lm",          # relative to the build directory (make runs there)
+        inputs=[HERE / "cosim.h", *fw_srcs], prepare=_fw_lib)
 
 
 @dataclass

@@ -14,13 +14,14 @@ import json
 import subprocess
 import tempfile
 import time
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
 from . import interp, toolenv
+from .block import Params
 from .flow import param_text
 from .interp import InterpConfig
 from .paths import BUILD, RTL, TB, ensure
@@ -36,32 +37,49 @@ COLUMN_DTYPES = {"pos": "<i4", "pos_homed": "<i4", "vel": "<i4", "index_pos": "<
 FLAG_INDEX, FLAG_CLEAR, FLAG_ARM = 1, 2, 4
 
 
-def build_interp(cfg: InterpConfig = InterpConfig(), clk_hz: int = interp.MIN_CLK_HZ,
-                 axes: int = 3, sample_hz: int = 1_000_000) -> Path:
-    """Verilate and compile the harness for this parameter set; return the executable."""
+def verilate_harness(name: str, top: str, sources: Sequence[Path], params: Params,
+                     harness: Sequence[Path], cflags: str = "", ldflags: str = "",
+                     inputs: Sequence[Path] = (),
+                     prepare: Callable[[Path], None] | None = None) -> Path:
+    """Verilate `top` with a C++ harness into build/native/<name>-<hash>/ and return the
+    executable. The hash covers the parameters, flags and the bytes of every source, harness and
+    extra input, so a change rebuilds and an unchanged scene is reused (parallel callers wait on a
+    lock). `prepare(build_dir)` runs before Verilator (e.g. to build a library to link)."""
     toolenv.apply()
-    params = interp.interp3_params(cfg, clk_hz=clk_hz, sample_hz=sample_hz, axes=axes)
-    key_src = json.dumps({k: param_text(v) for k, v in sorted(params.items())})
-    digest = hashlib.sha1(key_src.encode())
-    for src in [*SOURCES, HARNESS]:
+    key = json.dumps({k: param_text(v) for k, v in sorted(params.items())} |
+                     {"_cflags": cflags, "_ldflags": ldflags})
+    digest = hashlib.sha1(key.encode())
+    for src in [*sources, *harness, *inputs]:
         digest.update(src.read_bytes())
-    bdir = ensure(BUILD / "native" / f"interp-{digest.hexdigest()[:12]}")
-    exe = bdir / "interp_harness"
+    bdir = ensure(BUILD / "native" / f"{name}-{digest.hexdigest()[:12]}")
+    exe = bdir / name
     with _locked(bdir):
         if exe.exists():
             return exe
+        if prepare is not None:
+            prepare(bdir)
         cmd = ["verilator", "--cc", "--exe", "--build", "-j", "2", "-O3",
                "--x-assign", "fast", "--x-initial", "fast", "-Wno-fatal",
-               "--top-module", "enc_interp3", "-Mdir", str(bdir), "-o", "interp_harness",
-               "-CFLAGS", f"-O2 -DAXES={axes}",
+               "--top-module", top, "-Mdir", str(bdir), "-o", name,
+               "-CFLAGS", f"-O2 {cflags}".strip(),
                "-MAKEFLAGS", "OPT_FAST=-O2 OPT_SLOW=-O2 OPT_GLOBAL=-O2"]
+        if ldflags:
+            cmd += ["-LDFLAGS", ldflags]
         cmd += [f"-G{k}={param_text(v)}" for k, v in params.items()]
-        cmd += [str(s) for s in SOURCES] + [str(HARNESS)]
+        cmd += [str(s) for s in [*sources, *harness]]
         out = subprocess.run(cmd, capture_output=True, text=True)
         (bdir / "build.log").write_text(out.stdout + out.stderr)
         if out.returncode != 0 or not exe.exists():
-            raise RuntimeError(f"native harness build failed; see {bdir / 'build.log'}")
+            raise RuntimeError(f"native harness {name} failed to build; see {bdir / 'build.log'}")
     return exe
+
+
+def build_interp(cfg: InterpConfig = InterpConfig(), clk_hz: int = interp.MIN_CLK_HZ,
+                 axes: int = 3, sample_hz: int = 1_000_000) -> Path:
+    """Verilate and compile the interpolator harness for this parameter set (cached)."""
+    params = interp.interp3_params(cfg, clk_hz=clk_hz, sample_hz=sample_hz, axes=axes)
+    return verilate_harness("interp_harness", "enc_interp3", SOURCES, params, [HARNESS],
+                            cflags=f"-DAXES={axes}")
 
 
 @dataclass
