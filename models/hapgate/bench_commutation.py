@@ -66,6 +66,18 @@ def rom_sweep(quick: bool) -> tuple[list[str], list[list[object]]]:
     return headers, rows
 
 
+def _truth_and_model(n: int, seed: int, cfg: cm.CommutationConfig):
+    """n random SINE frames through the float truth and the bit-exact model, each timed."""
+    pos, tq, off, fr = _random_sine(n, seed=seed)
+    t0 = time.perf_counter()
+    tr = cm.truth(pos, tq, off, cfg)
+    t_truth = time.perf_counter() - t0
+    t0 = time.perf_counter()
+    mod = cm.commutate(fr, cfg)
+    t_model = time.perf_counter() - t0
+    return fr, tr, t_truth, mod, t_model
+
+
 def engine_speed(quick: bool) -> tuple[list[str], list[list[object]], bool]:
     cfg = cm.CommutationConfig(clk_hz=50_000_000)
     n_model = 100_000 if quick else 2_000_000
@@ -73,13 +85,7 @@ def engine_speed(quick: bool) -> tuple[list[str], list[list[object]], bool]:
     headers = ["engine", "frames", "seconds", "frames/s", "rms err LSB", "max err LSB",
                "mismatches vs model"]
     rows: list[list[object]] = []
-    pos, tq, off, fr = _random_sine(n_model, seed=2)
-    t0 = time.perf_counter()
-    tr = cm.truth(pos, tq, off, cfg)
-    t_truth = time.perf_counter() - t0
-    t0 = time.perf_counter()
-    mod = cm.commutate(fr, cfg)
-    t_model = time.perf_counter() - t0
+    fr, tr, t_truth, mod, t_model = _truth_and_model(n_model, 2, cfg)
     e = mod - tr
     rows.append(["float truth", n_model, f"{t_truth:.3f}", f"{n_model / t_truth:.3g}", "0", "0",
                  "-"])
@@ -139,13 +145,7 @@ def demo_section() -> bool:
     toolenv.apply()
     cfg = cm.CommutationConfig(clk_hz=50_000_000)
     n = 1000
-    pos, tq, off, fr = _random_sine(n, seed=3)
-    t0 = time.perf_counter()
-    tr = cm.truth(pos, tq, off, cfg)
-    t_truth = time.perf_counter() - t0
-    t0 = time.perf_counter()
-    mod = cm.commutate(fr, cfg)
-    t_model = time.perf_counter() - t0
+    fr, tr, t_truth, mod, t_model = _truth_and_model(n, 3, cfg)
     rtl, load_ns, t_rtl = run_rtl(fr, cfg)
     rows = []
     for name, out, secs in (("float truth", tr, t_truth), ("integer model", mod, t_model),
