@@ -18,9 +18,8 @@ ENGINE_HEADERS = ["signals", "engine", "samples", "seconds", "samples/s", "rms [
 
 
 def _err_deg(pos: np.ndarray, truth_lines: np.ndarray, cfg: interp.InterpConfig) -> np.ndarray:
-    p = np.asarray(pos, dtype=np.float64)
-    t = truth_lines * cfg.counts_per_line
-    return (p + np.round((t - p) / 2.0**32) * 2.0**32 - t) * 360.0 / cfg.counts_per_line
+    err = interp.truth_counts_error(pos, truth_lines * cfg.counts_per_line)
+    return interp.counts_to_elec_deg(err, cfg)
 
 
 def _row(signals: str, engine: str, n: int, secs: float, err: np.ndarray, mism: object

@@ -88,8 +88,7 @@ def interp_section(n: int = 1_000_000) -> tuple[list[list[object]], bool]:
         truth = sc.truth_lines * cfg.counts_per_line
         faulted = np.flatnonzero(rtl["faults"])
         upto = int(faulted[0]) if faulted.size else n
-        err = (rtl["pos"] + np.round((truth - rtl["pos"]) / 2.0**32) * 2.0**32 - truth)
-        err_deg = err * 360.0 / cfg.counts_per_line
+        err_deg = interp.counts_to_elec_deg(interp.truth_counts_error(rtl["pos"], truth), cfg)
         e = err_deg[:max(upto, 1)]
         first = (f"{upto} (bits {int(rtl['faults'][upto])})" if faulted.size else "none")
         rows.append([f"axis {i}: {sc.name}", n, f"{run.seconds:.3f}", f"{t_model:.3f}",

@@ -315,16 +315,12 @@ def run(a: np.ndarray, b: np.ndarray, index: np.ndarray | None = None,
 # Float truth and unit conversions
 
 
-def truth_counts_error(pos: np.ndarray, truth_counts: np.ndarray, cfg: InterpConfig
-                       ) -> np.ndarray:
-    """Error (counts) of an unwrapped position against the float truth, constant offset removed
-    only if `truth_counts` is relative (the caller decides); here: the raw difference, with the
-    32-bit wrap of `pos` undone relative to the truth."""
-    p = np.asarray(pos, dtype=np.int64)
+def truth_counts_error(pos: np.ndarray, truth_counts: np.ndarray) -> np.ndarray:
+    """pos - truth in counts, with the 32-bit wrap of the position register undone against the
+    (continuous) float truth. No offset is removed: that is the caller's decision."""
+    p = np.asarray(pos, dtype=np.float64)
     t = np.asarray(truth_counts, dtype=np.float64)
-    # unwrap the 32-bit register against the truth (the truth is what is continuous)
-    k = np.round((t - p) / 2.0**32)
-    return p + k * 2.0**32 - t
+    return p + np.round((t - p) / 2.0**32) * 2.0**32 - t
 
 
 def counts_to_elec_deg(err_counts: np.ndarray, cfg: InterpConfig) -> np.ndarray:

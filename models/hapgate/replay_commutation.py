@@ -136,11 +136,10 @@ def run_rtl(frames: cm.Frames, cfg: cm.CommutationConfig, simulator: str = "veri
 
 def write_dac(path: Path, codes: np.ndarray, load_ns: np.ndarray) -> None:
     n = codes.shape[0]
-    with open(path, "w", newline="") as f:
-        w = csv.writer(f)
-        w.writerow(["frame"] + [f"dac{k}" for k in range(6)] + [f"t{k}_ns" for k in range(6)])
-        w.writerows([[i, *codes[i].tolist(), *(f"{t:.3f}" for t in load_ns[i].tolist())]
-                     for i in range(n)])
+    header = ",".join(["frame"] + [f"dac{k}" for k in range(6)] + [f"t{k}_ns" for k in range(6)])
+    table_ = np.column_stack([np.arange(n), codes, load_ns]).astype(np.float64)
+    np.savetxt(path, table_, delimiter=",", header=header, comments="",
+               fmt=["%d"] * 7 + ["%.3f"] * 6)
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:

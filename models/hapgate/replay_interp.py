@@ -73,9 +73,7 @@ def main(args: argparse.Namespace) -> int:
     for e, (o, secs) in results.items():
         row: list[object] = [e, n, f"{secs:.3f}", f"{n / secs:.3e}"]
         if "truth_counts" in raw:
-            err = o["pos"].astype(np.float64)
-            truth = raw["truth_counts"]
-            err = err + np.round((truth - err) / 2.0**32) * 2.0**32 - truth
+            err = interp.truth_counts_error(o["pos"], raw["truth_counts"])
             offset = 0.0 if args.no_align else float(err.mean())
             err = err - offset
             rms, mx = float(np.sqrt(np.mean(err**2))), float(np.abs(err).max())

@@ -22,12 +22,6 @@ def _model(sc: encsig.Scenario, cfg: interp.InterpConfig = CFG) -> interp.Interp
     return interp.run(sc.a, sc.b, sc.index, cfg, clear_at=sc.clear_at, arm_at=sc.arm_at)
 
 
-def _unwrapped_error(pos: np.ndarray, truth_counts: np.ndarray) -> np.ndarray:
-    """pos - truth, the 32-bit wrap of pos undone against the (continuous) truth."""
-    p = np.asarray(pos, dtype=np.float64)
-    return p + np.round((truth_counts - p) / 2.0**32) * 2.0**32 - truth_counts
-
-
 GROUPS = [encsig.SCENARIOS[0:3], encsig.SCENARIOS[3:6], encsig.SCENARIOS[6:8]]
 
 
@@ -64,7 +58,7 @@ def test_error_vs_truth_ideal_r127() -> None:
     x = encsig.constant(37.3, MILLION, start=0.37)      # not commensurate with the sampling
     a, b = encsig.adc_codes(x)
     pos = native.run_interp(a, b, None, CFG, columns=["pos"]).axis(0)["pos"]
-    err = interp.counts_to_elec_deg(_unwrapped_error(pos, x * CFG.counts_per_line), CFG)
+    err = interp.counts_to_elec_deg(interp.truth_counts_error(pos, x * CFG.counts_per_line), CFG)
     rms, mx = float(np.sqrt(np.mean(err**2))), float(np.abs(err).max())
     print(f"error vs truth: rms {rms:.4f} deg, max {mx:.4f} deg electrical")
     assert rms <= 0.19
@@ -98,7 +92,7 @@ def test_no_slip_and_overspeed() -> None:
         revs = (x[-1] - x[0]) / encsig.LINES
         if v <= encsig.MAX_REV_S:
             assert revs >= 200
-            err = _unwrapped_error(out["pos"], x * CFG.counts_per_line)
+            err = interp.truth_counts_error(out["pos"], x * CFG.counts_per_line)
             drift = abs(err[-20_000:].mean() - err[:20_000].mean())
             assert np.abs(err).max() < 2.0 and drift < 0.05, (v, np.abs(err).max(), drift)
             assert out["overspeed_count"][-1] == 0 and not (out["faults"] & 1).any()
@@ -110,7 +104,7 @@ def test_no_slip_and_overspeed() -> None:
             assert out["faults"][-1] & interp.FAULT_OVERSPEED
             assert out["overspeed_count"][-1] > 0
             # the jump continues in the running direction: still no slip even when flagged
-            err = _unwrapped_error(out["pos"], x * CFG.counts_per_line)
+            err = interp.truth_counts_error(out["pos"], x * CFG.counts_per_line)
             assert np.abs(err).max() < 2.0
             print(f"{v} rev/s: overspeed flagged at sample {first}")
 
