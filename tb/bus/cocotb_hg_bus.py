@@ -1,5 +1,6 @@
 """cocotb tests of rtl/bus/hg_bus.v (EMIF-like slave + register file) against the register model
-(hapgate.regmodel, built on the RDL via hapgate.regmap). The interpolator outputs are driven by
+(hapgate.golden.regmodel, built on the RDL via hapgate.golden.regmap). The interpolator outputs
+are driven by
 the testbench. Every check compares with the model or with simulation time, never with values
 read back from the design's own code.
 """
@@ -14,8 +15,9 @@ import cocotb
 from cocotb.clock import Clock
 from cocotb.triggers import ClockCycles, FallingEdge, RisingEdge, Timer
 from cocotb.utils import get_sim_time
-from hapgate import emif, regmap, tbutil
-from hapgate.regmodel import WDOG_KEY, AxisInputs, RegModel
+from hapgate.golden import emif, regmap
+from hapgate.golden.regmodel import WDOG_KEY, AxisInputs, RegModel
+from hapgate.runners import tbutil
 
 P = tbutil.params()
 CLK_HZ = int(P["CLK_HZ"])  # type: ignore[arg-type]

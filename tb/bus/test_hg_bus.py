@@ -8,7 +8,9 @@ from __future__ import annotations
 from pathlib import Path
 
 import pytest
-from hapgate import blocks, regmap, sim
+from hapgate.flows import blocks
+from hapgate.golden import regmap
+from hapgate.runners import sim
 
 HERE = Path(__file__).parent
 ACCESSES = {"verilator": 100_000, "icarus": 10_000}

@@ -6,15 +6,15 @@ from __future__ import annotations
 
 import subprocess
 
-from hapgate import regmap
-from hapgate.paths import BUILD, ROOT, ensure
+from hapgate.base.paths import BUILD, ROOT, ensure
+from hapgate.golden import regmap
 
 FW_INCLUDE = ROOT / "dsp-fw" / "include"
 
 
 def test_committed_outputs_are_fresh() -> None:
     stale = regmap.generate(check=True)
-    assert not stale, f"stale generated files (run `python -m hapgate.regmap`): {stale}"
+    assert not stale, f"stale generated files (run `python -m hapgate.golden.regmap`): {stale}"
 
 
 def _c_values(exprs: dict[str, str]) -> dict[str, int]:

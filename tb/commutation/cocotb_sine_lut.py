@@ -7,7 +7,8 @@ import os
 import cocotb
 import numpy as np
 from cocotb.triggers import FallingEdge
-from hapgate import sine, tbutil
+from hapgate.golden import sine
+from hapgate.runners import tbutil
 
 LATENCY = 2  # clocks from in_valid to out_valid: documented in sine_lut.v and asserted here
 

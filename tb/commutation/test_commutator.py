@@ -8,9 +8,10 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from hapgate import blocks, sim
-from hapgate import commutation as cm
-from hapgate.sine import SineRomConfig
+from hapgate.flows import blocks
+from hapgate.golden import commutation as cm
+from hapgate.golden.sine import SineRomConfig
+from hapgate.runners import sim
 
 HERE = Path(__file__).parent
 CHECKS = ["random_bit_exact", "saturation_extremes", "safety_paths", "paper_figures"]

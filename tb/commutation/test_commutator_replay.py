@@ -9,8 +9,8 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from hapgate import commutation as cm
-from hapgate import replay_commutation as rc
+from hapgate.commands import replay_commutation as rc
+from hapgate.golden import commutation as cm
 
 
 def _args(**kw: object) -> argparse.Namespace:

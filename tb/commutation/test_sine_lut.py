@@ -9,7 +9,10 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from hapgate import blocks, sim, sine, tables
+from hapgate.base import tables
+from hapgate.flows import blocks
+from hapgate.golden import sine
+from hapgate.runners import sim
 
 HERE = Path(__file__).parent
 CONFIGS = [sine.SineRomConfig(), sine.SineRomConfig(addr_bits=6, fs=2047)]

@@ -1,7 +1,8 @@
 """Firmware co-simulation (tb/native/cosim/): dsp-fw against the Verilated top over the EMIF bus.
 
 Each scenario runs once (module cache); every test re-checks the raw outputs with the golden
-models (hapgate.commutation's motor model, hapgate.kinematics, hapgate.interp) instead of trusting
+models (hapgate.golden.commutation's motor model, hapgate.golden.kinematics,
+hapgate.golden.interp) instead of trusting
 the harness's own verdict, and also requires that verdict.
 """
 
@@ -11,8 +12,8 @@ from functools import cache
 
 import numpy as np
 import pytest
-from hapgate import cosim
-from hapgate.top import TopConfig
+from hapgate.golden.top import TopConfig
+from hapgate.runners import cosim
 
 CFG = TopConfig()
 FRAME = CFG.comm.frame_clocks

@@ -6,9 +6,9 @@ from __future__ import annotations
 
 import cocotb
 import numpy as np
-from hapgate import commutation as cm
-from hapgate import tbutil
-from hapgate.dacsched import Bench, check_schedule, random_frames
+from hapgate.golden import commutation as cm
+from hapgate.golden.dacsched import Bench, check_schedule, random_frames
+from hapgate.runners import tbutil
 
 
 @cocotb.test()

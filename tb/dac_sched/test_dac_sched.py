@@ -9,9 +9,10 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from hapgate import blocks, flow, sim
-from hapgate import commutation as cm
-from hapgate.dacsched import Load, check_schedule
+from hapgate.flows import blocks, flow
+from hapgate.golden import commutation as cm
+from hapgate.golden.dacsched import Load, check_schedule
+from hapgate.runners import sim
 
 HERE = Path(__file__).parent
 CONFIGS = {

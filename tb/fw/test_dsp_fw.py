@@ -11,8 +11,8 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from hapgate import kinematics as kin
-from hapgate import pclink
+from hapgate.golden import kinematics as kin
+from hapgate.golden import pclink
 
 ROOT = Path(__file__).resolve().parents[2]
 FW = ROOT / "dsp-fw"

@@ -1,6 +1,6 @@
 """cocotb tests of rtl/interp/enc_interp.v (one axis) against models/hapgate/interp.py.
 
-The stimulus is one of hapgate.encsig's named scenarios (HG_SCENARIO, HG_SAMPLES); every
+The stimulus is one of hapgate.golden.encsig's named scenarios (HG_SCENARIO, HG_SAMPLES); every
 output column is compared with the bit-exact model on every sample. Inputs are driven and
 outputs sampled on the falling clock edge.
 """
@@ -13,7 +13,8 @@ import cocotb
 import numpy as np
 from cocotb.triggers import FallingEdge
 from cocotb.utils import get_sim_time
-from hapgate import encsig, interp, native, tbutil
+from hapgate.golden import encsig, interp
+from hapgate.runners import native, tbutil
 
 LATENCY = 5        # clocks from the cycle with s_valid high to the cycle with m_valid high
 PERIOD_NS = 20     # 50 MHz for the unit test; the 3-axis top derives its strobe from CLK_HZ

@@ -1,5 +1,5 @@
 """Encoder interpolator, one axis (rtl/interp/enc_interp.v), on both simulators via cocotb:
-bit-exact against hapgate.interp on every sample of every stress scenario; latency; controls.
+bit-exact against hapgate.golden.interp on every sample of every stress scenario; latency; controls.
 Long runs (>= 10^6 samples), error vs truth, slip, velocity and fault timing are in
 test_interp_native.py (the Verilator native harness)."""
 
@@ -10,7 +10,9 @@ from dataclasses import asdict
 from pathlib import Path
 
 import pytest
-from hapgate import blocks, encsig, interp, sim
+from hapgate.flows import blocks
+from hapgate.golden import encsig, interp
+from hapgate.runners import sim
 
 HERE = Path(__file__).parent
 SAMPLES = {"verilator": 6000, "icarus": 2500}   # per scenario (Icarus is the slow second opinion)

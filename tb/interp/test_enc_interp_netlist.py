@@ -14,8 +14,10 @@ from dataclasses import asdict
 from pathlib import Path
 
 import pytest
-from hapgate import blocks, flow, interp, sim
-from hapgate.block import Block
+from hapgate.base.block import Block
+from hapgate.flows import blocks, flow
+from hapgate.golden import interp
+from hapgate.runners import sim
 
 HERE = Path(__file__).parent
 SIMULATOR = os.environ.get("HG_NETLIST_SIM") or (

@@ -7,7 +7,8 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from hapgate import encsig, interp, native
+from hapgate.golden import encsig, interp
+from hapgate.runners import native
 
 CFG = interp.InterpConfig()
 MILLION = 1_000_000

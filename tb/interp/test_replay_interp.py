@@ -9,11 +9,11 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from hapgate import encsig, interp
+from hapgate.golden import encsig, interp
 
 
 def replay(*args: str) -> subprocess.CompletedProcess[str]:
-    return subprocess.run([sys.executable, "-m", "hapgate.cli", "replay", "interp", *args],
+    return subprocess.run([sys.executable, "-m", "hapgate.commands.cli", "replay", "interp", *args],
                           capture_output=True, text=True)
 
 

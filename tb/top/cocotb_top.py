@@ -2,13 +2,15 @@
 
 One run plays what the DSP firmware does: configure, then on every servo-tick interrupt read the
 snapshot (SEQ, POS/VEL/POS_HOMED of three axes, SEQ), acknowledge, pet the watchdog and change the
-torque commands; meanwhile the three encoders move (ADC samples from hapgate.encsig). Along the
+torque commands; meanwhile the three encoders move (ADC samples from hapgate.golden.encsig). Along
+the
 way: homing, an ADC-clipping fault on axis 1 and its clear, a global disable, and finally the DSP
 "stops": the watchdog expires. Checked:
 
-- every DAC load (time to the clock edge, channel, word) equals hapgate.top.simulate (interp ->
+- every DAC load (time to the clock edge, channel, word) equals hapgate.golden.top.simulate
+(interp ->
   commutation -> output stage) fed with the same ADC samples and the register history that
-  hapgate.regmodel derives from the committed bus accesses; the DAC port timing (DacModel);
+  hapgate.golden.regmodel derives from the committed bus accesses; the DAC port timing (DacModel);
 - every bus read equals the register model, whose interpolator inputs are the interp model's
   outputs at that clock edge (so every snapshot is the model's sample at its tick: coherent);
 - explicitly: interrupt period exact; after the watchdog expiry, after the fault and after the
@@ -25,11 +27,12 @@ import numpy as np
 from cocotb.clock import Clock
 from cocotb.triggers import ClockCycles, RisingEdge, Timer
 from cocotb.utils import get_sim_time
-from hapgate import emif, encsig, interp, regmap, tbutil
-from hapgate import top as topm
-from hapgate.commutation import SINE, SIX_STEP
-from hapgate.dacsched import DacModel
-from hapgate.regmodel import WDOG_KEY, AxisInputs, RegModel
+from hapgate.golden import emif, encsig, interp, regmap
+from hapgate.golden import top as topm
+from hapgate.golden.commutation import SINE, SIX_STEP
+from hapgate.golden.dacsched import DacModel
+from hapgate.golden.regmodel import WDOG_KEY, AxisInputs, RegModel
+from hapgate.runners import tbutil
 
 P = tbutil.params()
 CLK_HZ = int(P["CLK_HZ"])  # type: ignore[arg-type]

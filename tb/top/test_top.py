@@ -7,7 +7,9 @@ from __future__ import annotations
 from pathlib import Path
 
 import pytest
-from hapgate import blocks, sim, top
+from hapgate.flows import blocks
+from hapgate.golden import top
+from hapgate.runners import sim
 
 HERE = Path(__file__).parent
 SAMPLES = {"verilator": 10000, "icarus": 2500}   # 1 MSPS: microseconds of simulated time

@@ -486,7 +486,7 @@ int main(int argc, char** argv) {
             const double tmax = std::max(std::abs(tlo[m]), std::abs(thi[m]));
             // budget: +-0.5 LSB output rounding and +-0.5 LSB ROM rounding x t/2^15 per phase,
             // through the 2-of-3 reconstruction (<= sqrt(3)(|ea|+|eb|)), plus the commutation's
-            // 0.3 % angle/phase ripple budget (hapgate.commutation.SINE_RIPPLE_BUDGET)
+            // 0.3 % angle/phase ripple budget (hapgate.golden.commutation.SINE_RIPPLE_BUDGET)
             tbud[m] = 2 * std::sqrt(3.0) * (0.5 + 0.5 * tmax / 32768.0) * t_scale + 0.003 * tmax;
             const double e = std::min(std::abs(trec[m] - tlo[m]), std::abs(trec[m] - thi[m]));
             max_terr = std::max(max_terr, e);

@@ -10,12 +10,13 @@ from __future__ import annotations
 
 from importlib import import_module
 
-from .block import Block, Params
+from ..base.block import Block, Params
 
 __all__ = ["Block", "Params", "BLOCKS", "get"]
 
 # Model modules that own RTL blocks, in lint/report order.
-OWNERS = ("sine", "interp", "commutation", "regmap", "top", "boards")
+OWNERS = ("golden.sine", "golden.interp", "golden.commutation", "golden.regmap", "golden.top",
+          "flows.boards")
 
 BLOCKS: dict[str, Block] = {
     b.name: b for owner in OWNERS for b in import_module(f"hapgate.{owner}").blocks()

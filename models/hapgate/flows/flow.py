@@ -13,9 +13,9 @@ import time
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from . import toolenv
-from .block import Block, Params
-from .paths import BUILD, RTL, ensure
+from ..base import toolenv
+from ..base.block import Block, Params
+from ..base.paths import BUILD, RTL, ensure
 
 WAIVERS = RTL / "lint" / "waivers.vlt"
 

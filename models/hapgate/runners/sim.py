@@ -16,10 +16,10 @@ from collections.abc import Iterator, Mapping, Sequence
 from contextlib import contextmanager
 from pathlib import Path
 
-from . import toolenv
-from .block import Block, Params
-from .flow import param_text
-from .paths import SIM, ensure
+from ..base import toolenv
+from ..base.block import Block, Params
+from ..base.paths import SIM, ensure
+from ..flows.flow import param_text
 
 ALL_SIMS = ("verilator", "icarus")
 # Where the simulator writes time: every testbench uses 1 ns / 1 ps.

@@ -20,11 +20,12 @@ from pathlib import Path
 
 import numpy as np
 
-from . import interp, toolenv
-from .block import Params
-from .flow import param_text
-from .interp import InterpConfig
-from .paths import BUILD, RTL, TB, ensure
+from ..base import toolenv
+from ..base.block import Params
+from ..base.paths import BUILD, RTL, TB, ensure
+from ..flows.flow import param_text
+from ..golden import interp
+from ..golden.interp import InterpConfig
 from .sim import _locked
 
 HARNESS = TB / "native" / "interp" / "interp_harness.cpp"
@@ -119,7 +120,7 @@ def run_interp(a: np.ndarray, b: np.ndarray, index: np.ndarray | None = None,
     """Run samples (arrays of shape (n,) for one axis or (n, axes)) through the Verilated RTL.
 
     clear_at / arm_at: per axis, the sample numbers at which a fault clear / home arm pulse is
-    applied (the same convention as hapgate.interp.run)."""
+    applied (the same convention as hapgate.golden.interp.run)."""
     a = np.asarray(a)
     axes = 1 if a.ndim == 1 else a.shape[1]
     n = a.shape[0]

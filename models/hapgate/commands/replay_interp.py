@@ -11,9 +11,10 @@ from pathlib import Path
 
 import numpy as np
 
-from . import interp, native
-from .capture import CaptureError, as_int, read_csv_columns, write_csv
-from .report import table
+from ..base.capture import CaptureError, as_int, read_csv_columns, write_csv
+from ..base.report import table
+from ..golden import interp
+from ..runners import native
 
 OUT_COLUMNS = ("pos", "vel", "fault", "pos_homed", "index_pos", "index_count", "homed",
                "overspeed_count")

@@ -13,12 +13,14 @@ import time
 
 import numpy as np
 
-from . import blocks, flow, sim, toolenv
-from . import commutation as cm
-from .paths import BUILD, TB, ensure
+from ..base import toolenv
+from ..base.paths import BUILD, TB, ensure
+from ..base.report import figure_path, pyplot, table, write_csv
+from ..flows import blocks, flow
+from ..golden import commutation as cm
+from ..golden.sine import SineRomConfig
+from ..runners import sim
 from .replay_commutation import run_rtl
-from .report import figure_path, pyplot, table, write_csv
-from .sine import SineRomConfig
 
 ROM_SIZES = (6, 7, 8, 9)   # addr_bits: 64, 128, 256, 512 entries
 

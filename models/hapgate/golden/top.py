@@ -1,8 +1,10 @@
 """The whole FPGA (rtl/top/hapgate_top.v) as a chain of the golden models, clock-exact.
 
-ADC samples -> hapgate.interp.run (per axis) -> positions and faults, visible from a known clock
+ADC samples -> hapgate.golden.interp.run (per axis) -> positions and faults, visible from a known
+clock
 edge -> at each commutation frame start the latest visible pos_homed (low COUNT_BITS bits) and
-the register state -> hapgate.commutation.commutate -> DAC words -> the top's output stage, which
+the register state -> hapgate.golden.commutation.commutate -> DAC words -> the top's output stage,
+which
 replaces a channel's word by zero torque if, at that channel's presentation edge, the watchdog
 has expired, drive is disabled (globally or for that axis) or the axis has a fault.
 
@@ -29,8 +31,8 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
+from ..base.block import Block, Params
 from . import commutation, interp
-from .block import Block, Params
 from .commutation import CommutationConfig, Frames
 from .interp import InterpConfig
 

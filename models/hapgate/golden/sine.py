@@ -18,8 +18,8 @@ from pathlib import Path
 
 import numpy as np
 
-from .block import Block, Params
-from .tables import write_hex
+from ..base.block import Block, Params
+from ..base.tables import write_hex
 
 ERROR_BUDGET_LSB = 0.5
 

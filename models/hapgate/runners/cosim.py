@@ -5,8 +5,10 @@ top over the modelled EMIF bus (tb/native/cosim/).
 rtl/top/hapgate_top.v with the C++ harness and the co-sim HAL (one cached build per parameter
 set and source hash, under build/native/cosim-<hash>/). `run()` runs one scenario and returns its
 summary and per-frame / per-ISR records as numpy arrays. `check()` re-checks a run independently
-of the harness: the torques reconstructed from the DAC codes with `hapgate.commutation`'s motor
-model, the endpoint force through `hapgate.kinematics`, and the safety reaction times from the
+of the harness: the torques reconstructed from the DAC codes with `hapgate.golden.commutation`'s
+motor
+model, the endpoint force through `hapgate.golden.kinematics`, and the safety reaction times from
+the
 raw DAC loads. `demo_section()` / `bench_section()` are the `make demo` / `make bench` entries.
 """
 
@@ -20,9 +22,11 @@ from pathlib import Path
 
 import numpy as np
 
-from . import commutation, encsig, interp, kinematics, native, report
-from .paths import ROOT, TB, ensure
-from .top import TopConfig, blocks
+from ..base import report
+from ..base.paths import ROOT, TB, ensure
+from ..golden import commutation, encsig, interp, kinematics
+from ..golden.top import TopConfig, blocks
+from . import native
 
 HERE = TB / "native" / "cosim"
 HARNESS = [HERE / "cosim_harness.cpp", HERE / "hal_cosim.cpp"]
@@ -224,7 +228,8 @@ def home_error(r: CosimRun) -> np.ndarray:
 
 
 def interp_budget_counts(amplitude: float = 110.0, sweep_lines: int = 4) -> float:
-    """Worst |interpolated - true| position of hapgate.interp on ideal signals of this amplitude,
+    """Worst |interpolated - true| position of hapgate.golden.interp on ideal signals of this
+    amplitude,
     counts (measured on a fine sweep with the golden model), plus 1/2 count of float."""
     n = sweep_lines * 4096
     lines = 0.1 + np.arange(n) * (sweep_lines / n)

@@ -9,9 +9,11 @@ from dataclasses import asdict
 
 import numpy as np
 
-from . import blocks, encsig, flow, interp, native, sim
-from .paths import BUILD, TB, ensure
-from .report import figure_path, pyplot, table, write_csv
+from ..base.paths import BUILD, TB, ensure
+from ..base.report import figure_path, pyplot, table, write_csv
+from ..flows import blocks, flow
+from ..golden import encsig, interp
+from ..runners import native, sim
 
 ENGINE_HEADERS = ["signals", "engine", "samples", "seconds", "samples/s", "rms [el deg]",
                   "max [el deg]", "rms [mech deg]", "mismatches vs model"]

@@ -3,7 +3,8 @@
 `load()` compiles the RDL with systemrdl-compiler (parameters CLK_HZ, SKEW_CLOCKS, FRAME_CLOCKS)
 into plain dataclasses (cached as JSON in build/gen/, so simulator processes need not compile
 again): word address, fields with bit range, software access, write side effect, reset value and
-allowed range. Everything else reads this: the register model (`hapgate.regmodel`), the cocotb
+allowed range. Everything else reads this: the register model (`hapgate.golden.regmodel`), the
+cocotb
 tests, and `generate()`, which writes the PeakRDL outputs:
 
 - the C header (peakrdl-cheader) -> `dsp-fw/include/hg_regs.h` (committed: the firmware builds
@@ -11,7 +12,7 @@ tests, and `generate()`, which writes the PeakRDL outputs:
 - the register document (peakrdl-markdown) -> `rtl/regs/REGISTERS.md` (committed, linked from
   the README),
 
-both for the default parameters (48 MHz). `python -m hapgate.regmap` regenerates them;
+both for the default parameters (48 MHz). `python -m hapgate.golden.regmap` regenerates them;
 `--check` fails if a committed copy differs from a fresh generation (tb/bus/test_regmap.py runs
 the same check).
 """
@@ -28,8 +29,8 @@ from dataclasses import asdict, dataclass, field
 from functools import lru_cache
 from pathlib import Path
 
-from .block import Block, Params
-from .paths import GEN, ROOT, RTL, ensure
+from ..base.block import Block, Params
+from ..base.paths import GEN, ROOT, RTL, ensure
 
 RDL = RTL / "regs" / "hapgate.rdl"
 C_HEADER = ROOT / "dsp-fw" / "include" / "hg_regs.h"
@@ -169,7 +170,7 @@ def load(clk_hz: int = DEFAULT_CLK_HZ, skew_ns: int = 2000, frame_ns: int = 1600
 
 # ---------------------------------------------------------------------------- generated files
 
-HEADER_NOTE = ("// GENERATED from rtl/regs/hapgate.rdl by `python -m hapgate.regmap`"
+HEADER_NOTE = ("// GENERATED from rtl/regs/hapgate.rdl by `python -m hapgate.golden.regmap`"
                " (peakrdl-cheader) -- do not edit.\n// Defaults: CLK_HZ = 48 MHz. Offsets are"
                " BYTE offsets; the DSP bus is word-addressed (word = byte / 4).\n")
 
@@ -194,7 +195,7 @@ def render_markdown() -> str:
         out = Path(d) / "REGISTERS.md"
         MarkdownExporter().export(root, str(out))
         text = out.read_text()
-    note = ("<!-- GENERATED from rtl/regs/hapgate.rdl by `python -m hapgate.regmap` "
+    note = ("<!-- GENERATED from rtl/regs/hapgate.rdl by `python -m hapgate.golden.regmap` "
             "(peakrdl-markdown), defaults CLK_HZ = 48 MHz. Do not edit. -->\n\n"
             "Offsets are byte offsets; the DSP bus is word-addressed (word address = offset / 4)."
             " Unmapped addresses read 0xDEADBEEF; writes to them change nothing.\n\n")
@@ -233,7 +234,7 @@ def blocks() -> list[Block]:
 
 
 def main(argv: list[str] | None = None) -> int:
-    ap = argparse.ArgumentParser(prog="python -m hapgate.regmap",
+    ap = argparse.ArgumentParser(prog="python -m hapgate.golden.regmap",
                                  description=__doc__.split("\n")[0])
     ap.add_argument("--check", action="store_true", help="fail if a committed output is stale")
     args = ap.parse_args(argv)

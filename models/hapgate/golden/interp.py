@@ -47,8 +47,8 @@ from pathlib import Path
 
 import numpy as np
 
-from .block import Block, Params
-from .tables import write_hex
+from ..base.block import Block, Params
+from ..base.tables import write_hex
 
 FAULT_OVERSPEED = 1
 FAULT_CLIP = 2

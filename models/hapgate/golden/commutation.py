@@ -6,7 +6,7 @@ Per frame (every input latched at the frame start; a change takes effect at the 
 1. Fine electrical angle u = ((pos mod 2**CB) * POLE_PAIRS) mod 2**CB (CB = count_bits = 20,
    2**20 counts per revolution). The angle code (AB = addr_bits + 2 = 10 bits) is u's top AB bits:
    with two pole pairs that is bits 18..9 of the position, i.e. the low 10 of the 11 MSBs 19..9.
-   Code k stands for (k + 1/2) * 360deg / 2**AB, the sine ROM's convention (hapgate.sine).
+   Code k stands for (k + 1/2) * 360deg / 2**AB, the sine ROM's convention (hapgate.golden.sine).
 2. Offset (register, 1/2**AB electrical cycle): u_a = u + offset * 2**(CB - AB); ALIGN mode uses
    u = 0, so the current vector stands at the offset's angle (to find the index-to-winding offset).
 3. Channel a's code k_a = top AB bits of u_a; channel b's k_b = k_a - round(2**AB / 3) mod 2**AB.
@@ -41,7 +41,7 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from .block import Block, Params
+from ..base.block import Block, Params
 from .sine import SineRomConfig, quarter_table, unfold, write_rom
 
 SINE, SIX_STEP, ALIGN, OFF = 0, 1, 2, 3
@@ -364,7 +364,7 @@ def plot_figures(cfg: CommutationConfig, codes_by_mode: Mapping[int, np.ndarray]
                  sweeps: Mapping[int, Sweep], name: str = "commutation") -> list[str]:
     """Plots in the style of the paper's Figs. 8 (six-step) and 9 (sine): channel currents with
     the winding torque profiles (left), per-phase torques and their sum (right)."""
-    from .report import figure_path, pyplot
+    from ..base.report import figure_path, pyplot
 
     plt = pyplot()
     paths = []

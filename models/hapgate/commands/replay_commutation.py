@@ -26,9 +26,9 @@ from pathlib import Path
 
 import numpy as np
 
-from . import commutation as cm
-from .paths import BUILD, TB, ensure
-from .report import table
+from ..base.paths import BUILD, TB, ensure
+from ..base.report import table
+from ..golden import commutation as cm
 
 REQUIRED = [f"pos{i}" for i in range(3)] + [f"torque{i}" for i in range(3)]
 OPTIONAL = {**{f"offset{i}": (0, 0, 1023) for i in range(3)},
@@ -112,10 +112,12 @@ def run_rtl(frames: cm.Frames, cfg: cm.CommutationConfig, simulator: str = "veri
             ) -> tuple[np.ndarray, np.ndarray, float]:
     """The commutator RTL over `frames`: (codes (n, 6), load times ns (n, 6), seconds with the
     build)."""
-    from . import blocks, sim, toolenv
+    from ..base import toolenv
+    from ..flows import blocks
+    from ..runners import sim
 
     toolenv.apply()
-    from .dacsched import period_ps
+    from ..golden.dacsched import period_ps
 
     period_ps(cfg)  # a clear error before building
     work = ensure(BUILD / "replay")

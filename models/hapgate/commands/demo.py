@@ -12,9 +12,13 @@ from dataclasses import asdict
 
 import numpy as np
 
-from . import bench_commutation, blocks, cosim, encsig, interp, native, sim, sine, toolenv
-from .paths import BUILD, TB, ensure
-from .report import figure_path, pyplot, table
+from ..base import toolenv
+from ..base.paths import BUILD, TB, ensure
+from ..base.report import figure_path, pyplot, table
+from ..flows import blocks
+from ..golden import encsig, interp, sine
+from ..runners import cosim, native, sim
+from . import bench_commutation
 
 
 def sine_section() -> tuple[list[list[object]], bool]:

@@ -6,9 +6,11 @@ from __future__ import annotations
 import argparse
 import subprocess
 
-from . import bench_commutation, bench_interp, cosim, toolenv
-from .paths import ROOT
-from .report import table, write_csv
+from ..base import toolenv
+from ..base.paths import ROOT
+from ..base.report import table, write_csv
+from ..runners import cosim
+from . import bench_commutation, bench_interp
 
 
 def main(args: argparse.Namespace) -> int:

@@ -13,12 +13,12 @@ import subprocess
 import time
 from dataclasses import dataclass
 
-from . import toolenv
-from .block import Block, Params
+from ..base import toolenv
+from ..base.block import Block, Params
+from ..base.paths import BUILD, ensure
+from ..golden.top import TopConfig
+from ..golden.top import blocks as top_blocks
 from .flow import Finding, yosys_script
-from .paths import BUILD, ensure
-from .top import TopConfig
-from .top import blocks as top_blocks
 
 
 @dataclass(frozen=True)

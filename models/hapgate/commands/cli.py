@@ -7,18 +7,18 @@ import os
 import sys
 import time
 
-from . import toolenv
+from ..base import toolenv
 
 
 def cmd_versions(_: argparse.Namespace) -> int:
-    from .report import table
+    from ..base.report import table
 
     print(table(["tool", "version", "path"], toolenv.versions()))
     return 0
 
 
 def cmd_check_sims(_: argparse.Namespace) -> int:
-    from .sim import MissingSimulator, simulators
+    from ..runners.sim import MissingSimulator, simulators
 
     toolenv.apply()
     try:
@@ -33,8 +33,8 @@ def cmd_check_sims(_: argparse.Namespace) -> int:
 def cmd_lint(args: argparse.Namespace) -> int:
     from concurrent.futures import ThreadPoolExecutor
 
-    from . import blocks, flow
-    from .report import table
+    from ..base.report import table
+    from ..flows import blocks, flow
 
     rows, failed = [], []
     t0 = time.perf_counter()
@@ -66,8 +66,8 @@ def cmd_synth(args: argparse.Namespace) -> int:
 
 
 def cmd_pnr(args: argparse.Namespace) -> int:
-    from . import boards
-    from .report import table
+    from ..base.report import table
+    from ..flows import boards
 
     rows, ok = [], True
     for name in args.board or list(boards.BOARDS):
@@ -103,7 +103,7 @@ def cmd_bench(args: argparse.Namespace) -> int:
 def cmd_replay(args: argparse.Namespace) -> int:
     from importlib import import_module
 
-    return int(import_module(f"hapgate.replay_{args.block}").main(args))
+    return int(import_module(f"hapgate.commands.replay_{args.block}").main(args))
 
 
 def main(argv: list[str] | None = None) -> int:
