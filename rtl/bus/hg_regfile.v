@@ -1,6 +1,7 @@
 // SPDX-License-Identifier: Apache-2.0
 // The hapgate register file (map: rtl/regs/hapgate.rdl, the one source; this hand-written block
-// is proven against it by tb/bus/test_regfile.py): control, status, the three-axis snapshot
+// is checked against it by tb/bus/test_hg_bus.py: rdl_conformance and random accesses against
+// hapgate.golden.regmodel): control, status, the three-axis snapshot
 // latched together on the servo tick or on demand, the servo-tick interrupt and the watchdog.
 `timescale 1ns / 1ps
 `default_nettype none
