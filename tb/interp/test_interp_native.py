@@ -64,8 +64,11 @@ def test_error_vs_truth_ideal_r127() -> None:
     print(f"error vs truth: rms {rms:.4f} deg, max {mx:.4f} deg electrical")
     assert rms <= 0.19
     assert mx <= 0.6
-    # codes: only LUT outputs for magnitudes the 8-bit levels can take at R = 127 are reachable
-    table = interp.asin_table(CFG)
+    # codes: only LUT outputs for magnitudes the 8-bit levels can take at R = 127 are reachable.
+    # The table is the README's definition written out here, not the generator under test.
+    m = np.arange(129)
+    table = np.minimum(np.rint(np.degrees(np.arcsin(np.minimum(m, 127) / 127)) * 128 / 45), 127)
+    table = table.astype(np.int64)
     reach_f = np.unique(np.concatenate([table[:91], 2 * 128 - table[:91]]))
     reachable = np.unique((np.arange(4)[:, None] * 256 + reach_f[None, :]) % 1024)
     codes = np.unique(pos & 1023)
