@@ -27,7 +27,7 @@ import numpy as np
 from cocotb.clock import Clock
 from cocotb.triggers import ClockCycles, RisingEdge, Timer
 from cocotb.utils import get_sim_time
-from hapgate.golden import emif, encsig, interp, regmap
+from hapgate.golden import commutation, emif, encsig, interp, regmap
 from hapgate.golden import top as topm
 from hapgate.golden.commutation import SINE, SIX_STEP
 from hapgate.golden.dacsched import DacModel
@@ -294,3 +294,124 @@ async def firmware_like_run(dut) -> None:
         f"{reads} reads checked, {len(model.ticks)} ticks; zero torque after: watchdog "
         f"{lat_wd} clocks ({lat_wd * PERIOD_PS / 1e6:.2f} us), fault {lat_fault}, disable "
         f"{lat_dis} (frame {f_clk}); irq period {CLK_HZ // TICK_HZ} clocks")
+
+
+# ------------------------------------------------------------------------------------------------
+# Truth: the DAC outputs against the float electrical angle of the homed shaft
+
+TRUTH_REV_S = 230.0        # fast enough to reach the index from anywhere within the run
+TRUTH_AMP = 120.0          # ideal signals below full scale (no clipping fault)
+
+
+def truth_stimulus(seed: int, n: int) -> tuple[np.ndarray, ...]:
+    """Three shafts powered up at random positions over the whole revolution, turning at
+    +-TRUTH_REV_S (random direction): (lines (n, 3) of the true shaft, a, b, index)."""
+    rng = np.random.default_rng(seed)
+    start = rng.uniform(0.0, encsig.LINES, 3)
+    sign = rng.choice([-1.0, 1.0], 3)
+    x = np.stack([encsig.constant(s * TRUTH_REV_S, n, start=float(p))
+                  for s, p in zip(sign, start)], 1)
+    spec = encsig.with_spec(encsig.IDEAL, amplitude=TRUTH_AMP)
+    a = np.zeros((n, 3), dtype=np.int64)
+    b = np.zeros((n, 3), dtype=np.int64)
+    idx = np.zeros((n, 3), dtype=np.int64)
+    for i in range(3):
+        qa, qb = encsig.adc_codes(x[:, i], spec)
+        a[:, i], b[:, i] = qa, qb
+        idx[:, i] = encsig.index_bit(x[:, i])
+    return x, a, b, idx
+
+
+@cocotb.test()
+async def homed_truth(dut) -> None:
+    """Power up at random shaft positions, arm homing, drive SINE with fixed torques and offsets,
+    and check every DAC load of a homed axis against the float truth of the homed shaft
+    (hapgate.golden.commutation.truth at the true position relative to the index). Commutating
+    from the raw position (relative to power-up) is off by a random angle and fails."""
+    seed = int(os.environ.get("HG_SEED", "1"))
+    rng = np.random.default_rng(1000 + seed)
+    n = N_SAMPLES
+    x, a, b, idx = truth_stimulus(seed, n + 50)
+    cocotb.start_soon(Clock(dut.clk, PERIOD_PS, unit="ps").start())
+    master = emif.EmifMaster(dut)
+    dac = DacModel(dut, CFG.comm)
+    dut.adc_a.value = 0
+    dut.adc_b.value = 0
+    dut.enc_index.value = 0
+    dut.rst.value = 1
+    dac.start()
+    await ClockCycles(dut.clk, 4)
+    ref = int(get_sim_time(unit="ps"))
+    dac.reset_ps = ref
+    dut.rst.value = 0
+    cocotb.start_soon(drive_adc(dut, a, b, idx))
+    t = emif.Timing(setup=PERIOD_PS, strobe=emif.MIN_STROBE_CLOCKS * PERIOD_PS, hold=0,
+                    idle=emif.MIN_RECOVERY_CLOCKS * PERIOD_PS)
+    torque = [int(v) for v in rng.integers(8000, 32768, 3) * rng.choice([-1, 1], 3)]
+    offset = [int(v) for v in rng.integers(0, 1024, 3)]
+    await master.write(W["WDOG_TIMEOUT"], 1_000_000, t)
+    await master.write(W["WDOG"], WDOG_KEY, t)
+    for i in range(3):
+        await master.write(W[f"AXIS[{i}].TQ_LIMIT"], 65535, t)
+        await master.write(W[f"AXIS[{i}].OFFSET"], offset[i], t)
+        await master.write(W[f"AXIS[{i}].MODE"], SINE, t)
+        await master.write(W[f"AXIS[{i}].TORQUE"], torque[i] & 0xFFFF, t)
+    await master.write(W["CTRL"], 0b1111 | 0b111 << 5, t)     # drive on; arm homing of all axes
+    armed_edge = (int(get_sim_time(unit="ps")) - ref) // PERIOD_PS
+    await Timer(n * CFG.div * PERIOD_PS, unit="ps")
+    status = await master.read(W["STATUS"], t)
+    assert (status >> 8) & 7 == 7, f"not every axis homed (STATUS 0x{status:08x})"
+    assert status & 7 == 0, f"an axis fault (STATUS 0x{status:08x})"
+    assert not dac.violations, dac.violations[:5]
+
+    edge = np.array([(ld.t_ps - ref) // PERIOD_PS for ld in dac.loads], dtype=np.int64)
+    ch = np.array([ld.addr for ld in dac.loads], dtype=np.int64)
+    code = commutation.decode(np.array([ld.word for ld in dac.loads], dtype=np.int64), CFG.comm)
+    # the frame each load belongs to (its inputs latched at frame * FRAME_CLOCKS), and the true
+    # shaft at that latch: the freshest sample the commutator can have is the one captured
+    # before it, so the truth is taken at the latch time and the budget covers up to
+    # DIV + LATENCY + 1 clocks of shaft motion before it
+    frame = (edge - CFG.comm.load_clocks - 1 - ch * CFG.comm.skew_clocks) // CFG.comm.frame_clocks
+    latch_t = frame * CFG.comm.frame_clocks / CLK_HZ                       # s after reset
+    samp = latch_t * CFG.sample_hz - 1.0                                   # sample index (float)
+    mot = np.arange(3)[ch // 2]
+    xl = np.stack([np.interp(samp, np.arange(x.shape[0]), x[:, i]) for i in range(3)], 1)
+    x_now = xl[np.arange(ch.size), mot]
+    # homed only after the index edge (truth) has reached the registers: from the edge of the
+    # first index rise + the interpolator latency + one frame
+    rise = [int(np.argmax(idx[1:, i] > idx[:-1, i])) + 1 for i in range(3)]
+    homed_from = np.array([(r + 2) * CFG.div + topm.LATENCY + CFG.comm.frame_clocks
+                           for r in rise])
+    check = (frame * CFG.comm.frame_clocks > np.maximum(homed_from[mot], armed_edge + 1)) & \
+        (frame >= 1)
+    per_motor = np.bincount(mot[check], minlength=3)
+    assert per_motor.min() >= 40, f"too few homed loads to check per motor: {per_motor}"
+    counts = (1 << CFG.count_bits)
+    homed_counts = np.mod(x_now * CFG.interp.counts_per_line, counts)       # index = line 0
+    tq = np.array(torque, dtype=np.float64)[mot]
+    def col(v: np.ndarray) -> np.ndarray:
+        return np.repeat(np.asarray(v, dtype=np.float64)[:, None], 3, 1)
+
+    tru = commutation.truth(col(homed_counts), col(tq), col(np.array(offset)[mot]), CFG.comm,
+                            exact_pos=col(homed_counts))
+    want = tru[np.arange(ch.size), ch % 2]          # motor 0's a or b column: this load's motor
+    # budget, in electrical angle: 1/2 ROM code (a code stands for the middle of its bin), the
+    # 1/3 code by which b falls short of 120deg, the interpolator (ideal signals: < 1 count of
+    # 1024 per line = 2/1024 of a code), and the shaft motion over one sample + LATENCY + 1 clocks
+    # before the latch; plus 1/2 LSB of rounding and 1/2 LSB of the ROM's own rounding
+    v_counts_s = TRUTH_REV_S * counts
+    motion = v_counts_s * (1.0 / CFG.sample_hz + (topm.LATENCY + 1) / CLK_HZ)
+    codes_per_count = CFG.comm.pole_pairs * CFG.comm.codes / counts
+    ang = 2 * np.pi / CFG.comm.codes * (0.5 + np.where(ch % 2, 1 / 3, 0) + 2 / 1024
+                                        + motion * codes_per_count)
+    budget = CFG.comm.max_code * np.abs(tq) / 32767 * ang + 1.0
+    err = np.abs(code - want)
+    worst = int(np.argmax(np.where(check, err / budget, 0)))
+    dut._log.info(
+        f"homed truth, seed {seed}: power-up lines {x[0].round(1).tolist()}, "
+        f"{int(check.sum())} loads checked, max |err| {err[check].max():.1f} LSB, worst "
+        f"err/budget {err[worst] / budget[worst]:.3f} (channel {ch[worst]}, frame {frame[worst]})")
+    assert np.all(err[check] <= budget[check]), (
+        f"load {worst} (channel {ch[worst]}, frame {frame[worst]}): code {code[worst]}, "
+        f"truth {want[worst]:.1f}, |err| {err[worst]:.1f} > budget {budget[worst]:.1f} LSB")
+

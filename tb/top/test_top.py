@@ -19,4 +19,15 @@ SAMPLES = {"verilator": 10000, "icarus": 2500}   # 1 MSPS: microseconds of simul
 def test_top_bit_exact(simulator: str) -> None:
     cfg = top.TopConfig(clk_hz=50_000_000)
     sim.run_cocotb(blocks.get("hapgate_top"), simulator, "cocotb_top", HERE,
-                   params=cfg.rtl_params(), extra_env={"HG_SAMPLES": str(SAMPLES[simulator])})
+                   params=cfg.rtl_params(), testcase="firmware_like_run",
+                   extra_env={"HG_SAMPLES": str(SAMPLES[simulator])})
+
+
+@pytest.mark.parametrize("seed", [1, 2, 3])
+def test_top_homed_truth(seed: int) -> None:
+    """DAC codes against the float angle of the homed shaft, three random power-up positions per
+    seed (one per axis) over the whole revolution (Verilator; 5000 samples = 5 ms each)."""
+    cfg = top.TopConfig(clk_hz=50_000_000)
+    sim.run_cocotb(blocks.get("hapgate_top"), "verilator", "cocotb_top", HERE,
+                   params=cfg.rtl_params(), testcase="homed_truth",
+                   extra_env={"HG_SAMPLES": "5000", "HG_SEED": str(seed)})
