@@ -23,8 +23,8 @@ STICKY = (1 << 12) | (1 << 13) | (1 << 14) | (1 << 15)   # STATUS WDOG, CFG_ERR,
 
 
 @cache
-def run(scenario: str, rate: int = 1000, ready: bool = False) -> cosim.CosimRun:
-    return cosim.run(scenario, rate, cosim.BusTiming(use_ready=ready))
+def run(scenario: str, rate: int = 1000, ready: bool = False, seed: int = 1) -> cosim.CosimRun:
+    return cosim.run(scenario, rate, cosim.BusTiming(use_ready=ready), seed=seed)
 
 
 @cache
@@ -175,3 +175,20 @@ def test_homing_accuracy() -> None:
     r = run("wall")
     err = cosim.home_error(r)
     assert np.all(np.abs(err) <= cosim.interp_budget_counts()), err
+
+
+@pytest.mark.parametrize("seed", [2, 3])
+def test_power_up_anywhere(seed: int) -> None:
+    """Other power-up positions (uniform over the whole revolution): the normal run passes the
+    harness and the independent torque/force checks, and the raw position (relative to
+    power-up) would have been a large electrical angle away from the homed one on some axis, so
+    commutating from it could not pass."""
+    r = run("wall", 1000, seed=seed)
+    assert r.ok, r.fails
+    assert_torque_and_force(cosim.check(r))
+    up = np.radians(r.vec("powerup_deg"))
+    assert np.all((up >= 0) & (up < 2 * np.pi))
+    # raw - homed = (2 pi - powerup) of shaft: in electrical degrees, wrapped to +-180
+    d = np.degrees(np.angle(np.exp(1j * CFG.comm.pole_pairs * (2 * np.pi - up))))
+    assert np.abs(d).max() > 30.0, d
+    assert np.all(np.abs(cosim.home_error(r)) <= cosim.interp_budget_counts())

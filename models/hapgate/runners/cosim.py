@@ -14,6 +14,7 @@ raw DAC loads. `demo_section()` / `bench_section()` are the `make demo` / `make 
 
 from __future__ import annotations
 
+import os
 import subprocess
 import tempfile
 import time
@@ -101,16 +102,19 @@ class CosimRun:
 
 
 def run(scenario: str = "wall", rate_hz: int = 1000, bus: BusTiming = BusTiming(),
-        cfg: TopConfig = TopConfig()) -> CosimRun:
+        cfg: TopConfig = TopConfig(), seed: int = 1) -> CosimRun:
+    """One scenario. `seed` picks the joints' power-up positions (uniform over the whole
+    revolution, tb/native/cosim/README.md)."""
     if scenario not in SCENARIOS:
         raise ValueError(f"unknown scenario {scenario}; known: {', '.join(SCENARIOS)}")
     exe = build(cfg)
-    tag = f"{scenario}-{rate_hz}-{bus.setup}{bus.strobe}{bus.hold}{int(bus.use_ready)}-"
+    tag = f"{scenario}-{rate_hz}-{bus.setup}{bus.strobe}{bus.hold}{int(bus.use_ready)}-s{seed}-"
     with tempfile.TemporaryDirectory(prefix=tag, dir=ensure(exe.parent / "runs")) as tmp:
         out = Path(tmp)
         t0 = time.perf_counter()
         proc = subprocess.run([str(exe), scenario, str(rate_hz), str(out), *bus.args()],
-                              capture_output=True, text=True)
+                              capture_output=True, text=True,
+                              env={**os.environ, "HG_COSIM_SEED": str(seed)})
         wall = time.perf_counter() - t0
         if proc.returncode not in (0, 1) or "result=" not in proc.stdout:
             raise RuntimeError(f"co-sim harness failed ({proc.returncode}): {proc.stderr.strip()}")

@@ -22,6 +22,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
+#include <random>
 #include <string>
 
 #include "cosim.h"
@@ -132,15 +133,34 @@ struct Trajectory {
     Vec3 q_free{deg(4.0), deg(46.0), deg(43.0)};
     Vec3 q_deep{deg(3.0), deg(42.0), deg(40.0)};
     Vec3 q_index{};           // joint angle at the index (line 0 starts there)
-    double sweep = deg(0.5);  // homing sweep: start this far before q_free
-    double t_home = 6e-3;     // s, the sweep (the index is crossed half-way)
-    double t_push = 15e-3;    // s, start of the push
+    Vec3 sweep{};             // homing sweep: the joints power up this far before q_free
+    Vec3 powerup{};           // power-up position after the index, rad in [0, 2 pi)
+    double qd_home = 90.0;    // rad/s, the sweep's speed (the firmware's qd_max is 100 rad/s)
+    double t_home = 0;        // s, the sweep (it crosses the index once); drive is enabled after it
+    double t_push = 0;        // s, start of the push (3 ms after the sweep)
     double t_in = 100e-3;     // s, into the wall (raised cosine), the same back
     double t_hold = 20e-3;    // s, held at the deepest point
-    double t_end = 250e-3;
+    double t_end = 0;         // s, 15 ms after the push has returned
 
-    Trajectory() {
-        for (int i = 0; i < 3; ++i) q_index[i] = q_free[i] - sweep / 2;
+    // Power-up anywhere in the revolution (seeded): joint i starts at q_index + powerup[i]
+    // (uniform over the whole revolution), sweeps forwards at qd_home through the next index
+    // and stops at q_free, a random 0.25..20 deg after it. The raw position (relative to
+    // power-up) and the homed one then differ by a random angle: commutating from the raw one
+    // cannot pass.
+    explicit Trajectory(uint64_t seed) {
+        std::mt19937_64 rng(seed);
+        std::uniform_real_distribution<double> turn(0.0, 2 * kPi), after(deg(0.25), deg(20.0));
+        double longest = 0;
+        for (int i = 0; i < 3; ++i) {
+            powerup[i] = turn(rng);
+            const double past = after(rng);
+            q_index[i] = q_free[i] - past;
+            sweep[i] = (2 * kPi - powerup[i]) + past;
+            longest = std::max(longest, sweep[i]);
+        }
+        t_home = std::ceil(longest / qd_home * 1e3) * 1e-3;
+        t_push = t_home + 3e-3;
+        t_end = t_push + 2 * t_in + t_hold + 15e-3;
     }
     double s(double t) const {  // 0 free .. 1 deep
         const double u = t - t_push;
@@ -152,9 +172,11 @@ struct Trajectory {
     }
     Vec3 q(double t) const {
         Vec3 r{};
-        const double sw = t < t_home ? (t / t_home - 1.0) * sweep : 0.0;
         const double ss = s(t);
-        for (int i = 0; i < 3; ++i) r[i] = q_free[i] + sw + ss * (q_deep[i] - q_free[i]);
+        for (int i = 0; i < 3; ++i) {
+            const double sw = std::min(0.0, qd_home * t - sweep[i]);  // each at qd_home, then stops
+            r[i] = q_free[i] + sw + ss * (q_deep[i] - q_free[i]);
+        }
         return r;
     }
     Vec3 qdot(double t) const {
@@ -234,7 +256,10 @@ int main(int argc, char** argv) {
         return 2;
     }
 
-    Trajectory tr;
+    // HG_COSIM_SEED: the power-up positions (default 1)
+    const char* seed_env = std::getenv("HG_COSIM_SEED");
+    const uint64_t seed = seed_env ? std::strtoull(seed_env, nullptr, 10) : 1;
+    Trajectory tr(seed);
     const double t_fault = tr.t_push + 60e-3 + 0.5 / rate;  // mid-tick, while in the wall
     if (!s_wall) tr.t_end = t_fault + 14e-3;                // wdog timeout is 10 ms
     const int drop_axis = 1;
@@ -343,7 +368,7 @@ int main(int argc, char** argv) {
         }
         isrs.push_back(r);
         // ---- background loop (between ticks): homing, then enable the wall
-        if (!enabled_once) {
+        if (!enabled_once && edge_time(bench.edge) >= tr.t_home) {  // the sweep is over
             const uint32_t homed = HG_STAT_HOMED(0) | HG_STAT_HOMED(1) | HG_STAT_HOMED(2);
             if (homed_isr < 0 && (s.status & homed) == homed) {
                 homed_isr = static_cast<int64_t>(isrs.size()) - 1;
@@ -635,6 +660,8 @@ int main(int argc, char** argv) {
                 frames.size(), bench.loads.size(), static_cast<unsigned long long>(enable_edge), dac_skew, dac_frame,
                 tq_limit[0]);
     std::printf("t_push=%.9g t_fault=%.9g\n", tr.t_push, s_wall ? 0.0 : t_fault);
+    std::printf("seed=%llu powerup_deg=%.9g,%.9g,%.9g\n", static_cast<unsigned long long>(seed),
+                tr.powerup[0] * 180 / kPi, tr.powerup[1] * 180 / kPi, tr.powerup[2] * 180 / kPi);
     std::printf("wall_k=%.9g wall_n=%.12g,%.12g,%.12g wall_p0=%.12g,%.12g,%.12g q_index=%.12g,%.12g,%.12g\n", kWallK,
                 nrm[0], nrm[1], nrm[2], p0[0], p0[1], p0[2], tr.q_index[0], tr.q_index[1], tr.q_index[2]);
     std::printf("home_err_counts=%.3f,%.3f,%.3f interp_budget_counts=%.4f\n", home_err[0], home_err[1], home_err[2], interp_cnt);
