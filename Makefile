@@ -7,6 +7,7 @@
 #   make bench    benchmarks: tables on stdout, CSV/PNG in build/reports/
 #   make synth    Yosys resource table per block, then nextpnr place and route of the board tops
 #   make versions the tools in use, with their paths
+#   make mutants  mutation testing: every bug in tb/mutants/mutants.toml must be killed (long)
 #   make regs     regenerate the register header/document from rtl/regs/hapgate.rdl
 SHELL   := bash
 PYTHON  ?= python3
@@ -16,7 +17,7 @@ HG      := $(VENV)/bin/hapgate
 PYTEST  := $(VENV)/bin/pytest
 PYTEST_ARGS ?= -n auto
 
-.PHONY: all venv demo test lint bench versions synth regs clean distclean
+.PHONY: all venv demo test lint bench versions synth regs mutants clean distclean
 
 all: test
 
@@ -46,6 +47,10 @@ demo: $(STAMP)
 
 bench: $(STAMP)
 	$(HG) bench
+
+# Mutation testing (not part of `make test`): MUTANTS_ARGS="--only NAME ..." or "--jobs 2"
+mutants: $(STAMP)
+	$(HG) mutants $(MUTANTS_ARGS)
 
 synth: $(STAMP)
 	$(HG) synth

@@ -301,6 +301,7 @@ async def firmware_like_run(dut) -> None:
 
 TRUTH_REV_S = 230.0        # fast enough to reach the index from anywhere within the run
 TRUTH_AMP = 120.0          # ideal signals below full scale (no clipping fault)
+POLE_PAIRS = 2             # SPEC.md: four-pole motors
 
 
 def truth_stimulus(seed: int, n: int) -> tuple[np.ndarray, ...]:
@@ -386,25 +387,23 @@ async def homed_truth(dut) -> None:
         (frame >= 1)
     per_motor = np.bincount(mot[check], minlength=3)
     assert per_motor.min() >= 40, f"too few homed loads to check per motor: {per_motor}"
-    counts = (1 << CFG.count_bits)
-    homed_counts = np.mod(x_now * CFG.interp.counts_per_line, counts)       # index = line 0
+    counts = 2**20                                                          # per revolution
+    homed_counts = np.mod(x_now * 1024, counts)       # 1024 counts per line; index = line 0
     tq = np.array(torque, dtype=np.float64)[mot]
-    def col(v: np.ndarray) -> np.ndarray:
-        return np.repeat(np.asarray(v, dtype=np.float64)[:, None], 3, 1)
-
-    tru = commutation.truth(col(homed_counts), col(tq), col(np.array(offset)[mot]), CFG.comm,
-                            exact_pos=col(homed_counts))
-    want = tru[np.arange(ch.size), ch % 2]          # motor 0's a or b column: this load's motor
+    # the float truth, written from the spec (SPEC.md: 2 pole pairs, a 1024-code electrical
+    # cycle, +-8191 at full torque 32767, b 120 deg after a), not from the configuration under test
+    theta = 2 * np.pi * (POLE_PAIRS * homed_counts / 2**20 + np.array(offset)[mot] / 1024)
+    want = 8191 * tq / 32767 * np.sin(theta - (ch % 2) * 2 * np.pi / 3)
     # budget, in electrical angle: 1/2 ROM code (a code stands for the middle of its bin), the
     # 1/3 code by which b falls short of 120deg, the interpolator (ideal signals: < 1 count of
     # 1024 per line = 2/1024 of a code), and the shaft motion over one sample + LATENCY + 1 clocks
     # before the latch; plus 1/2 LSB of rounding and 1/2 LSB of the ROM's own rounding
     v_counts_s = TRUTH_REV_S * counts
     motion = v_counts_s * (1.0 / CFG.sample_hz + (topm.LATENCY + 1) / CLK_HZ)
-    codes_per_count = CFG.comm.pole_pairs * CFG.comm.codes / counts
-    ang = 2 * np.pi / CFG.comm.codes * (0.5 + np.where(ch % 2, 1 / 3, 0) + 2 / 1024
-                                        + motion * codes_per_count)
-    budget = CFG.comm.max_code * np.abs(tq) / 32767 * ang + 1.0
+    codes_per_count = POLE_PAIRS * 1024 / counts
+    ang = 2 * np.pi / 1024 * (0.5 + np.where(ch % 2, 1 / 3, 0) + 2 / 1024
+                              + motion * codes_per_count)
+    budget = 8191 * np.abs(tq) / 32767 * ang + 1.0
     err = np.abs(code - want)
     worst = int(np.argmax(np.where(check, err / budget, 0)))
     dut._log.info(

@@ -133,6 +133,12 @@ def main(argv: list[str] | None = None) -> int:
         "commutation", help="positions and torques -> DAC codes and load times "
                             "(FRAMES.csv -> DAC.csv)"))
     rp.set_defaults(fn=cmd_replay)
+    from . import mutants
+
+    mp = sub.add_parser("mutants", help="mutation testing: every mutant in tb/mutants/mutants.toml "
+                        "must be killed by its tests (long; not in make test)")
+    mutants.add_arguments(mp)
+    mp.set_defaults(fn=mutants.main)
     bp = sub.add_parser("bench", help="benchmarks: run time beside error (build/reports/)")
     bp.add_argument("--quick", action="store_true", help="smaller runs")
     bp.set_defaults(fn=cmd_bench)
