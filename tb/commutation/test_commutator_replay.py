@@ -63,7 +63,7 @@ def test_replay_roundtrip(tmp_path: Path, engine: str) -> None:
 
 
 @pytest.mark.parametrize("cell, line, words", [
-    ("12x", 4, "not an integer"), ("40000", 4, "outside -32768..32767")])
+    ("12x", 4, "is not an integer"), ("40000", 4, "is outside -32768..32767")])
 def test_replay_bad_input_names_the_line(tmp_path: Path, capsys, cell: str, line: int,
                                          words: str) -> None:
     header = [f"pos{i}" for i in range(3)] + [f"torque{i}" for i in range(3)]
@@ -72,14 +72,18 @@ def test_replay_bad_input_names_the_line(tmp_path: Path, capsys, cell: str, line
     src = _write(tmp_path / "bad.csv", header, rows)
     assert rc.main(_args(**{"in": src, "out": tmp_path / "o.csv", "engine": "model"})) == 2
     err = capsys.readouterr().err
-    assert f"line {line}" in err and "torque1" in err and words in err
+    # FILE:LINE:COL, the column named, the cell as written (no numpy reprs)
+    assert f"bad.csv:{line}:9:" in err and "'torque1'" in err and words in err, err
+    assert f"{cell!r}" in err and "np." not in err
+    assert not (tmp_path / "o.csv").exists()
 
 
 def test_replay_missing_column_and_short_row(tmp_path: Path, capsys) -> None:
     src = _write(tmp_path / "a.csv", ["pos0", "pos1", "torque0"], [[1, 2, 3]])
     assert rc.main(_args(**{"in": src, "out": tmp_path / "o.csv", "engine": "model"})) == 2
-    assert "line 1" in capsys.readouterr().err
+    assert "a.csv:1:" in capsys.readouterr().err
     header = [f"pos{i}" for i in range(3)] + [f"torque{i}" for i in range(3)]
     src = _write(tmp_path / "b.csv", header, [[0] * 6, [0] * 5])
     assert rc.main(_args(**{"in": src, "out": tmp_path / "o.csv", "engine": "model"})) == 2
-    assert "line 3" in capsys.readouterr().err
+    assert "b.csv:3:" in capsys.readouterr().err
+    assert not (tmp_path / "o.csv").exists()

@@ -4,7 +4,9 @@ FRAMES.csv: a header, then one row per frame. Columns (any order): pos0, pos1, p
 counts, any integer: only the per-revolution part is used), torque0..2 (signed 16-bit); optional
 offset0..2 (1/1024 electrical cycle; default 0), mode0..2 (0..3 or sine/six_step/align/off;
 default sine), enable (0/1; default 1), fault0..2 (0/1; default 0), limit (0..65535; default
-65535 = none).
+65535 = none). The file rules (UTF-8, line length, blank lines, header, integers, errors naming
+FILE:LINE:COL, nothing written on an error) are hapgate.base.capture's, shared with `replay
+interp`; columns it does not know are ignored and named on stderr.
 
 DAC.csv: one row per input frame: frame, dac0..dac5 (signed codes, order m0a, m0b, m1a, m1b, m2a,
 m2b) and t0_ns..t5_ns (each load's time after the frame start, i.e. after the inputs are latched).
@@ -12,13 +14,13 @@ m2b) and t0_ns..t5_ns (each load's time after the frame start, i.e. after the in
 Engines: `model` (numpy, bit-exact) or `rtl` (the commutator under cocotb + Verilator, ~1-2 k
 frames/s; the RTL's codes are compared with the model and the DAC timing is checked). The RTL
 simulator runs at 1 ps precision, so --clk-hz must give a whole, even number of ps (default
-50 MHz; the model engine takes any clock).
+50 MHz). For both engines --clk-hz must be a clock the RTL accepts (the DAC schedule's
+elaboration checks), checked before any work.
 """
 
 from __future__ import annotations
 
 import argparse
-import csv
 import json
 import sys
 import time
@@ -26,86 +28,68 @@ from pathlib import Path
 
 import numpy as np
 
+from ..base.capture import CaptureError, Column, check_output, read_table, write_csv
 from ..base.paths import BUILD, TB, ensure
 from ..base.report import table
 from ..golden import commutation as cm
 
-REQUIRED = [f"pos{i}" for i in range(3)] + [f"torque{i}" for i in range(3)]
-OPTIONAL = {**{f"offset{i}": (0, 0, 1023) for i in range(3)},
-            **{f"mode{i}": (cm.SINE, 0, 3) for i in range(3)},
-            **{f"fault{i}": (0, 0, 1) for i in range(3)},
-            "enable": (1, 0, 1), "limit": (65535, 0, 65535)}
-RANGES = {**{f"torque{i}": (-32768, 32767) for i in range(3)},
-          **{f"pos{i}": (-(1 << 63), (1 << 63) - 1) for i in range(3)}}
+MODE_WORDS = {word: val for word, val in cm.MODES.items()}
+MAX_CLK_HZ = 2_147_000_000   # a 32-bit Verilog integer parameter
 
 
-class InputError(ValueError):
-    pass
+def frame_columns(cfg: cm.CommutationConfig) -> tuple[Column, ...]:
+    """FRAMES.csv columns (hapgate.base.capture's rules, shared with `replay interp`)."""
+    cols = [Column(f"pos{i}") for i in range(3)]                 # any int64: per-rev part used
+    cols += [Column(f"torque{i}", lo=-32768, hi=32767) for i in range(3)]
+    cols += [Column(f"offset{i}", lo=0, hi=cfg.codes - 1, required=False, default=0)
+             for i in range(3)]
+    cols += [Column(f"mode{i}", lo=0, hi=3, required=False, default=cm.SINE, words=MODE_WORDS)
+             for i in range(3)]
+    cols += [Column(f"fault{i}", lo=0, hi=1, required=False, default=0) for i in range(3)]
+    cols += [Column("enable", lo=0, hi=1, required=False, default=1),
+             Column("limit", lo=0, hi=65535, required=False, default=65535)]
+    return tuple(cols)
 
 
-def _column(name: str, cells: list[str], first_line: int, lo: int, hi: int) -> np.ndarray:
-    text = np.char.strip(np.array(cells, dtype=str))
-    if name.startswith("mode"):
-        lower = np.char.lower(text)
-        for word, val in cm.MODES.items():
-            text = np.where(lower == word, str(val), text)
-    try:
-        vals = text.astype(np.int64)
-    except (ValueError, OverflowError):
-        bad = next(i for i, t in enumerate(text.tolist()) if not _is_int(t))
-        raise InputError(f"line {first_line + bad}: column {name}: {cells[bad]!r} is not an "
-                         "integer") from None
-    out = np.flatnonzero((vals < lo) | (vals > hi))
-    if out.size:
-        i = int(out[0])
-        raise InputError(f"line {first_line + i}: column {name}: {vals[i]} is outside {lo}..{hi}")
-    return vals
+def read_frames(path: Path, cfg: cm.CommutationConfig) -> tuple[cm.Frames, list[str]]:
+    """The frames of FRAMES.csv and the names of the columns it has that are not used."""
+    tab = read_table(path, frame_columns(cfg))
+    c = tab.columns
+
+    def per(k: str) -> np.ndarray:
+        return np.stack([c[f"{k}{i}"] for i in range(3)], axis=1)
+
+    frames = cm.Frames(per("pos"), per("torque"), per("offset"), per("mode"), c["enable"],
+                       per("fault"), c["limit"])
+    return frames, tab.ignored
 
 
-def _is_int(t: str) -> bool:
-    try:
-        int(t)
-        return True
-    except ValueError:
-        return False
+def clock_error(clk_hz: int, engine: str) -> str | None:
+    """Why the commutator RTL (rtl/dac_sched/dac_sched.v's elaboration checks, at the default
+    2 us skew / 16 us frame / 1-clock strobe) would refuse this clock, or None. Checked for both
+    engines, before any work: the model's load times are those of the RTL at that clock."""
+    c = cm.CommutationConfig()
+    hint = "e.g. 12000000, 16000000, 48000000 or 50000000"
+    if clk_hz < 1000 or clk_hz % 1000 or clk_hz > MAX_CLK_HZ:
+        return (f"--clk-hz {clk_hz}: must be a positive multiple of 1 kHz up to {MAX_CLK_HZ} "
+                f"({hint})")
+    khz = clk_hz // 1000
+    if khz * c.skew_ns % 1_000_000 or khz * c.frame_ns % 1_000_000:
+        return (f"--clk-hz {clk_hz}: the {c.skew_ns} ns skew and {c.frame_ns} ns frame must be "
+                f"whole clocks ({hint})")
+    skew = khz * c.skew_ns // 1_000_000
+    frame = khz * c.frame_ns // 1_000_000
+    if skew < c.wr_cycles + 3 or 5 * skew + cm.PIPE_CLOCKS + c.wr_cycles + 3 > frame:
+        return (f"--clk-hz {clk_hz}: too slow for the DAC schedule (a {c.skew_ns} ns skew of "
+                f"{skew} clocks must hold the {c.wr_cycles}-clock strobe + 3; {hint})")
+    if engine == "rtl":
+        from ..golden.dacsched import period_ps
 
-
-def read_frames(path: Path, cfg: cm.CommutationConfig) -> cm.Frames:
-    with open(path, newline="") as f:
-        rows = list(csv.reader(f))
-    if not rows:
-        raise InputError(f"{path}: empty file (a header line is required)")
-    header = [h.strip() for h in rows[0]]
-    missing = [c for c in REQUIRED if c not in header]
-    if missing:
-        raise InputError(f"line 1: header lacks column(s) {', '.join(missing)}")
-    unknown = [h for h in header if h not in REQUIRED and h not in OPTIONAL]
-    if unknown:
-        raise InputError(f"line 1: unknown column(s) {', '.join(unknown)}")
-    body = rows[1:]
-    lens = np.array([len(r) for r in body], dtype=np.int64)
-    bad = np.flatnonzero(lens != len(header))
-    if bad.size:
-        i = int(bad[0])
-        raise InputError(f"line {i + 2}: {lens[i]} fields, the header has {len(header)}")
-    if not body:
-        raise InputError(f"{path}: no frames after the header")
-    cols = {h: [r[j] for r in body] for j, h in enumerate(header)}
-    n = len(body)
-    maxoff = cfg.codes - 1
-
-    def get(name: str) -> np.ndarray:
-        if name in cols:
-            lo, hi = RANGES.get(name, OPTIONAL.get(name, (0, 0, 0))[1:])
-            if name.startswith("offset"):
-                hi = maxoff
-            return _column(name, cols[name], 2, lo, hi)
-        return np.full(n, OPTIONAL[name][0], dtype=np.int64)
-
-    per = {k: np.stack([get(f"{k}{i}") for i in range(3)], axis=1)
-           for k in ("pos", "torque", "offset", "mode", "fault")}
-    return cm.Frames(per["pos"], per["torque"], per["offset"], per["mode"], get("enable"),
-                     per["fault"], get("limit"))
+        try:
+            period_ps(cm.CommutationConfig(clk_hz=clk_hz))
+        except ValueError as exc:
+            return f"--clk-hz {clk_hz}: {exc}"
+    return None
 
 
 def run_rtl(frames: cm.Frames, cfg: cm.CommutationConfig, simulator: str = "verilator"
@@ -138,30 +122,38 @@ def run_rtl(frames: cm.Frames, cfg: cm.CommutationConfig, simulator: str = "veri
 
 def write_dac(path: Path, codes: np.ndarray, load_ns: np.ndarray) -> None:
     n = codes.shape[0]
-    header = ",".join(["frame"] + [f"dac{k}" for k in range(6)] + [f"t{k}_ns" for k in range(6)])
-    table_ = np.column_stack([np.arange(n), codes, load_ns]).astype(np.float64)
-    np.savetxt(path, table_, delimiter=",", header=header, comments="",
-               fmt=["%d"] * 7 + ["%.3f"] * 6)
+    cols: dict[str, np.ndarray] = {"frame": np.arange(n)}
+    cols |= {f"dac{k}": codes[:, k] for k in range(6)}
+    cols |= {f"t{k}_ns": load_ns[:, k] for k in range(6)}
+    write_csv(path, cols, fmt={f"t{k}_ns": "%.3f" for k in range(6)})
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--in", dest="inp", required=True, type=Path, help="FRAMES.csv")
-    parser.add_argument("--out", required=True, type=Path, help="DAC.csv to write")
+    parser.add_argument("--out", required=True, type=Path,
+                        help="DAC.csv to write (its folder must exist)")
     parser.add_argument("--engine", choices=("rtl", "model"), default="rtl",
                         help="rtl: cocotb + Verilator, checked against the model (default)")
     parser.add_argument("--clk-hz", type=int, default=50_000_000,
-                        help="FPGA clock (default 50 MHz)")
+                        help="FPGA clock, checked against the RTL's rules before any work "
+                             "(default 50 MHz)")
     parser.add_argument("--offset-binary", action="store_true", help="DAC coding (codes out are "
                         "signed either way)")
 
 
 def main(args: argparse.Namespace) -> int:
-    cfg = cm.CommutationConfig(clk_hz=args.clk_hz, offset_binary=args.offset_binary)
     try:
-        frames = read_frames(args.inp, cfg)
-    except (InputError, OSError) as exc:
-        print(f"error: {args.inp}: {exc}", file=sys.stderr)
+        why = clock_error(args.clk_hz, args.engine)
+        if why:
+            raise CaptureError(why)
+        check_output(args.out, [args.inp])
+        cfg = cm.CommutationConfig(clk_hz=args.clk_hz, offset_binary=args.offset_binary)
+        frames, ignored = read_frames(args.inp, cfg)
+    except CaptureError as exc:
+        print(f"error: {exc}", file=sys.stderr)
         return 2
+    if ignored:
+        print(f"note: {args.inp}: ignored column(s) {', '.join(ignored)}", file=sys.stderr)
     t0 = time.perf_counter()
     model = cm.commutate(frames, cfg)
     t_model = time.perf_counter() - t0

@@ -11,20 +11,30 @@ from pathlib import Path
 
 import numpy as np
 
-from ..base.capture import CaptureError, as_int, read_csv_columns, write_csv
+from ..base.capture import CaptureError, Column, check_output, read_table, write_csv
 from ..base.report import table
 from ..golden import interp
 from ..runners import native
 
 OUT_COLUMNS = ("pos", "vel", "fault", "pos_homed", "index_pos", "index_count", "homed",
                "overspeed_count")
+# CAPTURE.csv columns (hapgate.base.capture's rules). truth_counts is in the capture's own unit,
+# 1024 counts per line (2**20 per revolution of a 1024-line encoder) whatever --lut-bits: the
+# replay rescales it to the run's resolution (8 * 2**lut_bits counts per line).
+TRUTH_COUNTS_PER_LINE = 1024
+CAPTURE = (Column("a", lo=-128, hi=127), Column("b", lo=-128, hi=127),
+           Column("index", lo=0, hi=1, required=False),
+           Column("truth_counts", kind="float", required=False))
+MAX_CLK_HZ = 2_147_000_000   # a 32-bit Verilog integer parameter
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--in", dest="inp", required=True, type=Path,
                    help="CAPTURE.csv: header; a,b (signed ADC codes); optional index (0/1), "
-                        "truth_counts (float); other columns ignored")
-    p.add_argument("--out", required=True, type=Path, help="RESULT.csv (row k = sample k)")
+                        "truth_counts (float, 1024 counts per line at any --lut-bits); other "
+                        "columns ignored (and named)")
+    p.add_argument("--out", required=True, type=Path,
+                   help="RESULT.csv (row k = sample k); its folder must exist")
     p.add_argument("--engine", choices=("rtl", "model"), default="rtl",
                    help="rtl: the native Verilator harness; model: the golden model")
     p.add_argument("--compare", action="store_true",
@@ -32,8 +42,8 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--lut-bits", type=int, default=7, choices=range(5, 10), metavar="{5..9}",
                    help="arcsine LUT codes per 45 deg = 2**N (default 7)")
     p.add_argument("--clk-hz", type=int, default=interp.MIN_CLK_HZ,
-                   help="FPGA clock for --engine rtl (default: one clock per sample; results "
-                        "are identical at any clock)")
+                   help="FPGA clock for --engine rtl: a multiple of the 1 MHz sample rate "
+                        "(default: one clock per sample; results are identical at any clock)")
     p.add_argument("--no-align", action="store_true",
                    help="do not remove the mean offset between position and truth_counts")
 
@@ -49,17 +59,31 @@ def _engine(name: str, cap: dict[str, np.ndarray], cfg: interp.InterpConfig, clk
     return out, time.perf_counter() - t0
 
 
+def clock_error(clk_hz: int) -> str | None:
+    """Why the interpolator RTL would refuse this clock (rtl/interp/sample_strobe.v), or None."""
+    if clk_hz < interp.MIN_CLK_HZ or clk_hz % interp.MIN_CLK_HZ or clk_hz > MAX_CLK_HZ:
+        return (f"--clk-hz {clk_hz}: the FPGA clock must be a multiple of the 1 MHz sample rate "
+                f"(1000000, 2000000, ... 48000000, ...) up to {MAX_CLK_HZ}")
+    return None
+
+
 def main(args: argparse.Namespace) -> int:
     cfg = interp.InterpConfig(lut_bits=args.lut_bits)
+    why = clock_error(args.clk_hz)
     try:
-        raw = read_csv_columns(args.inp, ["a", "b"], ["index", "truth_counts"])
-        cap = {"a": as_int(args.inp, "a", raw["a"], -128, 127).astype(np.int8),
-               "b": as_int(args.inp, "b", raw["b"], -128, 127).astype(np.int8)}
-        if "index" in raw:
-            cap["index"] = as_int(args.inp, "index", raw["index"], 0, 1).astype(bool)
+        if why:
+            raise CaptureError(why)
+        check_output(args.out, [args.inp])
+        tab = read_table(args.inp, CAPTURE)
     except CaptureError as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 2
+    if tab.ignored:
+        print(f"note: {args.inp}: ignored column(s) {', '.join(tab.ignored)}", file=sys.stderr)
+    raw = tab.columns
+    cap = {"a": raw["a"].astype(np.int8), "b": raw["b"].astype(np.int8)}
+    if "index" in raw:
+        cap["index"] = raw["index"].astype(bool)
     n = cap["a"].size
     engines = ("rtl", "model") if args.compare else (args.engine,)
     results = {e: _engine(e, cap, cfg, args.clk_hz) for e in engines}
@@ -74,7 +98,8 @@ def main(args: argparse.Namespace) -> int:
     for e, (o, secs) in results.items():
         row: list[object] = [e, n, f"{secs:.3f}", f"{n / secs:.3e}"]
         if "truth_counts" in raw:
-            err = interp.truth_counts_error(o["pos"], raw["truth_counts"])
+            truth = raw["truth_counts"] * (cfg.counts_per_line / TRUTH_COUNTS_PER_LINE)
+            err = interp.truth_counts_error(o["pos"], truth)
             offset = 0.0 if args.no_align else float(err.mean())
             err = err - offset
             rms, mx = float(np.sqrt(np.mean(err**2))), float(np.abs(err).max())
@@ -85,7 +110,8 @@ def main(args: argparse.Namespace) -> int:
         rows.append(row)
     headers = ["engine", "samples", "seconds", "samples/s"]
     if "truth_counts" in raw:
-        headers += ["offset [counts]", "rms [counts]", "max [counts]", "rms [el deg]",
+        headers += [f"offset [1/{cfg.counts_per_line} line]", f"rms [1/{cfg.counts_per_line} line]",
+                    f"max [1/{cfg.counts_per_line} line]", "rms [el deg]",
                     "max [el deg]", "rms [mech deg]", "max [mech deg]"]
     print(table(headers, rows))
     faults = int(np.count_nonzero(out["faults"]))
@@ -94,8 +120,8 @@ def main(args: argparse.Namespace) -> int:
         bad = native.first_mismatch(results["rtl"][0], results["model"][0])
         if bad is not None:
             k, col, r, m = bad
-            print(f"MISMATCH: first at sample {k} (line {k + 2}), column {col}: rtl {r}, "
-                  f"model {m}")
+            print(f"MISMATCH: first at sample {k} (line {int(tab.lines[k])}), column {col}: "
+                  f"rtl {r}, model {m}")
             return 1
         print("rtl and model agree on every sample and column")
     return 0
