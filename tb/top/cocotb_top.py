@@ -59,6 +59,11 @@ def stimulus(n: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         a[:, i], b[:, i] = qa, qb
         idx[:, i] = encsig.index_bit(x)
     s = int(0.35 * n)
+    # the fault becomes visible just after a frame start: the worst case for the commutator
+    # alone (motor 1's loads of that frame are still to come; only the output stage can zero
+    # them within one frame)
+    while ((s + 1) * CFG.div + topm.LATENCY) % CFG.comm.frame_clocks > CFG.comm.skew_clocks:
+        s += 1
     a[s:s + 3, 1] = 127                                      # ADC clipping: axis 1 fault
     return a, b, idx
 
