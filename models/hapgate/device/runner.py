@@ -42,6 +42,9 @@ ERR_NAMES = ("NONE", "NONFINITE", "AXIS_FAULT", "ENCODER", "STALE", "OVERRUN", "
              "FPGA_ID", "CONFIG")
 HAND_KINDS = {"none": 0, "spring": 1, "fixed": 2}
 COUNTS_PER_REV = 1 << 20
+# the wall's steady state: the hand's target at rest for 5 ms, the endpoint slower than 2 mm/s
+# and at least 0.2 mm into the wall
+STEADY_AFTER_S, STEADY_SPEED, STEADY_DEPTH = 5e-3, 2e-3, 2e-4
 CODE_FS = 32767              # firmware torque code at full scale
 
 FRAME_DT = np.dtype([("t", "<f8"), ("q", "<f8", 3), ("p", "<f8", 3), ("f_hand", "<f8", 3),
@@ -369,8 +372,10 @@ def metrics(scene: Any, raw: Raw) -> tuple[dict[str, Any], dict[str, list[float]
             v = np.gradient(p, fr["t"], axis=0) if fr.size > 2 else np.zeros_like(p)
             law = np.maximum(0.0, scene.env.k * depth - scene.env.b * (v @ n))
             f_law = np.where(depth[:, None] > 0, law[:, None] * n, 0.0)
-            steady = (np.linalg.norm(v, axis=1) < 2e-3) & (fr["t"] > 0.02) & \
-                (fr["t"] < first_fault) & (depth > 2e-4)
+            path = getattr(scene.hand, "path", None) or ()
+            t_rest = (float(path[-1][0]) if len(path) else 0.0) + STEADY_AFTER_S
+            steady = (np.linalg.norm(v, axis=1) < STEADY_SPEED) & (fr["t"] > t_rest) & \
+                (fr["t"] < first_fault) & (depth > STEADY_DEPTH)
             if steady.any():
                 m["force_error_n"] = float(np.linalg.norm(f_dev - f_law, axis=1)[steady].max())
                 m["force_samples"] = int(steady.sum())
