@@ -50,6 +50,7 @@ P_MAX_M = 0.2                        # |point| limit, dsp-fw/include/hg_scene.h 
 K_MAX = 3500.0                       # N/m,      HG_SCENE_K_MAX
 B_MAX = 100.0                        # N s/m,    HG_SCENE_B_MAX
 KI_MAX = 1.0e5                       # N/(m s),  HG_SCENE_KI_MAX
+QD_MAX_DEG_S = math.degrees(100.0)   # dsp-fw qd_max = 100 rad/s: the fastest physical joint
 GRAVITY_K_LEN = 12                   # dsp-fw/include/hg_gravity.h: k[12], k[n-1] = k_ny
 
 
@@ -68,6 +69,7 @@ class RunCfg:
     seed: int = 1                    # seeds every random source (encoder noise, link garbage)
     q0_deg: tuple[float, float, float] | None = None   # initial joint angles, deg (resolved
     #                                   on load: IK of the hand path[0], else DEFAULT_Q0_DEG)
+    qd0_deg_s: tuple[float, float, float] = (0.0, 0.0, 0.0)   # initial joint speeds, deg/s
     name: str | None = None          # output folder name (resolved on load: the file's stem)
 
 
@@ -401,7 +403,14 @@ class _Validator:
             "trace": self.bool_, "record": record,
             "seed": lambda x, k: self.int_(x, k, lambda s: 0 <= s < 2**32, "0 <= seed < 2^32"),
             "q0_deg": lambda x, k: self.vec(x, k, 3, lambda a: abs(a) <= 180, "|deg| <= 180"),
+            "qd0_deg_s": lambda x, k: self.vec(x, k, 3, lambda w: abs(w) <= QD_MAX_DEG_S,
+                                               f"|deg/s| <= {QD_MAX_DEG_S:.0f} (the firmware's "
+                                               "qd_max, 100 rad/s)"),
             "name": name})
+        for a, w in enumerate(kw.get("qd0_deg_s", ())):   # type: ignore[arg-type]
+            if w != 0 and a not in kw.get("axes", RunCfg.axes):   # type: ignore[operator]
+                raise self.fail(f"run.qd0_deg_s[{a}]", f"axis {a} is not simulated (its joint "
+                                                       "is held): the speed must be 0")
         kw.setdefault("name", stem if re.fullmatch(r"[A-Za-z0-9_][A-Za-z0-9_.-]{0,63}", stem)
                       else "scene")
         return RunCfg(**kw)  # type: ignore[arg-type]
