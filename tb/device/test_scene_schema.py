@@ -12,7 +12,6 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-
 from hapgate.base.paths import ROOT
 from hapgate.device import scene as sc
 from hapgate.golden import encsig, kinematics
@@ -289,8 +288,8 @@ def test_missing_file_and_folder(tmp_path: Path) -> None:
 def test_limits_follow_the_firmware_header() -> None:
     """The env ranges are dsp-fw's hg_scene_check() ranges, read from its header."""
     hdr = (ROOT / "dsp-fw" / "include" / "hg_scene.h").read_text()
-    got = {m[1]: float(m[2]) for m in re.finditer(r"#define HG_SCENE_(\w+)_MAX\s+HG_C\(([\d.e+]+)\)",
-                                                 hdr)}
+    pat = r"#define HG_SCENE_(\w+)_MAX\s+HG_C\(([\d.e+]+)\)"
+    got = {m[1]: float(m[2]) for m in re.finditer(pat, hdr)}
     assert got == {"K": sc.K_MAX, "B": sc.B_MAX, "KI": sc.KI_MAX, "P": sc.P_MAX_M}
     servo = (ROOT / "dsp-fw" / "include" / "hg_servo.h").read_text()
     errs = re.findall(r"HG_ERR_(\w+) = \d+", servo)

@@ -136,10 +136,11 @@ def summary_text(r: RunResult, outcomes: list[Outcome]) -> str:
         parts += ["", report.table(["metric", "value"],
                                    [[k, _plain(v)] for k, v in r.metrics.items()])]
     if r.events:
-        cols = ["kind", "axis", "cause_s", "zero_torque_s", "reaction_us"]
         parts += ["", "safety events:", report.table(
-            cols, [[_plain(e.get(c, "-")) if e.get(c) is not None else "-" for c in cols]
-                   for e in r.events])]
+            ["kind", "axis", "cause_s", "zero_torque_s", "reaction_us"],
+            [[e.get("kind", "-"), _fmt(e.get("axis"), "{}"), _fmt(e.get("cause_s"), "{:.6f}"),
+              _fmt(e.get("zero_torque_s"), "{:.6f}"), _fmt(e.get("reaction_us"), "{:.2f}")]
+             for e in r.events])]
     if outcomes:
         parts += ["", report.table(["expect", "limit", "metric", "measured", "result", "why"],
                                    [o.row() for o in outcomes])]
@@ -147,6 +148,12 @@ def summary_text(r: RunResult, outcomes: list[Outcome]) -> str:
     parts += ["", f"result: {verdict(outcomes)} ({n_ok}/{len(outcomes)} expects hold; "
                   f"{r.sim_s:.4g} s simulated in {r.wall_s:.4g} s, {r.rtf:.3g}x real time)"]
     return "\n".join(parts)
+
+
+def _fmt(x: object, spec: str) -> str:
+    """A table cell with a fixed format; "-" when the value is missing or not finite."""
+    x = _plain(x)
+    return "-" if x is None else spec.format(x)
 
 
 def _at(values: list[float], i: int) -> object:
