@@ -251,22 +251,25 @@ def _plot_position(plt, r: RunResult):  # noqa: ANN001, ANN202
     if "p" in a:
         ax = axs[row, 0]
         p = np.asarray(a["p"])
+        p0 = p[0] if len(p) else np.zeros(3)
         for i, c in enumerate("xyz"):
-            ax.plot(t, 1e3 * p[:, i], label=f"{c} endpoint")
+            ax.plot(t, 1e3 * (p[:, i] - p0[i]), color=f"C{i}", label=f"{c} endpoint")
         if s.hand.kind != "none" and len(t):
-            tgt = s.hand.target(t, p[0])
+            tgt = s.hand.target(t, p0)
             for i, c in enumerate("xyz"):
-                ax.plot(t, 1e3 * tgt[:, i], "--", lw=0.8, label=f"{c} hand target")
-        ax.set_ylabel("mm")
+                ax.plot(t, 1e3 * (tgt[:, i] - p0[i]), "--", color=f"C{i}", lw=0.8,
+                        label=f"{c} hand target")
+        ax.set_ylabel("mm from the start\n" + ", ".join(f"{1e3 * c:.1f}" for c in p0))
         ax.legend(fontsize=7, ncol=2)
         ax.set_title(f"{s.name}: true endpoint (hand {s.hand.kind}, env {s.env.kind})")
         row += 1
     if "q" in a:
         ax = axs[row, 0]
         q = np.rad2deg(np.asarray(a["q"]))
-        for i, c in enumerate(("alpha", "beta", "gamma")):
-            ax.plot(t, q[:, i], label=c)
-        ax.set_ylabel("joint angle, deg")
+        q0 = q[0] if len(q) else np.zeros(3)
+        for i, c in enumerate(AXIS_NAMES):
+            ax.plot(t, q[:, i] - q0[i], label=c)
+        ax.set_ylabel("joint angle from the start, deg\n" + ", ".join(f"{c:.1f}" for c in q0))
         ax.legend(fontsize=7)
     for f in s.faults:
         for ax in axs[:, 0]:
@@ -284,14 +287,21 @@ def _plot_force_depth(plt, r: RunResult):  # noqa: ANN001, ANN202
         n, p0 = np.asarray(e.normal), np.asarray(e.point)
         depth = (p0 - p) @ n
         fn = f @ n
-        ax.plot(1e3 * depth, fn, ".", ms=2, label="force on the hand along n")
+        after = _after_fault(r, len(depth))
+        ax.plot(1e3 * depth[~after], fn[~after], ".", ms=2, label="force on the hand along n")
+        if after.any():
+            ax.plot(1e3 * depth[after], fn[after], ".", ms=2, color="r", label="after a fault")
         d = np.linspace(min(0.0, depth.min()), max(depth.max(), 1e-4), 50)
         ax.plot(1e3 * d, e.k * np.maximum(d, 0.0), "k--", label=f"wall law k = {e.k:g} N/m")
         ax.set_xlabel("depth into the wall, mm")
         ax.set_ylabel("N")
     else:
         err = np.linalg.norm(p - np.asarray(e.point), axis=1)
-        ax.plot(1e3 * err, np.linalg.norm(f, axis=1), ".", ms=2, label="|force on the hand|")
+        after = _after_fault(r, len(err))
+        fm = np.linalg.norm(f, axis=1)
+        ax.plot(1e3 * err[~after], fm[~after], ".", ms=2, label="|force on the hand|")
+        if after.any():
+            ax.plot(1e3 * err[after], fm[after], ".", ms=2, color="r", label="after a fault")
         d = np.linspace(0, max(err.max(), 1e-4), 50)
         ax.plot(1e3 * d, e.k * d, "k--", label=f"spring law k = {e.k:g} N/m")
         ax.set_xlabel("distance from the anchor, mm")
@@ -300,6 +310,14 @@ def _plot_force_depth(plt, r: RunResult):  # noqa: ANN001, ANN202
     ax.set_title(f"{r.scene.name}: force against depth")
     fig.tight_layout()
     return fig
+
+
+def _after_fault(r: RunResult, n: int) -> np.ndarray:
+    """Samples at or after the first fault (False everywhere without t or faults)."""
+    t = r.arrays.get("t")
+    if t is None or not r.scene.faults or len(t) != n:
+        return np.zeros(n, dtype=bool)
+    return np.asarray(t) >= r.scene.faults[0].at_s
 
 
 def _plot_dac(plt, r: RunResult):  # noqa: ANN001, ANN202
