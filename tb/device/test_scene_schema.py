@@ -224,6 +224,10 @@ BAD = [
      r": hand\.path\[0\]: \|p\| = 0\.25"),
     ("path_unreachable", '[hand]\nkind = "spring"\npath = [[0.0, 0.0, 0.15, 0.0]]\n',
      r": hand\.path\[0\]: the start point is outside the workspace"),
+    ("grip_unreachable", '[hand]\nkind = "fixed"\npath = [[0.0, -0.005, 0.0712, -0.0019], '
+     '[0.1, 0.0, 0.15, 0.0]]\n', r": hand\.path\[1\]: outside the workspace"),
+    ("grip_jumps", '[run]\nq0_deg = [10, 40, 40]\n[hand]\nkind = "fixed"\n'
+     'path = [[0.0, -0.005, 0.0712, -0.0019]]\n', r": hand\.path\[0\]: the rigid grip starts"),
     ("encoder_amplitude", "[encoder]\namplitude = 128\n", r": encoder\.amplitude: 128 out of"),
     ("encoder_axis_gain", "[encoder.2]\ngain_a = 2.0\n", r": encoder\.2\.gain_a: 2\.0 out of"),
     ("encoder_h3", "[encoder]\nh3 = 0.5\n", r": encoder\.h3: 0\.5 out of range"),

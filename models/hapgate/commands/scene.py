@@ -59,12 +59,18 @@ def _outdir(out: Path) -> Path | None:
 
 
 def cmd_run(args: argparse.Namespace) -> int:
+    return run_file(args.file, args.out)
+
+
+def run_file(file: Path, out_dir: Path | None = None) -> int:
+    """Load, run, print and write one scene (what `hapgate scene run` does; `make demo` can
+    call it on scenes/short.toml). Returns the exit status."""
     try:
-        scene = load(args.file)
+        scene = load(file)
     except SceneError as exc:
         _err(str(exc))
         return EXIT_BAD_INPUT
-    out = _outdir(args.out if args.out is not None else BUILD / "scenes" / scene.name)
+    out = _outdir(out_dir if out_dir is not None else BUILD / "scenes" / scene.name)
     if out is None:
         return EXIT_BAD_INPUT
     try:

@@ -52,6 +52,7 @@ B_MAX = 100.0                        # N s/m,    HG_SCENE_B_MAX
 KI_MAX = 1.0e5                       # N/(m s),  HG_SCENE_KI_MAX
 QD_MAX_DEG_S = math.degrees(100.0)   # dsp-fw qd_max = 100 rad/s: the fastest physical joint
 GRAVITY_K_LEN = 12                   # dsp-fw/include/hg_gravity.h: k[12], k[n-1] = k_ny
+GRIP_GAP_M = 1e-4                    # a rigid grip's path must start at the start pose (0.1 mm)
 
 
 # ------------------------------------------------------------------------------- the schema
@@ -608,9 +609,22 @@ class _Validator:
     def q0(self, run: RunCfg, hand: HandCfg) -> tuple[float, float, float]:
         """The initial joint angles: given, else IK of the hand path's first point, else the
         default pose. The start pose must be reachable and clear of the singular sets."""
+        if hand.kind == "fixed":          # a rigid grip goes where its path goes
+            qs, ok = kinematics.ik(np.asarray([r[1:] for r in hand.path]).reshape(-1, 3))
+            for i in np.flatnonzero(~ok):
+                raise self.fail(f"hand.path[{i}]", "outside the workspace (no inverse "
+                                                   "kinematics): a rigid grip cannot go there")
+            for i in np.flatnonzero(kinematics.guard(qs) < 1.0):
+                raise self.fail(f"hand.path[{i}]", "too near a singular set for a rigid grip")
         if run.q0_deg is not None:
             q = tuple(run.q0_deg)
             key = "run.q0_deg"
+            if hand.kind == "fixed" and hand.path:
+                gap = float(np.linalg.norm(kinematics.fk(np.deg2rad(q)) - hand.path[0][1:]))
+                if gap > GRIP_GAP_M:
+                    raise self.fail("hand.path[0]", f"the rigid grip starts {1e3 * gap:.3g} mm "
+                                                    "from the endpoint of run.q0_deg (it "
+                                                    "would jump)")
         elif hand.path:
             qr, ok = kinematics.ik(np.asarray(hand.path[0][1:]))
             if not bool(ok):
