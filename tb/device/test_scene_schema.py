@@ -258,6 +258,9 @@ BAD = [
     ("expect_fw_error", '[expect]\nfw_error = "OOPS"\n', r": expect\.fw_error: 'OOPS' is not"),
     ("expect_negative", "[expect]\nmax_force_error_n = -1.0\n", r": expect\.max_force_error_n"),
     ("expect_slips_float", "[expect]\nmax_slips = 0.5\n", r": expect\.max_slips: must be an"),
+    ("trace_model", '[run]\nfidelity = "model"\ntrace = true\n', r": run\.trace: a waveform"),
+    ("zero_torque_no_fault", "[expect]\nzero_torque_within_us = 20.0\n",
+     r": expect\.zero_torque_within_us: the scene injects no"),
     ("expect_ratio_order", "[expect]\nmin_torque_ratio = 0.9\nmax_torque_ratio = 0.8\n",
      r": expect\.min_torque_ratio: exceeds"),
 ]

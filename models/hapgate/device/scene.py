@@ -279,6 +279,7 @@ def from_dict(d: Mapping[str, Any], source: str = "<scene>") -> Scene:
     firmware = v.firmware(v.sub(top, "firmware"), run)
     plant = v.plant(v.sub(top, "plant"))
     expect = v.expect(v.sub(top, "expect"))
+    v.consistent(run, faults, expect)
     run = replace(run, q0_deg=v.q0(run, hand))
     raw = json.dumps(d, default=str)
     return Scene(run, env, hand, encoders, faults, firmware, plant, expect, source, raw)
@@ -605,6 +606,14 @@ class _Validator:
                 and kw["min_torque_ratio"] > kw["max_torque_ratio"]:  # type: ignore[operator]
             raise self.fail("expect.min_torque_ratio", "exceeds expect.max_torque_ratio")
         return ExpectCfg(**kw)  # type: ignore[arg-type]
+
+    def consistent(self, run: RunCfg, faults: tuple[FaultCfg, ...], expect: ExpectCfg) -> None:
+        """Rules across sections."""
+        if run.trace and run.fidelity != "rtl":
+            raise self.fail("run.trace", "a waveform needs the gateware (fidelity = \"rtl\")")
+        if expect.zero_torque_within_us is not None and not faults:
+            raise self.fail("expect.zero_torque_within_us", "the scene injects no [[fault]] "
+                                                            "to react to")
 
     def q0(self, run: RunCfg, hand: HandCfg) -> tuple[float, float, float]:
         """The initial joint angles: given, else IK of the hand path's first point, else the
