@@ -139,6 +139,14 @@ def test_hand_target_is_smooth_and_holds(tmp_path: Path) -> None:
     assert np.allclose(empty.target(np.array([0.0, 1.0]), np.array([1.0, 2, 3])), [1, 2, 3])
 
 
+def test_digest_is_content_only(tmp_path: Path) -> None:
+    text = (ROOT / "scenes" / "wall.toml").read_text()
+    a, b = sc.load(write(tmp_path, text, "a.toml")), sc.load(write(tmp_path, text, "b.toml"))
+    assert a.name != b.name and a.digest() == b.digest()
+    assert a.override({"env.k": 2001.0}).digest() != a.digest()
+    assert a.override({"encoder.2.noise_lsb": 0.1}).digest() != a.digest()
+
+
 def test_override_revalidates(tmp_path: Path) -> None:
     s = sc.load(ROOT / "scenes" / "wall.toml")
     t = s.override({"env.k": 3000, "run.record": ("q", "dac"), "encoder.1.h3": 0.02})

@@ -13,6 +13,7 @@ the dataclasses below and nowhere else; the runner takes the validated `Scene`, 
 
 from __future__ import annotations
 
+import hashlib
 import json
 import math
 import re
@@ -225,6 +226,14 @@ class Scene:
                     raise SceneError(f"{self.source}: {dotted}: not a table")
             node[last] = json.loads(json.dumps(value))   # tuples -> arrays, like TOML
         return from_dict(d, self.source)
+
+    def digest(self) -> str:
+        """A stable content hash (sha256 hex) of the validated scene, without its file and
+        name: equal for equal scenes in any process (for caches keyed by parameters)."""
+        d = self.summary()
+        d.pop("source")
+        d["run"].pop("name")  # type: ignore[union-attr]
+        return hashlib.sha256(json.dumps(d, sort_keys=True).encode()).hexdigest()
 
     def summary(self) -> dict[str, object]:
         """The validated scene as plain JSON-able data (for summary.json)."""
