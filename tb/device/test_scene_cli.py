@@ -9,6 +9,7 @@ from __future__ import annotations
 import dataclasses
 import io
 import json
+import re
 import subprocess
 import sys
 import types
@@ -51,6 +52,10 @@ def synthetic(scene: Scene, metrics: dict, arrays: bool = True) -> res.RunResult
         per_axis={"pos_err_rms_counts": [1.0, 2.0, 3.0][:len(scene.run.axes)]})
 
 
+class DeviceError(RuntimeError):
+    """Stands for the runner's own error class (a clear message, no traceback)."""
+
+
 class FakeRunner:
     def __init__(self, metrics: dict | None = None, exc: Exception | None = None,
                  arrays: bool = True) -> None:
@@ -61,7 +66,7 @@ class FakeRunner:
     def run(self, scene: Scene, progress) -> res.RunResult:  # noqa: ANN001
         self.calls.append(scene)
         progress(scene.run.duration_s / 2)
-        progress(scene.run.duration_s)
+        progress(scene.run.duration_s, scene.run.duration_s)   # (done, total) also accepted
         if self.exc is not None:
             raise self.exc
         return synthetic(scene, self.metrics, self.arrays)
@@ -74,6 +79,7 @@ def fake(monkeypatch: pytest.MonkeyPatch):  # noqa: ANN201
         fr = FakeRunner(**kw)  # type: ignore[arg-type]
         mod = types.ModuleType("hapgate.device.runner")
         mod.run = fr.run  # type: ignore[attr-defined]
+        mod.DeviceError = DeviceError  # type: ignore[attr-defined]
         monkeypatch.setitem(sys.modules, "hapgate.device.runner", mod)
         monkeypatch.setattr(hapgate.device, "runner", mod, raising=False)
         return fr
@@ -233,8 +239,27 @@ def test_runner_refusal_exits_2_and_failure_exits_3(fake, tmp_path: Path, capsys
     assert "run.fidelity: not built here" in capsys.readouterr().err
     fake(exc=RuntimeError("harness died"))
     assert run_cli("run", WALL, "--out", tmp_path) == 3
-    assert "the run failed: harness died" in capsys.readouterr().err
+    err = capsys.readouterr().err
+    assert "the run failed: harness died" in err and "Traceback" in err   # a bug: traceback
+    fake(exc=DeviceError("fidelity 'model': not implemented"))
+    assert run_cli("run", WALL, "--out", tmp_path) == 3
+    err = capsys.readouterr().err
+    assert err == f"error: {WALL}: the run failed: fidelity 'model': not implemented\n"
     assert list(tmp_path.iterdir()) == []
+
+
+def test_per_axis_rows_per_simulated_axis_or_per_motor() -> None:
+    s = load(ROOT / "scenes" / "short.toml")          # axes = [1]
+    r = synthetic(s, {})
+    r.per_axis = {"pos_err_rms_counts": [5.5], "torque_ratio": [0.9, 0.8, float("nan")]}
+    r.events = [{"kind": "dropout", "axis": 1, "cause_s": 0.01, "zero_torque_s": float("nan"),
+                 "reaction_us": float("inf")}]
+    text = res.summary_text(r, [])
+    assert re.search(r"^1 beta +5\.5 +0\.8$", text, re.M), text
+    assert re.search(r"^dropout +1 +0\.010000 +nan +inf$", text, re.M), text
+    s3 = synthetic(load(WALL), {})
+    s3.per_axis = {"torque_ratio": [0.9, 0.8, float("nan")]}
+    assert re.search(r"^2 gamma +nan$", res.summary_text(s3, []), re.M)
 
 
 def test_no_runner_exits_3(tmp_path: Path, monkeypatch, capsys) -> None:  # noqa: ANN001
@@ -292,3 +317,11 @@ def test_progress_quiet_for_short_runs_then_quarters() -> None:
     assert len(buf.getvalue().splitlines()) == 3
     with pytest.raises(ValueError):
         Progress(total=0.0)
+
+
+def test_progress_takes_the_total_from_the_caller() -> None:
+    clk, buf = Clock(), io.StringIO()
+    bar = Progress(total=1.0, label="y", stream=buf, clock=clk)
+    clk.now = 3.0
+    bar(2.0, 4.0)          # half of a 4 s run
+    assert "50.0 %" in buf.getvalue() and "2/4" in buf.getvalue()

@@ -1,7 +1,7 @@
 """A progress bar for long runs (standard library only; writes to stderr, never to stdout).
 
     with Progress(total=scene.run.duration_s, label="wall", unit="s") as bar:
-        runner.run(scene, progress=bar)          # the runner calls bar(done) as it likes
+        runner.run(scene, progress=bar)   # the runner calls bar(done[, total]) as it likes
 
 Nothing is shown for the first `delay_s` (2 s): short runs stay quiet. On a terminal the bar
 redraws in place at most `rate_hz` times a second; into a file or pipe it writes one line per
@@ -36,7 +36,10 @@ class Progress:
     def tty(self) -> bool:
         return bool(getattr(self.stream, "isatty", lambda: False)())
 
-    def __call__(self, done: float) -> None:
+    def __call__(self, done: float, total: float | None = None) -> None:
+        """`done` of `total` (the total given at construction unless passed here)."""
+        if total is not None and total > 0:
+            self.total = float(total)
         self.done = min(max(float(done), 0.0), self.total)
         now = self.clock()
         elapsed = now - self.t0

@@ -84,8 +84,10 @@ def run_file(file: Path, out_dir: Path | None = None) -> int:
     except SceneError as exc:          # the runner refuses a combination it cannot build
         _err(str(exc))
         return EXIT_BAD_INPUT
-    except Exception as exc:  # noqa: BLE001 - reported with its traceback, distinct exit code
-        traceback.print_exc()
+    except Exception as exc:  # noqa: BLE001 - reported, distinct exit code
+        known = getattr(runner, "DeviceError", ())   # the runner's own, clear message
+        if not (isinstance(known, type) and isinstance(exc, known)):
+            traceback.print_exc()
         _err(f"{scene.source}: the run failed: {exc}")
         return EXIT_NO_RUN
     outcomes = res.evaluate(scene.expect, r.metrics)

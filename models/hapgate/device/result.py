@@ -53,7 +53,7 @@ class RunResult:
     #                                                     reaction_us
     metrics: dict[str, float | int | str] = field(default_factory=dict)   # names: METRIC_OF
     per_axis: dict[str, list[float]] = field(default_factory=dict)   # one value per entry
-    #                                                     of `axes`, e.g. pos_err_rms_counts
+    #             of `axes` (e.g. pos_err_rms_counts), or one per motor 0..2 (e.g. torque_ratio)
 
 
 @dataclass(frozen=True)
@@ -130,7 +130,8 @@ def summary_text(r: RunResult, outcomes: list[Outcome]) -> str:
         names = list(r.per_axis)
         rows = []
         for i, a in enumerate(r.axes):
-            rows.append([f"{a} {AXIS_NAMES[a]}"] + [_at(r.per_axis[n], i) for n in names])
+            rows.append([f"{a} {AXIS_NAMES[a]}"]
+                        + [_at(r.per_axis[n], i, a, len(r.axes)) for n in names])
         parts += ["", report.table(["axis", *names], rows)]
     if r.metrics:
         parts += ["", report.table(["metric", "value"],
@@ -151,13 +152,23 @@ def summary_text(r: RunResult, outcomes: list[Outcome]) -> str:
 
 
 def _fmt(x: object, spec: str) -> str:
-    """A table cell with a fixed format; "-" when the value is missing or not finite."""
-    x = _plain(x)
-    return "-" if x is None else spec.format(x)
+    """A table cell with a fixed format; "-" when missing, "inf"/"nan" when not finite."""
+    if x is None:
+        return "-"
+    if isinstance(x, float | np.floating) and not math.isfinite(x):
+        return str(float(x))
+    return spec.format(_plain(x))
 
 
-def _at(values: list[float], i: int) -> object:
-    return _plain(values[i]) if i < len(values) else "-"
+def _at(values: list[float], i: int, axis: int, n_axes: int) -> object:
+    """Value of the i-th simulated axis (= axis): lists are per simulated axis or per motor."""
+    if len(values) == n_axes:
+        v = values[i]
+    elif len(values) == 3:
+        v = values[axis]
+    else:
+        return "-"
+    return _fmt(v, "{:.4g}") if isinstance(v, float | np.floating) else v
 
 
 def _plain(x: object) -> object:

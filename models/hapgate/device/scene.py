@@ -157,8 +157,7 @@ class PlantCfg:
     b_visc_nms: tuple[float, float, float] = (2e-4, 2e-4, 2e-4)
     tau_coulomb_nm: tuple[float, float, float] = (0.0, 0.0, 0.0)
     gravity_k: tuple[float, ...] = ()      # empty: no gravity; else k1..k12 (hg_gravity.h order)
-    gravity_q_ab: float = 0.0              # Q_ab, Q_ac of eq (2) (hg_gravity_t), with gravity_k
-    gravity_q_ac: float = 0.0
+    gravity_q: tuple[float, float] = (0.0, 0.0)   # (Q_ab, Q_ac) of eq (2) (hg_gravity_t)
     dt_s: float = 1e-6                     # integrator step: 1e-6 / n, n = 1..16
 
     @property
@@ -253,7 +252,7 @@ def load(path: str | Path) -> Scene:
     except OSError as exc:
         raise SceneError(f"{path}: cannot read: {exc.strerror or exc}") from None
     try:
-        text = data.decode("utf-8")
+        text = data.decode("utf-8-sig")   # a leading BOM is fine
     except UnicodeDecodeError as exc:
         line = data.count(b"\n", 0, exc.start) + 1
         raise SceneError(f"{path}:{line}: not UTF-8 (byte 0x{data[exc.start]:02x} at offset "
@@ -597,8 +596,7 @@ class _Validator:
             "m_link_kg": nonneg(1.0, " kg"), "m_handle_kg": nonneg(1.0, " kg"),
             "b_visc_nms": vec3(1.0, " N m s"), "tau_coulomb_nm": vec3(1.0, " N m"),
             "gravity_k": gravity,
-            "gravity_q_ab": lambda x, k: self.num(x, k, lambda v: abs(v) <= 10, "|Q| <= 10"),
-            "gravity_q_ac": lambda x, k: self.num(x, k, lambda v: abs(v) <= 10, "|Q| <= 10"),
+            "gravity_q": lambda x, k: self.vec(x, k, 2, lambda v: abs(v) <= 10, "|Q| <= 10"),
             "dt_s": dt})
         return PlantCfg(**kw)  # type: ignore[arg-type]
 
