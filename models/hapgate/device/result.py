@@ -25,6 +25,7 @@ from pathlib import Path
 import numpy as np
 
 from ..base import report
+from ..golden import kinematics
 from .scene import ExpectCfg, Scene
 
 # [expect] key -> the metric it reads
@@ -300,6 +301,10 @@ def _plot_force_depth(plt, r: RunResult):  # noqa: ANN001, ANN202
         fn = f @ n
         after = _after_fault(r, len(depth))
         ax.plot(1e3 * depth[~after], fn[~after], ".", ms=2, label="force on the hand along n")
+        dev = _device_force(r)
+        if dev is not None:
+            ax.plot(1e3 * depth[~after], (dev @ n)[~after], ".", ms=2, color="C2",
+                    label="device force J^-T tau along n")
         if after.any():
             ax.plot(1e3 * depth[after], fn[after], ".", ms=2, color="r", label="after a fault")
         d = np.linspace(min(0.0, depth.min()), max(depth.max(), 1e-4), 50)
@@ -321,6 +326,16 @@ def _plot_force_depth(plt, r: RunResult):  # noqa: ANN001, ANN202
     ax.set_title(f"{r.scene.name}: force against depth")
     fig.tight_layout()
     return fig
+
+
+def _device_force(r: RunResult) -> np.ndarray | None:
+    """The endpoint force the motor torques produce, F = J(q)^-T tau (N, (N, 3)), when q and
+    tau are recorded: the force law the device renders, apart from the hand's dynamics."""
+    a = r.arrays
+    if "q" not in a or "tau" not in a:
+        return None
+    jt = np.swapaxes(kinematics.jacobian(np.asarray(a["q"])), -1, -2)
+    return np.linalg.solve(jt, np.asarray(a["tau"])[..., None])[..., 0]
 
 
 def _after_fault(r: RunResult, n: int) -> np.ndarray:
