@@ -322,6 +322,9 @@ def test_progress_quiet_for_short_runs_then_quarters() -> None:
 def test_progress_takes_the_total_from_the_caller() -> None:
     clk, buf = Clock(), io.StringIO()
     bar = Progress(total=1.0, label="y", stream=buf, clock=clk)
-    clk.now = 3.0
-    bar(2.0, 4.0)          # half of a 4 s run
+    clk.now = 2.5          # e.g. a build: 2.5 s before the first report
+    bar(0.0, 4.0)
+    clk.now = 3.5
+    bar(2.0, 4.0)          # half of a 4 s run, 2 s simulated in 1 s: 1 s left
     assert "50.0 %" in buf.getvalue() and "2/4" in buf.getvalue()
+    assert "3.5 s elapsed,    1.0 s left" in buf.getvalue(), buf.getvalue()

@@ -31,6 +31,7 @@ class Progress:
         self.last_quarter = 0
         self.shown = False
         self.done = 0.0
+        self.first: tuple[float, float] | None = None
 
     @property
     def tty(self) -> bool:
@@ -42,6 +43,8 @@ class Progress:
             self.total = float(total)
         self.done = min(max(float(done), 0.0), self.total)
         now = self.clock()
+        if self.first is None:             # the rate is measured from the first report on
+            self.first = (now, self.done)  # (a build before the run does not count)
         elapsed = now - self.t0
         if elapsed < self.delay_s:
             return
@@ -59,7 +62,9 @@ class Progress:
         frac = self.done / self.total
         width = 30
         fill = int(round(width * frac))
-        eta = elapsed * (1 - frac) / frac if frac > 0 else float("nan")
+        t1, d1 = self.first if self.first is not None else (self.t0, 0.0)
+        rate = (self.done - d1) / (self.clock() - t1) if self.clock() > t1 else 0.0
+        eta = (self.total - self.done) / rate if rate > 0 else float("nan")
         self.stream.write(f"{self.label} [{'#' * fill}{'.' * (width - fill)}] {100 * frac:5.1f} % "
                           f"{self.done:.4g}/{self.total:.4g} {self.unit} "
                           f"{elapsed:6.1f} s elapsed, {eta:6.1f} s left{end}")

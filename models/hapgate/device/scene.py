@@ -23,7 +23,6 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-import tomllib
 
 from ..golden import encsig, kinematics
 
@@ -261,6 +260,10 @@ def load(path: str | Path) -> Scene:
 
 
 def loads(text: str, source: str = "<scene>") -> Scene:
+    try:
+        import tomllib  # here, not at the top: `hapgate` itself still starts on Python 3.10
+    except ImportError:  # pragma: no cover - the pinned venv is 3.11+
+        raise SceneError(f"{source}: reading scenes needs Python >= 3.11 (tomllib)") from None
     try:
         d = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
