@@ -190,6 +190,17 @@ def test_plots_only_for_recorded_data(fake, tmp_path: Path) -> None:  # noqa: AN
         "dac.png", "position.png", "run.npz", "summary.json"]
 
 
+def test_a_recorded_name_the_run_did_not_produce_is_reported(fake, tmp_path: Path,  # noqa: ANN001
+                                                             capsys) -> None:
+    scene = tmp_path / "s.toml"
+    scene.write_text('[run]\nrecord = ["q", "pos", "adc"]\n')
+    fake()                                  # the stand-in produces q but neither pos nor adc
+    assert run_cli("run", scene, "--out", tmp_path / "o") == 0
+    assert "WARNING: recorded but not produced by the run: pos, adc" in capsys.readouterr().out
+    s = json.loads((tmp_path / "o" / "summary.json").read_text())
+    assert s["missing_records"] == ["pos", "adc"]
+
+
 def test_default_out_is_build_scenes_name(fake, tmp_path: Path, monkeypatch) -> None:  # noqa: ANN001
     from hapgate.commands import scene as cmd
 

@@ -77,6 +77,11 @@ class Outcome:
                 "reason": self.reason}
 
 
+def missing_records(r: RunResult) -> list[str]:
+    """Names in the scene's `record` for which the run returned no array (never silent)."""
+    return [k for k in r.scene.run.record if k not in r.arrays]
+
+
 def evaluate(expect: ExpectCfg, metrics: dict[str, float | int | str]) -> list[Outcome]:
     """Judge every [expect] check that is set against the metrics (rules: module doc)."""
     out = []
@@ -121,7 +126,11 @@ def summary_text(r: RunResult, outcomes: list[Outcome]) -> str:
     s = r.scene
     parts = [f"scene {s.name} ({s.source})",
              "built:   " + ("; ".join(r.built) or "-"),
-             "skipped: " + ("; ".join(r.skipped) or "-"), ""]
+             "skipped: " + ("; ".join(r.skipped) or "-")]
+    if missing_records(r):
+        parts.append("WARNING: recorded but not produced by the run: "
+                     + ", ".join(missing_records(r)))
+    parts.append("")
     clk = f"{r.clk_hz / 1e6:g} MHz" + (" (auto)" if s.run.clk_hz == 0 else "")
     parts.append(report.table(
         ["fidelity", "clock", "axes", "servo Hz", "simulated s", "wall s", "real-time x"],
@@ -191,6 +200,7 @@ def summary_dict(r: RunResult, outcomes: list[Outcome]) -> dict[str, object]:
         "sim_s": r.sim_s, "wall_s": r.wall_s, "rtf": r.rtf, "fidelity": r.fidelity,
         "clk_hz": r.clk_hz, "axes": list(r.axes), "servo_hz": r.scene.run.servo_hz,
         "built": list(r.built), "skipped": list(r.skipped),
+        "missing_records": missing_records(r),
         "expects": [o.as_dict() for o in outcomes], "metrics": dict(r.metrics),
         "per_axis": {k: list(v) for k, v in r.per_axis.items()}, "events": list(r.events),
         "arrays": {k: [list(np.shape(v)), str(np.asarray(v).dtype)]
