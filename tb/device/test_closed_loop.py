@@ -8,7 +8,6 @@ import math
 
 import numpy as np
 import pytest
-
 from hapgate.base.paths import ROOT
 from hapgate.device import runner
 from hapgate.device import scene as sc
