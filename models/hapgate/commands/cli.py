@@ -139,6 +139,11 @@ def main(argv: list[str] | None = None) -> int:
                         "must be killed by its tests (long; not in make test)")
     mutants.add_arguments(mp)
     mp.set_defaults(fn=mutants.main)
+
+    from . import scene
+
+    scene.add_arguments(sub.add_parser(
+        "scene", help="virtual-device scenes: run FILE [--out DIR] | check FILE..."))
     bp = sub.add_parser("bench", help="benchmarks: run time beside error (build/reports/)")
     bp.add_argument("--quick", action="store_true", help="smaller runs")
     bp.set_defaults(fn=cmd_bench)
