@@ -170,8 +170,9 @@ async def firmware_like_run(dut) -> None:
             await wr("WDOG", WDOG_KEY)
         if rng.random() < 0.7:
             i = rng.randrange(3)
-            await wr(f"AXIS[{i}].TORQUE", rng.choice((rng.randint(-32768, 32767), 32767,
-                                                       -32768, 0)))
+            v = rng.choice((rng.randint(-32768, 32767), 32767, -32768, 0))
+            # axis 1 always drives (its fault must have something to zero)
+            await wr(f"AXIS[{i}].TORQUE", v if i != 1 or v else 20000)
         if rng.random() < 0.15:
             await wr("AXIS[2].MODE", rng.choice((SINE, SIX_STEP, 2)))
         if not disabled and now > disable_at:
@@ -283,6 +284,13 @@ async def firmware_like_run(dut) -> None:
     during = ((got_e - CFG.comm.wr_cycles - 1) > e_fault) & (got_e - 3 <= e_clear) & \
         ((got_a == 2) | (got_a == 3))
     assert np.all(got_w[during] == zero), "motor 1 not at zero torque during its fault"
+    # not vacuous: the commutator's own words for motor 1 in the frame latched just before the
+    # fault became visible (loads presented after it) are non-zero: only the output stage can
+    # zero them within the bound
+    f0 = e_fault // CFG.comm.frame_clocks
+    assert np.any(want.codes[f0, 2:4] != 0), (f0, want.codes[f0])
+    assert ((got_e - CFG.comm.wr_cycles - 1 > e_fault) &
+            (got_e < (f0 + 1) * CFG.comm.frame_clocks) & (got_a == 2)).any()
     lat_fault = zero_after(e_fault, range(2, 4), "fault")
     assert lat_fault <= bound
     # the global disable
