@@ -106,6 +106,12 @@ def cmd_replay(args: argparse.Namespace) -> int:
     return int(import_module(f"hapgate.commands.replay_{args.block}").main(args))
 
 
+def cmd_device(args: argparse.Namespace) -> int:
+    from . import device
+
+    return device.main(args)
+
+
 def main(argv: list[str] | None = None) -> int:
     p = argparse.ArgumentParser(prog="hapgate", description=__doc__)
     sub = p.add_subparsers(dest="cmd", required=True)
@@ -133,6 +139,13 @@ def main(argv: list[str] | None = None) -> int:
         "commutation", help="positions and torques -> DAC codes and load times "
                             "(FRAMES.csv -> DAC.csv)"))
     rp.set_defaults(fn=cmd_replay)
+    dp = sub.add_parser("device", help="the virtual device")
+    dsub = dp.add_subparsers(dest="device_cmd", required=True)
+    from . import device
+
+    device.add_arguments(dsub.add_parser(
+        "serve", help="serve the virtual device's PC link on a pty (prints 'port: /dev/pts/N')"))
+    dp.set_defaults(fn=cmd_device)
     bp = sub.add_parser("bench", help="benchmarks: run time beside error (build/reports/)")
     bp.add_argument("--quick", action="store_true", help="smaller runs")
     bp.set_defaults(fn=cmd_bench)

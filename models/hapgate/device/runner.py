@@ -28,7 +28,7 @@ from ..golden.top import TopConfig, blocks
 from ..runners import cosim, native
 
 HERE = TB / "native" / "device"
-HARNESS = [HERE / "device_harness.cpp", HERE / "plant.cpp"]
+HARNESS = [HERE / "device_harness.cpp", HERE / "plant.cpp", HERE / "uart_link.cpp"]
 FW = ROOT / "dsp-fw"
 MIN_CLK_HZ = 6_000_000       # lowest clock of the grid-aligned bus (README): D >= 6 clocks per us
 FULL_CLK_HZ = 48_000_000     # the shipped default
@@ -88,7 +88,7 @@ def build(clk_hz: int, mask: int = 7, trace: bool = False) -> Path:
         "device_harness", block.top, srcs, params, HARNESS,
         cflags=(f"-std=c++17 -DCLK_HZ={clk_hz} -DAXIS_MASK={mask} -DHG_TRACE={int(trace)} "
                 f"-I{HERE} -I{FW / 'include'}"),
-        ldflags="fw/libhgfw.a -lm", inputs=[HERE / "plant.h", *fw_srcs],
+        ldflags="fw/libhgfw.a -lm", inputs=[HERE / "plant.h", HERE / "uart_link.h", *fw_srcs],
         prepare=cosim._fw_lib, vflags=vflags)
 
 

@@ -4,7 +4,7 @@
 // loop over a grid-aligned bus, and the plant (plant.cpp: motors, linkage, hand, encoders).
 // Driven by models/hapgate/device/runner.py; description: tb/native/device/README.md.
 //
-// usage: device_harness PLANT_CFG RUN_CFG OUTDIR
+// usage: device_harness PLANT_CFG RUN_CFG OUTDIR [LINK_CFG]   (LINK_CFG: the PC link, uart_link.h)
 // Every clock-dependent event is tied to the 1 us sample grid (README "Why any clock gives the
 // same result"), so a run is bit-identical at every CLK_HZ >= 6 MHz that the RTL accepts.
 #include <algorithm>
@@ -23,6 +23,7 @@
 #include "Vhapgate_top.h"
 #include "Vhapgate_top___024root.h"
 #include "plant.h"
+#include "uart_link.h"
 #include "verilated.h"
 #if HG_TRACE
 #include "verilated_fst_c.h"
@@ -323,8 +324,8 @@ extern "C" uint32_t hg_hal_irq_save(void) { return 0; }
 extern "C" void hg_hal_irq_restore(uint32_t token) { (void)token; }
 
 int main(int argc, char** argv) {
-    if (argc != 4) {
-        std::fprintf(stderr, "usage: %s PLANT_CFG RUN_CFG OUTDIR\n", argv[0]);
+    if (argc != 4 && argc != 5) {
+        std::fprintf(stderr, "usage: %s PLANT_CFG RUN_CFG OUTDIR [LINK_CFG]\n", argv[0]);
         return 2;
     }
     RunCfg cfg;
@@ -402,6 +403,7 @@ int main(int argc, char** argv) {
     const uint32_t wdog_us = fpga_read32(HG_REG_WDOG_TIMEOUT);
     fpga_write32(HG_REG_CTRL, HG_CTRL_HOME_ARM);
     hg_servo_isr_ctx = &s;
+    UartLink* link = argc == 5 ? uart_link_open(argv[4], &s, cfg.servo_hz) : nullptr;
     if (init_err != HG_ERR_NONE) std::fprintf(stderr, "warning: firmware init error %u\n", init_err);
 
     // scene time 0: the sweep and the settle are over; the plant is released there
@@ -456,7 +458,10 @@ int main(int argc, char** argv) {
                 call = top.irq != 0;
             }
         }
-        if (!call) continue;
+        if (!call) {
+            if (link && enabled && bench.edge % D == 0) uart_link_service(link, g_now);  // background loop
+            continue;
+        }
         const uint64_t tick_g = (rose ? bench.irq_edge : bench.edge) / D;
         hg_servo_isr();
         TickRec r{};
@@ -477,6 +482,7 @@ int main(int argc, char** argv) {
             r.pos_err[i] = static_cast<int32_t>(std::lround((s.q[i] - r.q_true[i]) / (2 * kPi) * cpr));
         }
         ticks.push_back(r);
+        if (link && ticks.size() >= 65536) ticks.clear();  // serving: runs until a signal
         // ---- background loop: homing, then the scene and enable at scene time 0
         if (!enabled) {
             const uint32_t homed = HG_STAT_HOMED(0) | HG_STAT_HOMED(1) | HG_STAT_HOMED(2);
@@ -495,7 +501,7 @@ int main(int argc, char** argv) {
                 sc.b = static_cast<hg_real>(cfg.env_b);
                 sc.ki = static_cast<hg_real>(cfg.env_ki);
                 const int sr = hg_servo_set_scene(&s, &sc);
-                const int en = hg_servo_enable(&s, true);
+                const int en = link ? 0 : hg_servo_enable(&s, true);  // with a PC link: the PC enables
                 if (sr != 0 || en != 0) {
                     std::fprintf(stderr, "error: the firmware refused the scene (%d) or enable (%d)\n", sr, en);
                     return 3;
