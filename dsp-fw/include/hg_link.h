@@ -88,8 +88,12 @@ typedef struct {
     uint32_t last_push;   /* servo SEQ of the last push sample (sent or dropped)     */
     uint8_t push_seq;     /* frame seq of the pushes                                 */
     bool have_force;      /* a FORCE counter has been accepted since the last enable */
-    uint16_t force_ctr;   /* counter of the last accepted FORCE                      */
-    uint16_t force_lat;   /* its latency in ticks: first tick using it - answered SEQ */
+    uint16_t force_ctr;   /* counter of the last accepted FORCE (replay check)       */
+    bool pend;            /* an accepted FORCE not yet rendered by a servo step     */
+    uint32_t pend_tick;   /* the first tick that renders it (SEQ at arrival + 1)     */
+    uint16_t pend_ctr, pend_lat;
+    uint16_t live_ctr;    /* counter of the FORCE the pushed tick rendered           */
+    uint16_t live_lat;    /* its latency in ticks: first tick using it - answered SEQ */
     uint8_t ver;          /* protocol version of the request being handled           */
 } hg_link_t;
 
@@ -105,9 +109,11 @@ size_t hg_link_encode(uint8_t type, uint8_t seq, const uint8_t *data, size_t n,
 size_t hg_link_encode_v(uint8_t version, uint8_t type, uint8_t seq, const uint8_t *data,
                         size_t n, uint8_t out[HG_LINK_MAX_FRAME]);
 /* Background-loop duty, called often (at least once per servo tick): the link-silence
- * timeout (disables forces, stops the stream) and the stream. When a push is due and
- * tx_free, the encoded STATE_PUSH is written to tx and its length returned; when a push is
- * due but the transmitter is still busy the sample is dropped and counted. Otherwise 0. */
+ * timeout (while forces are enabled over the link, silence beyond cfg.timeout_ms disables
+ * them and stops the stream; a state-only stream goes on) and the stream. When a push is due
+ * and tx_free, the encoded STATE_PUSH (the state of the current tick) is written to tx and its
+ * length returned. A due push waits while the transmitter is busy; each further period that
+ * passes while it waits counts one dropped sample. Otherwise 0. */
 size_t hg_link_poll(hg_link_t *l, bool tx_free, uint8_t tx[HG_LINK_MAX_FRAME]);
 
 #endif /* HG_LINK_H */

@@ -182,6 +182,16 @@ static int h_stream(hg_link_t *l, const uint8_t *req, uint8_t *out, size_t *n)
     return 0;
 }
 
+/* A step has rendered the pending FORCE: it becomes the one the pushes name. */
+static void promote(hg_link_t *l)
+{
+    if (l->pend && (int32_t)(l->servo->seq - l->pend_tick) >= 0) {
+        l->pend = false;
+        l->live_ctr = l->pend_ctr;
+        l->live_lat = l->pend_lat;
+    }
+}
+
 /* f32 F[3] N, u16 ttl ms, u16 counter, u32 SEQ of the state the force answers. */
 static int h_force(hg_link_t *l, const uint8_t *req, uint8_t *out, size_t *n)
 {
@@ -200,13 +210,17 @@ static int h_force(hg_link_t *l, const uint8_t *req, uint8_t *out, size_t *n)
     }
     if (hg_servo_set_force(s, f))
         return HG_NAK_RANGE;
+    promote(l); /* before this one replaces it */
     const uint32_t t = hg_hal_irq_save();
     s->f_pc_age = s->cfg.pc_force_timeout - ttl; /* live for exactly ttl ticks */
     const uint32_t lat = s->seq + 1u - get_u32(req + 16);
     hg_hal_irq_restore(t);
     l->have_force = true;
     l->force_ctr = ctr;
-    l->force_lat = (uint16_t)(lat > 0xFFFFu ? 0xFFFFu : lat);
+    l->pend = true; /* the next step renders it; a newer one before that replaces it */
+    l->pend_tick = s->seq + 1u;
+    l->pend_ctr = ctr;
+    l->pend_lat = (uint16_t)(lat > 0xFFFFu ? 0xFFFFu : lat);
     return NO_REPLY;
 }
 
@@ -322,21 +336,23 @@ size_t hg_link_poll(hg_link_t *l, bool tx_free, uint8_t tx[HG_LINK_MAX_FRAME])
     hg_servo_t *s = l->servo;
     const uint32_t seq = s->seq;
     const uint32_t limit = ms_to_ticks(s, l->cfg.timeout_ms);
-    if (limit > 0 && seq - l->last_rx > limit) { /* the PC went silent */
-        if (l->armed) {
-            hg_servo_enable(s, false);
-            l->armed = false;
-            l->st.timeouts++;
-        }
+    if (limit > 0 && l->armed && seq - l->last_rx > limit) { /* the driving PC went silent */
+        hg_servo_enable(s, false);
+        l->armed = false;
         l->period = 0;
+        l->st.timeouts++;
     }
+    promote(l);
     if (l->period == 0 || seq - l->last_push < l->period)
         return 0;
-    l->last_push = seq;
-    if (!tx_free) {
-        l->st.push_dropped++;
+    if (!tx_free) { /* a push waits for the line; once the next one is due, one is lost */
+        if (seq - l->last_push >= 2u * l->period) {
+            l->st.push_dropped++;
+            l->last_push += l->period;
+        }
         return 0;
     }
+    l->last_push = seq;
     uint8_t d[HG_PUSH_LEN];
     const uint32_t t = hg_hal_irq_save();
     put_u32(d, s->seq);
@@ -351,8 +367,8 @@ size_t hg_link_poll(hg_link_t *l, bool tx_free, uint8_t tx[HG_LINK_MAX_FRAME])
     for (int i = 0; i < 3; i++)
         put_u16(d + 44 + 2 * i, (uint32_t)(uint16_t)s->code[i]);
     hg_hal_irq_restore(t);
-    put_u16(d + 50, l->force_ctr);
-    put_u16(d + 52, l->force_lat);
+    put_u16(d + 50, l->live_ctr);
+    put_u16(d + 52, l->live_lat);
     l->st.pushed++;
     return hg_link_encode_v(HG_PROTO_VERSION, HG_MSG_STATE_PUSH, l->push_seq++, d, HG_PUSH_LEN, tx);
 }

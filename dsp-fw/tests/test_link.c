@@ -277,9 +277,16 @@ void test_link_v2_force(void)
     const uint32_t seq0 = S.seq;
     force_req(f, 1.0f, -2.0f, 0.5f, 5, 1, seq0 - 2);
     CHECK(request2(HG_MSG_FORCE, f, HG_FORCE_LEN, raw, &rn) == 0);    /* accepted: silent */
-    CHECK(S.f_pc[1] == -2.0f && L.force_ctr == 1 && L.force_lat == 3);
+    CHECK(S.f_pc[1] == -2.0f && L.force_ctr == 1 && L.pend_lat == 3);
+    uint8_t tx[HG_LINK_MAX_FRAME], per[2] = { 1, 0 };
+    CHECK(request2(HG_MSG_STREAM, per, 2, raw, &rn) == 1);
+    CHECK(hg_link_poll(&L, true, tx) > 0 && L.live_ctr == 0);         /* not rendered yet */
     for (int k = 0; k < 5; k++) {                                     /* live for 5 ticks */
         tick();
+        const size_t m = hg_link_poll(&L, true, tx);
+        CHECK(m > 0 && L.live_ctr == 1 && L.live_lat == 3);          /* the push names it */
+        rn = hg_cobs_decode(tx, m - 1, raw, HG_LINK_MAX_RAW);
+        CHECK(raw[3 + 50] == 1 && raw[3 + 52] == 3 && f32_at(raw + 3 + 32) == -2.0f);
         CHECK(S.f[0] == 1.0f && S.f[1] == -2.0f && hal_sim_torque(1) != 0);
     }
     tick();                                                           /* then gone */
@@ -337,7 +344,7 @@ void test_link_v2_stream(void)
         tick();
         CHECK(hg_link_poll(&L, false, tx) == 0);
     }
-    CHECK(L.st.push_dropped == 3 && L.st.pushed == 10);
+    CHECK(L.st.push_dropped == 2 && L.st.pushed == 10); /* 9 busy ticks, period 3 */
     per[0] = 0xE9; /* 1001 */
     per[1] = 0x03;
     CHECK(request2(HG_MSG_STREAM, per, 2, raw, &rn) == 1 && raw[1] == HG_MSG_NAK);
@@ -368,4 +375,11 @@ void test_link_v2_timeout(void)
         CHECK(hg_link_poll(&L, true, tx) == 0 && !S.enabled);
     }
     CHECK(L.st.timeouts == 1);
+    /* a stream without enabled forces is not stopped by silence */
+    CHECK(request2(HG_MSG_STREAM, per, 2, raw, &rn) == 1);
+    for (int k = 0; k < 40; k++) {
+        tick();
+        CHECK(hg_link_poll(&L, true, tx) > 0);
+    }
+    CHECK(L.st.timeouts == 1 && !S.enabled);
 }
