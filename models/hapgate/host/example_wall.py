@@ -82,6 +82,9 @@ def run_wall(dev: Device, duration_s: float = 2.0, k: float = 2000.0, b: float =
             first = s.t_s if first is None else first
             pushes.append(s)
             f = wall_force(np.asarray(s.p), np.asarray(s.v), p0, n, k, b)
+            mag = float(np.linalg.norm(f))
+            if mag > 0.999 * info.f_max_n:             # the device refuses more than f_max
+                f = f * (0.999 * info.f_max_n / mag)
             c = dev.set_force(tuple(f), ttl_ms=ttl_ms, answers=s)
             sent_ref[c] = s.seq
             if s.t_s - first >= duration_s:
@@ -108,6 +111,8 @@ def run_wall(dev: Device, duration_s: float = 2.0, k: float = 2000.0, b: float =
     sent = np.array([dev.sent_force(int(c)) or (np.nan,) * 3 for c in ctr])
     exact = bool(np.all(F32(sent[live]) == F32(f[live]))) if live.any() else False
     law = wall_force(p, v, p0, n, k, b)
+    big = np.maximum(np.linalg.norm(law, axis=1, keepdims=True), 1e-30)
+    law = law * np.minimum(1.0, 0.999 * info.f_max_n / big)     # the PC clamps as it sends
     contact = live & ((p0 - p) @ n > 0)
     err = np.linalg.norm(f - law, axis=1)[contact]
     return WallResult(rate_hz=rate, loop_hz=(new.sum() - 1) / dev_s if dev_s > 0 else 0.0,
