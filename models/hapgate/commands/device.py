@@ -145,9 +145,11 @@ class Server:
         for line in self.proc.stderr:
             if line.startswith("progress "):
                 continue
-            self._err.append(line)
-            if line.startswith("pace:"):
+            if line.startswith("pace:"):          # realtime pacing fell behind: say so now
                 sys.stderr.write(line)
+                sys.stderr.flush()
+                continue
+            self._err.append(line)
 
     def stop(self) -> str:
         """SIGTERM, wait, and return what the harness reported (the link summary line)."""
