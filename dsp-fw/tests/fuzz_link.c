@@ -103,7 +103,7 @@ static size_t make_chunk(uint8_t *out, int *want)
     if (kind == 5) { /* wrong version, unknown type or wrong length under a valid CRC */
         const uint32_t w = rnd() % 3;
         if (w == 0) {
-            raw[0] = (uint8_t)(3 + rnd() % 253); /* versions 3..255 (0 is tested by hand) */
+            raw[0] = (uint8_t)(3 + rnd() % 253); /* versions 3..255; 0 comes with garbage */
             *want = VERSION;
         } else if (w == 1) {
             raw[1] = (uint8_t)(11 + rnd() % 245);

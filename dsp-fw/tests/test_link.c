@@ -156,11 +156,12 @@ void test_link_bad_frames(void)
     const uint8_t cases[][6] = {
         { 4, 3, HG_MSG_ENABLE, 1, 1 },    /* version 3 */
         { 4, 1, 0x55, 1, 1 },             /* unknown type */
+        { 4, 1, 0x85, 1, 1 },             /* a reply type sent to the device */
         { 3, 1, HG_MSG_INFO, 1 },         /* a version-2 message in a version-1 frame */
         { 5, 1, HG_MSG_ENABLE, 1, 1, 1 }, /* ENABLE with 2 data bytes */
         { 3, 1, HG_MSG_ENABLE, 1 },       /* ENABLE with none */
     };
-    for (unsigned c = 0; c < 5; c++) {
+    for (unsigned c = 0; c < 6; c++) {
         uint8_t r[8], e[16];
         const size_t n = cases[c][0];
         memcpy(r, cases[c] + 1, n);
@@ -171,7 +172,7 @@ void test_link_bad_frames(void)
         e[k] = 0;
         CHECK(feed(e, k + 1, raw, &rn) == 0);
     }
-    CHECK(L.st.bad_version == 1 && L.st.bad_type == 2 && L.st.bad_len == 2);
+    CHECK(L.st.bad_version == 1 && L.st.bad_type == 3 && L.st.bad_len == 2);
     CHECK(L.st.bad_framing == 3 && L.st.good == 0);
 
     /* over-long: 200 non-zero bytes, then the valid frame still works */

@@ -147,6 +147,7 @@ class Device:
         self.port = port
         self.timeout = float(timeout)
         self._buf = bytearray()
+        self._rx: collections.deque[tuple[pclink.Frame, float]] = collections.deque()
         self._seq = 0
         self._pushes: collections.deque[State] = collections.deque(maxlen=PUSH_QUEUE)
         self._nak_async: list[tuple[int, int]] = []
@@ -230,6 +231,13 @@ class Device:
         except (serial.SerialException, OSError) as exc:
             raise LinkLost(f"write failed: {exc}") from exc
 
+    def _pump(self) -> None:
+        """Read what the port has now (waits at most its short read timeout) and queue the
+        decoded frames with their arrival time; nothing is lost between calls."""
+        frames = self._read_some()
+        wall = time.perf_counter()
+        self._rx.extend((fr, wall) for fr in frames)
+
     def _read_some(self) -> list[pclink.Frame]:
         """What the port has now (waits at most its short read timeout); decoded frames."""
         import serial
@@ -289,8 +297,8 @@ class Device:
         self._write(pclink.encode(msg_type, seq, data, version))
         deadline = time.monotonic() + (self.timeout if timeout is None else timeout)
         while True:
-            for fr in self._read_some():
-                wall = time.perf_counter()
+            while self._rx:
+                fr, wall = self._rx.popleft()
                 force_nak = fr.msg_type == pclink.NAK and fr.data[:1] == bytes([pclink.FORCE])
                 if fr.seq == seq and fr.msg_type in (msg_type | pclink.REPLY, pclink.NAK) \
                         and not force_nak:
@@ -307,6 +315,7 @@ class Device:
             if time.monotonic() > deadline:
                 raise Timeout(f"no reply to request 0x{msg_type:02x} within "
                               f"{self.timeout if timeout is None else timeout:.3g} s")
+            self._pump()
 
     # ---------------------------------------------------------------- requests
     def info(self, timeout: float | None = None) -> Info:
@@ -416,6 +425,7 @@ class Device:
         self._request(pclink.STREAM, pclink.stream(0))
         self.streaming = 0
         self._pushes.clear()
+        self._rx = collections.deque(x for x in self._rx if x[0].msg_type != pclink.STATE_PUSH)
 
     def next_push(self, timeout: float | None = None) -> State:
         """The next streamed state, in order. A stream silent for the timeout: LinkLost."""
@@ -424,19 +434,24 @@ class Device:
             return self._pushes.popleft()
         deadline = time.monotonic() + (self.timeout if timeout is None else timeout)
         while not self._pushes:
-            for fr in self._read_some():
-                self._take(fr, time.perf_counter())
+            while self._rx and not self._pushes:
+                self._take(*self._rx.popleft())
             self._raise_async()
+            if self._pushes:
+                break
             if time.monotonic() > deadline:
                 raise LinkLost("the state stream went silent")
+            self._pump()
         return self._pushes.popleft()
 
     def latest_push(self, timeout: float | None = None) -> State:
         """The newest streamed state (older queued ones are skipped: a loop that fell behind
         catches up instead of lagging)."""
         st = self.next_push(timeout)
-        for fr in self._read_some() if self.port is not None and self.port.in_waiting else []:
-            self._take(fr, time.perf_counter())
+        if self.port is not None and self.port.in_waiting:
+            self._pump()
+        while self._rx:
+            self._take(*self._rx.popleft())
         while self._pushes:
             st = self._pushes.popleft()
         return st
