@@ -91,7 +91,10 @@ typedef struct {
     uint16_t force_ctr;   /* counter of the last accepted FORCE (replay check)       */
     bool pend;            /* an accepted FORCE not yet rendered by a servo step     */
     uint32_t pend_tick;   /* the first tick that renders it (SEQ at arrival + 1)     */
+    uint32_t pend_ttl;    /* ticks it lasts                                          */
     uint16_t pend_ctr, pend_lat;
+    bool live;            /* a PC force has been rendered (first tick, ttl below)    */
+    uint32_t live_first, live_ttl;
     uint16_t live_ctr;    /* counter of the FORCE the pushed tick rendered           */
     uint16_t live_lat;    /* its latency in ticks: first tick using it - answered SEQ */
     uint8_t ver;          /* protocol version of the request being handled           */

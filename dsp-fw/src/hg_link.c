@@ -95,13 +95,42 @@ static int h_get_state(hg_link_t *l, const uint8_t *req, uint8_t *out, size_t *n
     return 0;
 }
 
+/* A step has rendered the pending FORCE: it becomes the one the pushes name. */
+static void promote(hg_link_t *l)
+{
+    if (l->pend && (int32_t)(l->servo->seq - l->pend_tick) >= 0) {
+        l->pend = false;
+        l->live = true;
+        l->live_first = l->pend_tick;
+        l->live_ttl = l->pend_ttl;
+        l->live_ctr = l->pend_ctr;
+        l->live_lat = l->pend_lat;
+    }
+}
+
+/* A PC force (FORCE or SET_FORCE) was accepted: the next step renders it for ttl ticks. The
+ * pushes name it (and flag "PC force live") from that tick on, not before: a push reports
+ * what its own tick rendered even if a newer force arrived before it was sent. */
+static void pend_force(hg_link_t *l, uint32_t ttl, uint16_t ctr, uint16_t lat)
+{
+    promote(l); /* before this one replaces it */
+    l->pend = true;
+    l->pend_tick = l->servo->seq + 1u;
+    l->pend_ttl = ttl;
+    l->pend_ctr = ctr;
+    l->pend_lat = lat;
+}
+
 static int h_set_force(hg_link_t *l, const uint8_t *req, uint8_t *out, size_t *n)
 {
     hg_real f[3];
     (void)out;
     (void)n;
     get_vec(req, f);
-    return hg_servo_set_force(l->servo, f) ? HG_NAK_RANGE : 0;
+    if (hg_servo_set_force(l->servo, f))
+        return HG_NAK_RANGE;
+    pend_force(l, l->servo->cfg.pc_force_timeout, l->force_ctr, 0);
+    return 0;
 }
 
 static int h_set_scene(hg_link_t *l, const uint8_t *req, uint8_t *out, size_t *n)
@@ -182,16 +211,6 @@ static int h_stream(hg_link_t *l, const uint8_t *req, uint8_t *out, size_t *n)
     return 0;
 }
 
-/* A step has rendered the pending FORCE: it becomes the one the pushes name. */
-static void promote(hg_link_t *l)
-{
-    if (l->pend && (int32_t)(l->servo->seq - l->pend_tick) >= 0) {
-        l->pend = false;
-        l->live_ctr = l->pend_ctr;
-        l->live_lat = l->pend_lat;
-    }
-}
-
 /* f32 F[3] N, u16 ttl ms, u16 counter, u32 SEQ of the state the force answers. */
 static int h_force(hg_link_t *l, const uint8_t *req, uint8_t *out, size_t *n)
 {
@@ -210,17 +229,13 @@ static int h_force(hg_link_t *l, const uint8_t *req, uint8_t *out, size_t *n)
     }
     if (hg_servo_set_force(s, f))
         return HG_NAK_RANGE;
-    promote(l); /* before this one replaces it */
     const uint32_t t = hg_hal_irq_save();
     s->f_pc_age = s->cfg.pc_force_timeout - ttl; /* live for exactly ttl ticks */
     const uint32_t lat = s->seq + 1u - get_u32(req + 16);
     hg_hal_irq_restore(t);
     l->have_force = true;
     l->force_ctr = ctr;
-    l->pend = true; /* the next step renders it; a newer one before that replaces it */
-    l->pend_tick = s->seq + 1u;
-    l->pend_ctr = ctr;
-    l->pend_lat = (uint16_t)(lat > 0xFFFFu ? 0xFFFFu : lat);
+    pend_force(l, ttl, ctr, (uint16_t)(lat > 0xFFFFu ? 0xFFFFu : lat));
     return NO_REPLY;
 }
 
@@ -360,7 +375,8 @@ size_t hg_link_poll(hg_link_t *l, bool tx_free, uint8_t tx[HG_LINK_MAX_FRAME])
     put_vec(d + 16, s->v);
     put_vec(d + 28, s->f);
     d[40] = (uint8_t)((s->enabled ? 1u : 0u) | (s->err ? 2u : 0u)
-                      | (s->f_pc_age < s->cfg.pc_force_timeout ? 4u : 0u) | (l->armed ? 8u : 0u));
+                      | (l->live && seq - l->live_first < l->live_ttl ? 4u : 0u)
+                      | (l->armed ? 8u : 0u));
     d[41] = s->err;
     d[42] = s->err_axis;
     d[43] = s->scene.type;

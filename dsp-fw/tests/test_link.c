@@ -281,13 +281,17 @@ void test_link_v2_force(void)
     CHECK(S.f_pc[1] == -2.0f && L.force_ctr == 1 && L.pend_lat == 3);
     uint8_t tx[HG_LINK_MAX_FRAME], per[2] = { 1, 0 };
     CHECK(request2(HG_MSG_STREAM, per, 2, raw, &rn) == 1);
-    CHECK(hg_link_poll(&L, true, tx) > 0 && L.live_ctr == 0);         /* not rendered yet */
+    size_t m0 = hg_link_poll(&L, true, tx);                           /* not rendered yet: */
+    CHECK(m0 > 0 && L.live_ctr == 0);
+    rn = hg_cobs_decode(tx, m0 - 1, raw, HG_LINK_MAX_RAW);
+    CHECK((raw[3 + 40] & 4) == 0 && f32_at(raw + 3 + 32) == 0.0f);   /* not live, F = 0 */
     for (int k = 0; k < 5; k++) {                                     /* live for 5 ticks */
         tick();
         const size_t m = hg_link_poll(&L, true, tx);
         CHECK(m > 0 && L.live_ctr == 1 && L.live_lat == 3);          /* the push names it */
         rn = hg_cobs_decode(tx, m - 1, raw, HG_LINK_MAX_RAW);
         CHECK(raw[3 + 50] == 1 && raw[3 + 52] == 3 && f32_at(raw + 3 + 32) == -2.0f);
+        CHECK(raw[3 + 40] & 4);                                       /* live */
         CHECK(S.f[0] == 1.0f && S.f[1] == -2.0f && hal_sim_torque(1) != 0);
     }
     tick();                                                           /* then gone */

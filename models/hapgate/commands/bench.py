@@ -30,6 +30,9 @@ def main(args: argparse.Namespace) -> int:
     print()
     ok &= cosim.bench_section(args.quick)
     print()
+    from . import bench_device
+    ok &= bench_device.run(args.quick)
+    print()
     ok &= bench_host.run(args.quick)
     print("\n== DSP firmware: servo step cost (make -C dsp-fw bench) ==", flush=True)
     ok &= subprocess.run(["make", "-s", "-C", str(ROOT / "dsp-fw"), "bench"]).returncode == 0

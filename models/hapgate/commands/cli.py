@@ -139,6 +139,10 @@ def main(argv: list[str] | None = None) -> int:
         "commutation", help="positions and torques -> DAC codes and load times "
                             "(FRAMES.csv -> DAC.csv)"))
     rp.set_defaults(fn=cmd_replay)
+    from . import scene
+
+    scene.add_arguments(sub.add_parser(
+        "scene", help="virtual-device scenes: run FILE [--out DIR] | check FILE..."))
     dp = sub.add_parser("device", help="the virtual device")
     dsub = dp.add_subparsers(dest="device_cmd", required=True)
     from . import device

@@ -20,11 +20,11 @@ import threading
 import time
 import tty
 from pathlib import Path
-from types import SimpleNamespace
 from typing import Any
 
 from ..base.paths import BUILD, ensure
 from ..device import runner
+from ..device import scene as scene_mod
 
 SERVE_S = 1e6                 # simulated seconds a server runs for (it stops on a signal)
 PACES = ("realtime", "free")
@@ -35,63 +35,27 @@ class ServeError(RuntimeError):
     """The server could not start (bad scene, build failure, harness refused its config)."""
 
 
-def _scene_module() -> Any:
-    try:
-        from ..device import scene  # type: ignore[attr-defined]
-    except ImportError:                      # the scene schema is not in this checkout yet
-        return None
-    return scene
-
-
-def _fallback_scene() -> Any:
-    """The default scene as plain attributes, used only while hapgate.device.scene is absent.
-    Same values as that schema's defaults plus a resting hand (scenes/pc_force.toml)."""
-    enc = SimpleNamespace(amplitude=110.0, offset_a=0.0, offset_b=0.0, gain_a=1.0, gain_b=1.0,
-                          phase_deg=0.0, h2=0.0, h3=0.0, noise_lsb=0.0)
-    return SimpleNamespace(
-        run=SimpleNamespace(duration_s=SERVE_S, fidelity="rtl", axes=(0, 1, 2), servo_hz=1000,
-                            clk_hz=0, trace=False, record=(), seed=1, q0_deg=None),
-        env=SimpleNamespace(kind="none", point=(0.0, 0.073, 0.0), normal=(0.0, -1.0, 0.0),
-                            k=0.0, b=0.0, ki=0.0),
-        hand=SimpleNamespace(kind="spring", k=300.0, b=2.0, path=()),
-        encoders=(enc, enc, enc), faults=(),
-        firmware=SimpleNamespace(comm_offset_error_counts=(0, 0, 0)),
-        plant=SimpleNamespace(kt_nm_per_a=0.06, r_ohm=1.2, j_rotor_kg_m2=1.6e-5, pole_pairs=2,
-                              i_max_a=8.0, current_bw_hz=2000.0, m_link_kg=0.02,
-                              m_handle_kg=0.01, b_visc_nms=(2e-4,) * 3,
-                              tau_coulomb_nm=(0.0,) * 3, gravity_k=(), gravity_q=(0.0, 0.0),
-                              dt_s=1e-6))
-
-
 def default_scene() -> Any:
     """No environment, the hand resting on the handle (a soft spring to the start pose)."""
-    mod = _scene_module()
-    if mod is None:
-        return _fallback_scene()
-    return mod.from_dict({"env": {"kind": "none"},
-                          "hand": {"kind": "spring", "k": 300.0, "b": 2.0}},
-                         source="<default serve scene>")
+    return scene_mod.from_dict({"env": {"kind": "none"},
+                                "hand": {"kind": "spring", "k": 300.0, "b": 2.0}},
+                               source="<default serve scene>")
 
 
 def load_scene(path: str | None) -> Any:
-    if path is None:
-        return default_scene()
-    mod = _scene_module()
-    if mod is None:
-        raise ServeError("--scene needs hapgate.device.scene, which this checkout lacks")
-    return mod.load(path)
+    """The validated scene (SceneError names the file and key), or the default one."""
+    sc = default_scene() if path is None else scene_mod.load(path)
+    if sc.run.fidelity != "rtl":
+        raise ServeError(f"{path}: run.fidelity {sc.run.fidelity!r}: serving needs 'rtl'")
+    return sc
 
 
 def _for_serving(scene: Any, axes: tuple[int, ...] | None) -> Any:
     """The scene with the run made endless, unrecorded and untraced (and the axes chosen)."""
-    run_kw = {"duration_s": SERVE_S, "record": (), "trace": False}
+    run_kw: dict[str, Any] = {"duration_s": SERVE_S, "record": (), "trace": False}
     if axes is not None:
         run_kw["axes"] = tuple(sorted(axes))
-    if dataclasses.is_dataclass(scene):
-        return dataclasses.replace(scene, run=dataclasses.replace(scene.run, **run_kw))
-    for k, v in run_kw.items():
-        setattr(scene.run, k, v)
-    return scene
+    return dataclasses.replace(scene, run=dataclasses.replace(scene.run, **run_kw))
 
 
 class Server:
@@ -203,7 +167,7 @@ def main(args: argparse.Namespace) -> int:
     signal.signal(signal.SIGTERM, on_signal)
     try:
         port = server.start()
-    except (ServeError, runner.DeviceError, RuntimeError) as exc:
+    except (ServeError, ValueError, RuntimeError) as exc:     # DeviceError is a RuntimeError
         print(f"error: {exc}", file=sys.stderr)
         return 2
     print(f"port: {port}", flush=True)

@@ -42,6 +42,10 @@ ERR_NAMES = ("NONE", "NONFINITE", "AXIS_FAULT", "ENCODER", "STALE", "OVERRUN", "
              "FPGA_ID", "CONFIG")
 HAND_KINDS = {"none": 0, "spring": 1, "fixed": 2}
 COUNTS_PER_REV = 1 << 20
+# the wall's steady state: the hand's target at rest for 5 ms, the endpoint slower than 20 mm/s
+# and at least 0.2 mm into the wall (the force error there includes k * speed * the servo's
+# sample-and-hold delay: 0.04 N at 20 mm/s into 20 N/cm at 1 kHz)
+STEADY_AFTER_S, STEADY_SPEED, STEADY_DEPTH = 5e-3, 2e-2, 2e-4
 CODE_FS = 32767              # firmware torque code at full scale
 
 FRAME_DT = np.dtype([("t", "<f8"), ("q", "<f8", 3), ("p", "<f8", 3), ("f_hand", "<f8", 3),
@@ -358,7 +362,7 @@ def metrics(scene: Any, raw: Raw) -> tuple[dict[str, Any], dict[str, list[float]
     m["fw_error_axis"] = int(raw.summary["fw_err_axis"])
     if evs:
         m["zero_torque_us"] = float(max(e["reaction_us"] for e in evs))
-    if fr.size and raw.mask & 1:
+    if fr.size and record_mask(scene) & 1:
         q, tau, p = fr["q"], fr["tau"], fr["p"]
         f_dev = _j_inv_t(q, tau)
         # the wall law at the true endpoint (the firmware renders it from its own estimate)
@@ -369,11 +373,14 @@ def metrics(scene: Any, raw: Raw) -> tuple[dict[str, Any], dict[str, list[float]
             v = np.gradient(p, fr["t"], axis=0) if fr.size > 2 else np.zeros_like(p)
             law = np.maximum(0.0, scene.env.k * depth - scene.env.b * (v @ n))
             f_law = np.where(depth[:, None] > 0, law[:, None] * n, 0.0)
-            steady = (np.linalg.norm(v, axis=1) < 2e-3) & (fr["t"] > 0.02) & \
-                (fr["t"] < first_fault) & (depth > 2e-4)
+            path = getattr(scene.hand, "path", None) or ()
+            t_rest = (float(path[-1][0]) if len(path) else 0.0) + STEADY_AFTER_S
+            steady = (np.linalg.norm(v, axis=1) < STEADY_SPEED) & (fr["t"] > t_rest) & \
+                (fr["t"] < first_fault) & (depth > STEADY_DEPTH)
             if steady.any():
                 m["force_error_n"] = float(np.linalg.norm(f_dev - f_law, axis=1)[steady].max())
                 m["force_samples"] = int(steady.sum())
+                m["force_speed_max"] = float(np.linalg.norm(v, axis=1)[steady].max())
         # delivered against commanded torque, per motor (1 kHz-class servo: settled frames)
         if tk.size:
             idx = np.searchsorted(tk["t"], fr["t"], side="right") - 1

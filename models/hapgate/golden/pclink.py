@@ -171,7 +171,8 @@ class Push:
     p: tuple[float, float, float]             # m
     v: tuple[float, float, float]             # m/s
     f: tuple[float, float, float]             # N, the force rendered at that tick
-    flags: int     # bit 0 enabled, 1 error latched, 2 PC force live, 3 link watchdog armed
+    flags: int     # bit 0 enabled, 1 error latched, 2 this tick rendered a PC force, 3 link
+    #                timeout armed
     err: int
     err_axis: int
     scene: int

@@ -57,6 +57,16 @@ static_assert(D >= 6, "the grid-aligned bus needs a strobe of >= 5 clocks inside
 constexpr int kLoadClocks = 9;             // frame start -> channel 0 load (rtl/top/README.md)
 constexpr uint64_t kDacDelayUs = 2;        // a word reaches the amplifier 2 us after its slot start
 
+// Cost split (HG_PROFILE=1 in the environment): wall time in the plant, in the firmware's own
+// code (its ISR minus the bus accesses, which clock the gateware) and the rest (the gateware and
+// the harness). Off by default: the clock reads cost ~2 % of a run.
+bool g_profile = false;
+double g_plant_s = 0, g_isr_s = 0, g_bus_in_isr_s = 0;
+bool g_in_isr = false;
+inline double now_s() {
+    return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count();
+}
+
 // ------------------------------------------------------------------ run configuration
 struct RunCfg {
     double duration_s = 0.1;
@@ -201,6 +211,8 @@ struct Bench {
         // ADC words for the capture at the next edge (sample grid g), then one grid step
         int8_t a[3], b[3];
         uint8_t ix[3];
+        double tp0 = 0;
+        if (g_profile) tp0 = now_s();
         hg_plant_adc(plant, a, b, ix);
         uint32_t wa = 0, wb = 0, wi = 0;
         for (int i = 0; i < 3; ++i) {
@@ -213,6 +225,7 @@ struct Bench {
         top->adc_b = wb;
         top->enc_index = wi & 7U;  // sampled at the next posedge evaluation
         hg_plant_step(plant, steps_per_us);
+        if (g_profile) g_plant_s += now_s() - tp0;
     }
 
     int steps_per_us = 1;
@@ -273,6 +286,7 @@ struct Bench {
 };
 
 Bench* B = nullptr;
+
 bool drop_wdog = false;
 struct KeyWrite { uint64_t edge; };
 uint64_t last_key_edge = 0;
@@ -287,7 +301,14 @@ void wait_grid() {
 // CE and address at a grid point g, strobe from g + 1 clock to the next grid point (D - 1 >= 5
 // clocks), hold 2 clocks; the next access starts at the grid point after. Read data are taken
 // just before the strobe rises.
+struct BusTimer {
+    double t0 = 0;
+    BusTimer() { if (g_profile && g_in_isr) t0 = now_s(); }
+    ~BusTimer() { if (g_profile && g_in_isr) g_bus_in_isr_s += now_s() - t0; }
+};
+
 extern "C" uint32_t fpga_read32(uint32_t addr) {
+    BusTimer bt;
     wait_grid();
     auto& t = *B->top;
     t.bus_addr = addr & 0xFFU;
@@ -305,6 +326,7 @@ extern "C" uint32_t fpga_read32(uint32_t addr) {
 
 extern "C" void fpga_write32(uint32_t addr, uint32_t v) {
     if (drop_wdog && addr == HG_REG_WDOG) return;  // injected fault: the key write is lost
+    BusTimer bt;
     wait_grid();
     auto& t = *B->top;
     t.bus_addr = addr & 0xFFU;
@@ -342,6 +364,7 @@ int main(int argc, char** argv) {
         return 2;
     }
     const std::string outdir = argv[3];
+    g_profile = std::getenv("HG_PROFILE") && std::getenv("HG_PROFILE")[0] == '1';
     Bench bench;
     B = &bench;
     bench.plant = plant;
@@ -463,7 +486,16 @@ int main(int argc, char** argv) {
             continue;
         }
         const uint64_t tick_g = (rose ? bench.irq_edge : bench.edge) / D;
+        double ti0 = 0;
+        if (g_profile) {
+            ti0 = now_s();
+            g_in_isr = true;
+        }
         hg_servo_isr();
+        if (g_profile) {
+            g_isr_s += now_s() - ti0;
+            g_in_isr = false;
+        }
         TickRec r{};
         r.t = bench.scene_t(tick_g);
         r.status = s.status;
@@ -534,6 +566,9 @@ int main(int argc, char** argv) {
                 init_err, s.err, s.err_axis, enable_t, wdog_us, static_cast<unsigned long long>(last_key_edge),
                 static_cast<long long>(bench.scene0_us), bench.skew, bench.frame, static_cast<unsigned long long>(D));
     std::printf("frame_bytes=%zu tick_bytes=%zu\n", sizeof(FrameRec), sizeof(TickRec));
+    if (g_profile)
+        std::printf("profile_plant_s=%.6g profile_firmware_s=%.6g profile_gateware_s=%.6g\n", g_plant_s,
+                    g_isr_s - g_bus_in_isr_s, wall_s - g_plant_s - (g_isr_s - g_bus_in_isr_s));
     hg_plant_free(plant);
     top.final();
     return 0;
