@@ -53,7 +53,8 @@ FRAME_DT = np.dtype([("t", "<f8"), ("q", "<f8", 3), ("p", "<f8", 3), ("f_hand", 
                      ("pad2", "<u4")], align=True)
 TICK_DT = np.dtype([("t", "<f8"), ("q_fw", "<f8", 3), ("q_true", "<f8", 3), ("p_fw", "<f8", 3),
                     ("f_fw", "<f8", 3), ("tau_fw", "<f8", 3), ("pos_err", "<i4", 3),
-                    ("status", "<u4"), ("err", "u1"), ("err_axis", "u1"), ("drive", "u1"),
+                    ("pos", "<i4", 3), ("status", "<u4"), ("err", "u1"), ("err_axis", "u1"),
+                    ("drive", "u1"),
                     ("pad", "u1")], align=True)
 LOAD_DT = np.dtype([("edge", "<i8"), ("ch", "<i4"), ("code", "<i4")])
 
@@ -87,7 +88,7 @@ def build(clk_hz: int, mask: int = 7, trace: bool = False) -> Path:
     srcs = [ROOT / "rtl" / s for s in block.sources]
     params = cfg.rtl_params() | {"AXIS_MASK": mask}
     fw_srcs = sorted((FW / "src").glob("*.c")) + sorted((FW / "include").glob("*.h"))
-    vflags = ["-DHG_SIM"] + (["--trace-fst"] if trace else [])
+    vflags = ["-DHG_SIM"] + (["--trace"] if trace else [])   # VCD: FST needs liblz4 headers
     return native.verilate_harness(
         "device_harness", block.top, srcs, params, HARNESS,
         cflags=(f"-std=c++17 -DCLK_HZ={clk_hz} -DAXIS_MASK={mask} -DHG_TRACE={int(trace)} "
@@ -221,6 +222,8 @@ def record_mask(scene: Any) -> int:
     m = 1 if rec & set(PLANT_RECORDS) else 0
     if "dac" in rec or scene.faults:
         m |= 2      # the DAC loads time the safety reactions
+    if "adc" in rec:
+        m |= 4
     return m
 
 
@@ -238,6 +241,7 @@ class Raw:
     built: list[str] = field(default_factory=list)
     skipped: list[str] = field(default_factory=list)
     trace: Path | None = None
+    adc: np.ndarray | None = None
 
 
 def _progress_reader(proc: subprocess.Popen, duration: float, progress: Any) -> str:
@@ -288,11 +292,14 @@ def simulate(scene: Any, clk_hz: int | None = None, mask: int | None = None,
         frames = np.fromfile(tmp / "frames.bin", dtype=FRAME_DT)
         ticks = np.fromfile(tmp / "ticks.bin", dtype=TICK_DT)
         loads = np.fromfile(tmp / "loads.bin", dtype=LOAD_DT)
+        adc = np.fromfile(tmp / "adc.bin", dtype=np.int8).reshape(-1, 6)
         trace_path = None
-        if trace and (tmp / "trace.fst").exists():
-            trace_path = tmp / "trace.fst"
+        if trace and (tmp / "trace.vcd").exists():
+            if out_dir is None:
+                raise DeviceError("trace = true needs an output directory")
+            trace_path = tmp / "trace.vcd"
     return Raw(summary, frames, ticks, loads, float(summary.get("wall_s", wall)), clk, m,
-               built, skipped, trace_path)
+               built, skipped, trace_path, adc)
 
 
 # ---------------------------------------------------------------------------------- metrics
@@ -412,7 +419,12 @@ def run(scene: Any, progress: Any = None, out_dir: Path | None = None) -> Any:
     from .result import RunResult
     if scene.run.fidelity != "rtl":
         raise DeviceError(f"fidelity {scene.run.fidelity!r}: only 'rtl' is implemented so far")
-    raw = simulate(scene, progress=progress, out_dir=out_dir)
+    work = None
+    if scene.run.trace:        # the waveform goes beside the scene's other outputs
+        work = ensure((out_dir or BUILD / "scenes" / scene.name) / "harness")
+    raw = simulate(scene, progress=progress, out_dir=work)
+    if raw.trace is not None:
+        raw.built.append(f"waveform trace {raw.trace}")
     m, per, evs = metrics(scene, raw)
     arrays = arrays_of(scene, raw)
     sim_s = float(raw.summary["sim_s"])
@@ -435,7 +447,13 @@ def arrays_of(scene: Any, raw: Raw) -> dict[str, np.ndarray]:
     if "dac" in rec:
         a["dac"] = fr["dac"].astype(np.int16)
         a["dac_t"] = fr["t"].copy()
+    if "adc" in rec and raw.adc is not None:
+        a["adc"] = raw.adc.copy()                       # A0 B0 A1 B1 A2 B2 per 1 us sample
+        a["adc_t"] = np.arange(raw.adc.shape[0]) * 1e-6
     tk = raw.ticks
+    if "pos" in rec:
+        a["pos"] = tk["pos"].copy()                     # snapshot positions per servo tick
+        a["pos_t"] = tk["t"].copy()
     a["tick_t"] = tk["t"].copy()
     a["tick_pos_err_counts"] = tk["pos_err"].copy()
     a["tick_f_cmd"] = tk["f_fw"].copy()

@@ -25,7 +25,7 @@
 #include "plant.h"
 #include "verilated.h"
 #if HG_TRACE
-#include "verilated_fst_c.h"
+#include "verilated_vcd_c.h"
 #endif
 
 extern "C" {
@@ -78,7 +78,7 @@ struct RunCfg {
     double t_sweep_s = 6e-3, t_settle_s = 3e-3;
     int comm_err[3] = {0, 0, 0};
     uint32_t hold_pos_homed[3] = {0, 0, 0}, hold_index_pos[3] = {0, 0, 0}, hold_index_count[3] = {0, 0, 0};
-    uint32_t record = 0xFF;                 // bit 0 plant (q,p,f_hand,tau,current), bit 1 dac
+    uint32_t record = 0xFF;                 // bit 0 plant (q,p,f_hand,tau,current), bit 1 dac, bit 2 adc
     double progress_s = 0.05;               // progress line every this much simulated time
     struct Fault { double at_s; int kind; int axis; };
     std::vector<Fault> faults;              // kind: 1 dropout, 2 hang, 3 watchdog
@@ -147,6 +147,7 @@ struct TickRec {          // one per ISR call
     double q_true[3];     // true joint angles of the sample the snapshot holds
     double p_fw[3], f_fw[3], tau_fw[3];
     int32_t pos_err[3];   // snapshot counts minus true counts (homed frame)
+    int32_t pos[3];       // the snapshot's positions (POS registers), counts
     uint32_t status;
     uint8_t err, err_axis, drive, pad;
 };
@@ -157,7 +158,7 @@ struct Bench {
     std::unique_ptr<VerilatedContext> ctx{new VerilatedContext};
     std::unique_ptr<Vhapgate_top> top{new Vhapgate_top(ctx.get())};
 #if HG_TRACE
-    std::unique_ptr<VerilatedFstC> tfp;
+    std::unique_ptr<VerilatedVcdC> tfp;
 #endif
     hg_plant* plant = nullptr;
     RunCfg* cfg = nullptr;
@@ -171,6 +172,7 @@ struct Bench {
     int16_t frame_codes[6] = {0, 0, 0, 0, 0, 0};
     std::vector<LoadRec> loads;
     std::vector<FrameRec> frames;
+    std::vector<int8_t> adc;      // A0 B0 A1 B1 A2 B2 per grid point of the scene (record bit 2)
     uint32_t skew = 0, frame = 0;  // clocks (from the RTL's DAC_SKEW / DAC_FRAME)
     // grid
     int64_t scene0_us = 0;        // grid point of scene time 0
@@ -216,6 +218,10 @@ struct Bench {
         uint32_t wa = 0, wb = 0, wi = 0;
         for (int i = 0; i < 3; ++i) {
             if (dropout[i]) a[i] = b[i] = 0;
+            if (dynamic && (cfg->record & 4)) {
+                adc.push_back(a[i]);
+                adc.push_back(b[i]);
+            }
             wa |= static_cast<uint32_t>(static_cast<uint8_t>(a[i])) << (8 * i);
             wb |= static_cast<uint32_t>(static_cast<uint8_t>(b[i])) << (8 * i);
             wi |= static_cast<uint32_t>(ix[i]) << i;
@@ -246,7 +252,11 @@ struct Bench {
     }
     double t_sweep0 = 100e-6;   // s after reset: the sweep starts
 
+#if HG_TRACE
+    void eval() { top->eval(); }   // the public entry: it also marks the trace's activity
+#else
     void eval() { Vhapgate_top___024root___eval(top->rootp); }
+#endif
 
     void tick() {
         top->clk = 1;
@@ -381,9 +391,9 @@ int main(int argc, char** argv) {
     auto& top = *bench.top;
 #if HG_TRACE
     Verilated::traceEverOn(true);
-    bench.tfp.reset(new VerilatedFstC);
+    bench.tfp.reset(new VerilatedVcdC);
     top.trace(bench.tfp.get(), 99);
-    bench.tfp->open((outdir + "/trace.fst").c_str());
+    bench.tfp->open((outdir + "/trace.vcd").c_str());
 #endif
     top.sim_hold_pos_homed[0] = cfg.hold_pos_homed[0];
     top.sim_hold_pos_homed[1] = cfg.hold_pos_homed[1];
@@ -507,6 +517,7 @@ int main(int argc, char** argv) {
             r.tau_fw[i] = s.tau[i];
             const double cpr = HG_ENC_COUNTS_PER_REV;
             r.pos_err[i] = static_cast<int32_t>(std::lround((s.q[i] - r.q_true[i]) / (2 * kPi) * cpr));
+            r.pos[i] = s.pos[i];
         }
         ticks.push_back(r);
         // ---- background loop: homing, then the scene and enable at scene time 0
@@ -551,6 +562,7 @@ int main(int argc, char** argv) {
     dump("frames.bin", bench.frames.data(), bench.frames.size() * sizeof(FrameRec));
     dump("ticks.bin", ticks.data(), ticks.size() * sizeof(TickRec));
     dump("loads.bin", bench.loads.data(), bench.loads.size() * sizeof(LoadRec));
+    dump("adc.bin", bench.adc.data(), bench.adc.size());
     const double sim_s = static_cast<double>(end_us - static_cast<uint64_t>(bench.scene0_us)) * 1e-6;
     std::printf("clk_hz=%d axis_mask=%d sim_s=%.9g wall_s=%.6g clocks=%llu frames=%zu ticks=%zu loads=%zu\n",
                 CLK_HZ, AXIS_MASK, sim_s, wall_s, static_cast<unsigned long long>(bench.edge), bench.frames.size(),
