@@ -73,6 +73,7 @@ struct RunCfg {
     int env_kind = 0;
     double env_p[3] = {0, 0, 0}, env_n[3] = {0, 0, 0}, env_k = 0, env_b = 0, env_ki = 0;
     double q0[3] = {0, 0, 0};
+    double qd0[3] = {0, 0, 0};              // rad/s at release (scene time 0)
     double q_index[3] = {0, 0, 0};
     double sweep_rad = 0.5 * kPi / 180.0;   // homing sweep, ends at q0, index half-way
     double t_sweep_s = 6e-3, t_settle_s = 3e-3;
@@ -109,6 +110,7 @@ bool parse_run(const std::string& text, RunCfg& c, std::string& err) {
         else if (key == "env_b" && need(1)) c.env_b = v[0];
         else if (key == "env_ki" && need(1)) c.env_ki = v[0];
         else if (key == "q0" && need(3)) std::copy(v.begin(), v.end(), c.q0);
+        else if (key == "qd0" && need(3)) std::copy(v.begin(), v.end(), c.qd0);
         else if (key == "q_index" && need(3)) std::copy(v.begin(), v.end(), c.q_index);
         else if (key == "sweep_rad" && need(1)) c.sweep_rad = v[0];
         else if (key == "t_sweep_s" && need(1)) c.t_sweep_s = v[0];
@@ -137,6 +139,7 @@ std::string slurp(const char* path) {
 struct FrameRec {         // one per DAC frame (16 us), sampled at the frame's grid start
     double t;             // scene time, s
     double q[3], p[3], f_hand[3], tau[3], i_ab[6];
+    double energy;        // J: kinetic (+ hand spring)
     int16_t dac[6];       // the codes loaded in this frame
     int16_t pad;
     uint32_t pad2;
@@ -206,6 +209,7 @@ struct Bench {
                     r.q[i] = o.q[i]; r.p[i] = o.p[i]; r.f_hand[i] = o.f_hand[i]; r.tau[i] = o.tau[i];
                 }
                 for (int i = 0; i < 6; ++i) r.i_ab[i] = o.i_ab[i];
+                r.energy = o.energy;
             }
             frames.push_back(r);
         }
@@ -286,9 +290,14 @@ struct Bench {
         }
         prev_irq = top->irq;
         top->clk = 0;
-        eval();
 #if HG_TRACE
+        eval();
         if (tfp) tfp->dump(static_cast<uint64_t>(edge) * 2 + 1);
+#else
+        // Nothing in the design works on the falling edge and the inputs set now are read by the
+        // next posedge evaluation (its input phase always runs): instead of evaluating the
+        // falling edge, record it as the model's edge detector would (saves ~5 % of a run).
+        top->rootp->__Vtrigprevexpr___TOP__clk__0 = 0;
 #endif
         if (edge % D == 0) grid(edge / D);
     }
@@ -457,10 +466,7 @@ int main(int argc, char** argv) {
         const uint64_t g_now = bench.edge / D;
         if (!bench.dynamic && static_cast<int64_t>(g_now) >= bench.scene0_us) {
             hg_plant_hold(plant, 0);
-            {
-                const double z[3] = {0, 0, 0};
-                hg_plant_set_q(plant, cfg.q0, z);
-            }
+            hg_plant_set_q(plant, cfg.q0, cfg.qd0);
             bench.dynamic = true;
         }
         if (g_now >= next_progress) {
