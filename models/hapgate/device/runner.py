@@ -16,7 +16,7 @@ import subprocess
 import sys
 import tempfile
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
@@ -178,9 +178,7 @@ def hold_values(scene: Any, q0: np.ndarray) -> dict[str, list[int]]:
         e = _enc(scene, i)
         q = q0[i] - np.deg2rad(SWEEP_DEG) * (1 - s)
         lines = (q - qi[i]) / (2 * np.pi) * encsig.LINES
-        spec = encsig.SignalSpec(amplitude=e.amplitude, offset_a=e.offset_a, offset_b=e.offset_b,
-                                 gain_a=e.gain_a, gain_b=e.gain_b, phase_deg=e.phase_deg,
-                                 h2=e.h2, h3=e.h3, noise_lsb=0.0)
+        spec = replace(e.spec(seed=0), noise_lsb=0.0)
         a, b = encsig.adc_codes(lines, spec)
         o = interp.run(a, b, encsig.index_bit(lines), TopConfig().interp, arm_at=[0])
         if not bool(o.homed[-1]):
@@ -206,6 +204,9 @@ def run_config(scene: Any, q0: np.ndarray) -> str:
              f"t_settle_s = {T_SETTLE_S!r}",
              f"comm_err = {' '.join(str(int(v)) for v in scene.firmware.comm_offset_error_counts)}",
              f"record = {record_mask(scene)}"]
+    timeout_ms = getattr(scene.firmware, "pc_force_timeout_ms", None)
+    if timeout_ms is not None:
+        lines.append(f"pc_force_timeout_ticks = {int(round(timeout_ms * scene.run.servo_hz / 1000))}")
     for k, v in hold_values(scene, q0).items():
         lines.append(f"{k} = {' '.join(str(x) for x in v)}")
     for f in scene.faults:

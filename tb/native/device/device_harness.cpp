@@ -78,6 +78,7 @@ struct RunCfg {
     double sweep_rad = 0.5 * kPi / 180.0;   // homing sweep, ends at q0, index half-way
     double t_sweep_s = 6e-3, t_settle_s = 3e-3;
     int comm_err[3] = {0, 0, 0};
+    int64_t pc_force_timeout_ticks = -1;    // -1: the firmware's default
     uint32_t hold_pos_homed[3] = {0, 0, 0}, hold_index_pos[3] = {0, 0, 0}, hold_index_count[3] = {0, 0, 0};
     uint32_t record = 0xFF;                 // bit 0 plant (q,p,f_hand,tau,current), bit 1 dac, bit 2 adc
     double progress_s = 0.05;               // progress line every this much simulated time
@@ -115,6 +116,7 @@ bool parse_run(const std::string& text, RunCfg& c, std::string& err) {
         else if (key == "sweep_rad" && need(1)) c.sweep_rad = v[0];
         else if (key == "t_sweep_s" && need(1)) c.t_sweep_s = v[0];
         else if (key == "t_settle_s" && need(1)) c.t_settle_s = v[0];
+        else if (key == "pc_force_timeout_ticks" && need(1)) c.pc_force_timeout_ticks = static_cast<int64_t>(v[0]);
         else if (key == "comm_err" && need(3)) for (int i = 0; i < 3; ++i) c.comm_err[i] = static_cast<int>(v[i]);
         else if (key == "hold_pos_homed" && need(3)) for (int i = 0; i < 3; ++i) c.hold_pos_homed[i] = static_cast<uint32_t>(static_cast<int64_t>(v[i]));
         else if (key == "hold_index_pos" && need(3)) for (int i = 0; i < 3; ++i) c.hold_index_pos[i] = static_cast<uint32_t>(static_cast<int64_t>(v[i]));
@@ -437,6 +439,7 @@ int main(int argc, char** argv) {
         fw.enc[i].index_to_zero = static_cast<int32_t>(std::lround(-cfg.q_index[i] / (2 * kPi) * HG_ENC_COUNTS_PER_REV));
         fw.motor[i].comm_offset = static_cast<uint32_t>(cfg.comm_err[i] & 1023);
     }
+    if (cfg.pc_force_timeout_ticks >= 0) fw.pc_force_timeout = static_cast<uint32_t>(cfg.pc_force_timeout_ticks);
     static hg_servo_t s;
     const uint8_t init_err = hg_servo_init(&s, &fw);
     bench.skew = fpga_read32(HG_WORD(offsetof(hapgate_t, DAC_SKEW)));
