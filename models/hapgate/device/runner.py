@@ -206,7 +206,8 @@ def run_config(scene: Any, q0: np.ndarray) -> str:
              f"record = {record_mask(scene)}"]
     timeout_ms = getattr(scene.firmware, "pc_force_timeout_ms", None)
     if timeout_ms is not None:
-        lines.append(f"pc_force_timeout_ticks = {int(round(timeout_ms * scene.run.servo_hz / 1000))}")
+        ticks = int(round(timeout_ms * scene.run.servo_hz / 1000))
+        lines.append(f"pc_force_timeout_ticks = {ticks}")
     for k, v in hold_values(scene, q0).items():
         lines.append(f"{k} = {' '.join(str(x) for x in v)}")
     for f in scene.faults:
