@@ -216,11 +216,11 @@ struct Bench {
             frames.push_back(r);
         }
         // ADC words for the capture at the next edge (sample grid g), then one grid step
-        int8_t a[3], b[3];
-        uint8_t ix[3];
+        int8_t a[3] = {0, 0, 0}, b[3] = {0, 0, 0};   // an axis that is not built has no signal
+        uint8_t ix[3] = {0, 0, 0};
         double tp0 = 0;
         if (g_profile) tp0 = now_s();
-        hg_plant_adc(plant, a, b, ix);
+        hg_plant_adc_mask(plant, AXIS_MASK, a, b, ix);
         uint32_t wa = 0, wb = 0, wi = 0;
         for (int i = 0; i < 3; ++i) {
             if (dropout[i]) a[i] = b[i] = 0;
