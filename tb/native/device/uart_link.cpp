@@ -6,6 +6,7 @@
 #include "uart_link.h"
 
 #include <fcntl.h>
+#include <sys/prctl.h>
 #include <unistd.h>
 
 #include <cerrno>
@@ -104,6 +105,8 @@ UartLink* uart_link_open(const char* cfg_path, hg_servo_t* s, uint32_t servo_hz)
     (void)servo_hz;
     std::signal(SIGINT, on_signal);
     std::signal(SIGTERM, on_signal);
+    prctl(PR_SET_PDEATHSIG, SIGTERM);  // a server never outlives the process that started it
+    if (getppid() == 1) g_stop = 1;
     return u;
 }
 
