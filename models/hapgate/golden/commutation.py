@@ -30,9 +30,9 @@ Per frame (every input latched at the frame start; a change takes effect at the 
 Timing (dac_sched): frame of FRAME_NS (16 us), channel k = 0..5 (m0a, m0b, m1a, m1b, m2a, m2b)
 requested k * SKEW_NS (2 us) after the frame start; its DAC load (rising edge of dac_wr_n) comes
 LOAD_CLOCKS = PIPE + 2 + WR_CYCLES = 8 clocks later (PIPE = 5, or 21 with serial_mul: the
-shift-add multiplier of the LUT-only boards takes 16 clocks more; the codes are the same). The frame start is the clock edge at which the
-inputs are latched; frame 0 starts at the last clock edge that samples rst high (its six loads
-are zero torque).
+shift-add multiplier of the LUT-only boards takes 16 clocks more; the codes are the same).
+The frame start is the clock edge at which the inputs are latched; frame 0 starts at the last
+clock edge that samples rst high (its six loads are zero torque).
 """
 
 from __future__ import annotations
