@@ -15,6 +15,10 @@ module hapgate_top #(
     parameter integer AMP_MIN       = 40,         // signal-loss amplitude window, ADC codes
     parameter integer AMP_MAX       = 170,        // (upper bound of that window)
     parameter integer LOSS_SAMPLES  = 16,         // consecutive bad samples -> signal loss
+    parameter integer CAL           = 0,          // 1: online encoder calibration in every axis
+    parameter         CAL_LUT_FILE  = "asin512.hex", // CAL = 1: its arcsine table (enccal.cal_table)
+    parameter integer CAL_LINES_LOG2 = 3,         // CAL = 1: calibration block 2**N lines
+    parameter integer CAL_NLOG      = 14,         // CAL = 1: blocks of 2**N samples ignored
     parameter integer LINES_LOG2    = 10,         // encoder lines per revolution = 2**LINES_LOG2
     parameter integer POLE_PAIRS    = 2,          // motor electrical cycles per revolution
     parameter integer SKEW_NS       = 2000,       // DAC channel-to-channel skew
@@ -76,19 +80,39 @@ module hapgate_top #(
     wire [8:0]  faults;
     wire        fault_clear;
     wire [2:0]  home_arm;
+    wire [2:0]  cal_en, cal_freeze;
+    wire [11:0] cal_mu;
+    wire [47:0] cal_ofs_a, cal_ofs_b, cal_gain_a, cal_gain_b, cal_phase, cal_updates;
+    wire [23:0] cal_gear;
+    wire        cal_valid;
 
     enc_interp3 #(
         .CLK_HZ(CLK_HZ), .SAMPLE_HZ(SAMPLE_HZ), .AXES(3), .LUT_BITS(LUT_BITS),
         .LUT_FILE(ASIN_FILE), .VEL_LOG2W(VEL_LOG2W), .AMP_MIN(AMP_MIN), .AMP_MAX(AMP_MAX),
-        .LOSS_SAMPLES(LOSS_SAMPLES)
+        .LOSS_SAMPLES(LOSS_SAMPLES), .CAL(CAL), .CAL_LUT_FILE(CAL_LUT_FILE),
+        .CAL_LINES_LOG2(CAL_LINES_LOG2), .CAL_NLOG(CAL_NLOG)
     ) u_interp (
         .clk(clk), .rst(rst), .adc_strobe(adc_strobe), .adc_a(adc_a), .adc_b(adc_b),
         .enc_index(enc_index), .ctl_fault_clear({3{fault_clear}}), .ctl_home_arm(home_arm),
         .m_valid(m_valid), .m_pos(pos), .m_pos_homed(pos_homed), .m_vel(vel),
         .m_index_pos(index_pos), .m_index_count(index_count),
         .m_overspeed_count(overspeed_count), .m_homed(homed), .m_faults(faults),
-        .m_fault(fault)
+        .m_fault(fault),
+        .ctl_cal_en(cal_en), .ctl_cal_freeze(cal_freeze), .cfg_cal_mu(cal_mu),
+        .m_cal_valid(cal_valid), .m_cal_ofs_a(cal_ofs_a), .m_cal_ofs_b(cal_ofs_b),
+        .m_cal_gain_a(cal_gain_a), .m_cal_gain_b(cal_gain_b), .m_cal_phase(cal_phase),
+        .m_cal_gear(cal_gear), .m_cal_updates(cal_updates)
     );
+    wire unused_cal_valid = cal_valid;  // (the registers read the live state)
+    wire [95:0] cal_ofs_w, cal_gain_w, cal_stat_w;
+    genvar c;
+    generate
+        for (c = 0; c < 3; c = c + 1) begin : g_cal_words
+            assign cal_ofs_w[32*c +: 32]  = {cal_ofs_b[16*c +: 16], cal_ofs_a[16*c +: 16]};
+            assign cal_gain_w[32*c +: 32] = {cal_gain_b[16*c +: 16], cal_gain_a[16*c +: 16]};
+            assign cal_stat_w[32*c +: 32] = {cal_updates[16*c +: 16], 8'd0, cal_gear[8*c +: 8]};
+        end
+    endgenerate
     // The interpolator's data outputs are registers held between samples but not reset: until
     // the first sample they are masked where the register file would remember them (the sticky
     // "index seen") or show them live (homed).
@@ -124,6 +148,9 @@ module hapgate_top #(
         .in_pos(pos), .in_pos_homed(pos_homed), .in_vel(vel), .in_index_pos(index_pos),
         .in_index_count(index_count_ok), .in_overspeed_count(overspeed_count),
         .in_homed(homed_ok), .in_faults(faults), .in_fault(fault),
+        .in_cal_ofs(cal_ofs_w), .in_cal_gain(cal_gain_w), .in_cal_phase(cal_phase),
+        .in_cal_stat(cal_stat_w), .ctl_cal_en(cal_en), .ctl_cal_freeze(cal_freeze),
+        .cfg_cal_mu(cal_mu),
         .ctl_global_en(global_en), .ctl_axis_en(axis_en), .ctl_fault_clear(fault_clear),
         .ctl_home_arm(home_arm), .ctl_torque(torque), .ctl_offset(offset), .ctl_mode(mode),
         .ctl_tq_limit(tq_limit), .wdog_expired(wdog_expired), .irq(irq), .tick(tick),
