@@ -1,7 +1,7 @@
 // SPDX-License-Identifier: Apache-2.0
 // Online calibration of one sin/cos channel pair (enc_interp with CAL = 1): offset, gain and
 // quadrature-phase correction of the raw 8-bit codes into 12-bit quarter-LSB channels, learned
-// by a block sign-LMS over whole encoder lines. Bit-exact model: models/hapgate/golden/enccal.py.
+// by a block LMS over whole encoder lines. Bit-exact model: models/hapgate/golden/enccal.py.
 // Latency: 1 clock (s_valid -> m_valid). The state applies from the sample after an update.
 `timescale 1ns / 1ps
 `default_nettype none
@@ -36,6 +36,7 @@ module enc_calib #(
     localparam integer QW = LINES_LOG2 + 2;       // quadrant bits inside a cell
     localparam integer NW = NLOG + 1;             // block length counter (saturates at 2**NLOG)
     localparam integer SW = 27;                   // block sums
+    localparam integer XW = 36;                   // block sum of a b
     localparam integer EW = 42;                   // update arithmetic
     localparam integer AMP2_MIN_I = AMP_MIN * AMP_MIN;
     localparam integer AMP2_MAX_I = AMP_MAX * AMP_MAX;
@@ -121,17 +122,27 @@ module enc_calib #(
     // ---------------------------------------------------------------- blocks
     reg                  entered, seg_fwd, seg_ok;
     reg  [NW-1:0]        seg_n;
-    reg  signed [SW-1:0] s_sa, s_sb, s_ua, s_ub, s_x;
+    reg  [NW-1:0]        seg_n1;                 // samples before the middle of the cell
+    reg                  half_seen;
+    reg  signed [SW-1:0] s_sa, s_sb, s_ua, s_ub;
+    reg  signed [XW-1:0] s_x;
     wire                 bad_now  = clip | bad | ovs | ctl_freeze | ~ctl_en;
     wire                 opp      = seg_fwd ? back : fwd;
-    wire                 blk_end  = xing && entered && seg_ok && (fwd == seg_fwd) && (seg_n != NSAT);
+    // speed about constant: |N1 - N2| = |2 N1 - N| <= N / 32
+    wire signed [NW+1:0] half_d   = $signed({1'b0, seg_n1, 1'b0}) - $signed({2'b00, seg_n});
+    wire        [NW+1:0] half_abs = half_d[NW+1] ? -half_d : half_d;
+    wire                 steady   = half_seen && (half_abs <= {7'd0, seg_n[NW-1:5]});
+    wire                 toggle   = qlow_next[QW-1] ^ qlow[QW-1];
+    wire                 blk_end  = xing && entered && seg_ok && (fwd == seg_fwd) &&
+                                    (seg_n != NSAT) && steady;
     wire                 do_upd   = blk_end && ctl_en;
 
     wire signed [SW-1:0] ac_e  = {{(SW - 12){ac[11]}}, ac};
     wire signed [SW-1:0] bc_e  = {{(SW - 12){bc[11]}}, bc};
     wire signed [SW-1:0] aac_e = ac[11] ? -ac_e : ac_e;
     wire signed [SW-1:0] abc_e = bc[11] ? -bc_e : bc_e;
-    wire signed [SW-1:0] xc_e  = ac[11] ? -bc_e : bc_e;
+    wire signed [23:0]   ab_p  = ac * bc;
+    wire signed [XW-1:0] xc_e  = {{(XW - 24){ab_p[23]}}, ab_p};
 
     // ---------------------------------------------------------------- update
     function [4:0] msb;   // floor(log2 v), v >= 1
@@ -146,17 +157,19 @@ module enc_calib #(
 
     wire [7:0]  gear_n = (m_gear == 8'd255) ? 8'd255 : m_gear + 8'd1;
     wire [3:0]  mu_l   = (cfg_mu == 4'd0) ? 4'd1 : cfg_mu;
-    wire [4:0]  g_lg   = msb({9'd0, gear_n}) + 5'd1;
+    wire [4:0]  g_lg   = msb({9'd0, gear_n});               // floor(log2 c)
     wire [4:0]  mu_e   = ({1'b0, mu_l} < g_lg) ? {1'b0, mu_l} : g_lg;
     wire [16:0] n17    = {{(17 - NW){1'b0}}, seg_n};
-    wire [5:0]  sh     = {1'b0, msb(n17)} + {1'b0, mu_e};
+    wire [4:0]  n_msb  = msb(n17);
+    wire        n_half = n17[n_msb - 5'd1];                 // N >= 1.5 * 2**msb: round up
+    wire [5:0]  sh     = {1'b0, n_msb} + {5'd0, n_half} + {1'b0, mu_e};
 
     wire signed [EW-1:0] n_e   = {{(EW - NW){1'b0}}, seg_n};
-    wire signed [EW-1:0] e_oa  = {{(EW - SW){s_sa[SW-1]}}, s_sa} <<< 9;
-    wire signed [EW-1:0] e_ob  = {{(EW - SW){s_sb[SW-1]}}, s_sb} <<< 9;
-    wire signed [EW-1:0] e_ga  = (T16 * n_e - ({{(EW - SW){s_ua[SW-1]}}, s_ua} <<< 4)) <<< 9;
-    wire signed [EW-1:0] e_gb  = (T16 * n_e - ({{(EW - SW){s_ub[SW-1]}}, s_ub} <<< 4)) <<< 9;
-    wire signed [EW-1:0] e_kp  = {{(EW - SW){s_x[SW-1]}}, s_x} <<< 13;
+    wire signed [EW-1:0] e_oa  = {{(EW - SW){s_sa[SW-1]}}, s_sa} <<< 10;
+    wire signed [EW-1:0] e_ob  = {{(EW - SW){s_sb[SW-1]}}, s_sb} <<< 10;
+    wire signed [EW-1:0] e_ga  = (T16 * n_e - ({{(EW - SW){s_ua[SW-1]}}, s_ua} <<< 4)) <<< 10;
+    wire signed [EW-1:0] e_gb  = (T16 * n_e - ({{(EW - SW){s_ub[SW-1]}}, s_ub} <<< 4)) <<< 10;
+    wire signed [EW-1:0] e_kp  = {{(EW - XW){s_x[XW-1]}}, s_x} <<< 5;
     wire signed [EW-1:0] d_oa  = e_oa >>> sh;
     wire signed [EW-1:0] d_ob  = e_ob >>> sh;
     wire signed [EW-1:0] d_ga  = e_ga >>> sh;
@@ -223,6 +236,8 @@ module enc_calib #(
             seg_fwd   <= 1'b1;
             seg_ok    <= 1'b0;
             seg_n     <= {NW{1'b0}};
+            seg_n1    <= {NW{1'b0}};
+            half_seen <= 1'b0;
             oa_x      <= 18'sd0;
             ob_x      <= 18'sd0;
             ga_x      <= GAIN_ONE;
@@ -245,7 +260,12 @@ module enc_calib #(
                     seg_fwd <= fwd;
                     seg_ok  <= ~bad_now;
                     seg_n   <= {{(NW - 1){1'b0}}, 1'b1};
+                    half_seen <= 1'b0;
                 end else begin
+                    if (started && toggle && !half_seen) begin
+                        half_seen <= 1'b1;
+                        seg_n1    <= seg_n;
+                    end
                     seg_ok <= seg_ok & ~bad_now & ~opp;
                     if (seg_n != NSAT) seg_n <= seg_n + 1'b1;
                 end

@@ -3,8 +3,10 @@
 Sits between the capture and the angle stage of one interpolator axis (enc_interp with CAL = 1).
 It corrects offset, gain and quadrature phase of the raw 8-bit channels a, b into two 12-bit
 channels in quarter-LSB units normalised to the arcsine table's amplitude (127 LSB = 508), and
-learns the coefficients online with a block sign-LMS on whole encoder lines. No division, no
-square root, no multiplier beyond the three of the correction.
+learns the coefficients online with a block LMS on whole encoder lines. No division, no square
+root; one multiplier (a b) beyond the three of the correction. (The cross term is a product, not
+sign(a) b: the sign's jumps, sampled at 4..8 samples per line, give errors that add up coherently
+at speeds where a half line is close to a whole number of samples.)
 
 Correction (per sample; state x = the internal coefficient registers, applied c = x >> 8):
     a1 = 16 a - OA                      OA, OB: offsets in 1/16 LSB, applied range -512..511
@@ -21,17 +23,21 @@ of 4 M quadrants, M = 2^lines_log2 lines. A block is the run of samples from a c
 the next crossing (exclusive). It is valid, and updates the state at its end sample e, when both
 crossings go the same way, no step inside went the other way, every sample in it is fault-free
 (no raw clipping, raw a^2 + b^2 inside the amplitude window, no two-quadrant step), not frozen,
-calibration enabled, and it is shorter than 2^nlog samples. So the estimator sees whole lines
-traversed one way (the sums of sin, cos, sign(sin) cos over a line vanish to within one sample,
+calibration enabled, it is shorter than 2^nlog samples, and its two halves (2^lines_log2 / 2
+lines each, cut where the counter passes the middle of the cell) took the same number of
+samples to within N / 32 (about constant speed). So the estimator sees whole lines
+traversed one way at a steady speed (the sums of sin, cos, sign(sin) cos over a line vanish to within one sample,
 with zero mean), and stands still at standstill, reversals, chatter and faults.
 
 Update at a valid block end (N samples, sums over the block of the corrected samples):
-    Sa = sum ac, Sb = sum bc, Ua = sum |ac|, Ub = sum |bc|, X = sum (ac < 0 ? -bc : bc)
-    s = floor(log2 N), c = min(c + 1, 255) (valid blocks since enable), mu_e = min(MU, log2(c) + 1)
+    Sa = sum ac, Sb = sum bc, Ua = sum |ac|, Ub = sum |bc|, X = sum ac bc
+    s = floor(log2 N) + (bit below the leading one of N)   (so N / 2^s is in [0.75, 1.5))
+    c = min(c + 1, 255) (valid blocks since enable), mu_e = min(max(MU, 1), floor(log2 c))
     sh = s + mu_e  (the gain 2^-mu_e falls with c like a running mean, then stays at 2^-MU)
-    OA += (Sa << 9) >> sh, OB += (Sb << 9) >> sh            (mean -> 0)
-    GA += ((T16 N - 16 Ua) << 9) >> sh, GB likewise with Ub  (mean |.| -> 508 * 2 / pi)
-    KP -= (X << 13) >> sh                                    (sign(a) b uncorrelated)
+    OA += (Sa << 10) >> sh, OB += (Sb << 10) >> sh          (mean -> 0)
+    GA += ((T16 N - 16 Ua) << 10) >> sh, GB likewise with Ub (mean |.| -> 508 * 2 / pi)
+    KP -= (X << 5) >> sh                                     (a and b uncorrelated)
+(>> is the arithmetic shift, i.e. floor). The loop gains are 0.8..1.7 x 2^-mu_e for all five.
 each saturated to its register range (so the state can never run away), T16 = 5174. The new
 state applies from sample e + 1 on (sample e already used the old one).
 """
@@ -146,6 +152,13 @@ def calibrate(a: np.ndarray, b: np.ndarray, en: np.ndarray | bool = True,
     fwd = step[s] > 0
     opp = np.where(fwd, cb[e] - cb[s + 1], cf[e] - cf[s + 1]) > 0   # inside (s, e)
     valid = ((step[e] > 0) == fwd) & ~opp & (cbad[e] == cbad[s]) & (e - s < (1 << cal.nlog))
+    # speed about constant: the two half-blocks (2M lines each) differ by <= N/32 samples
+    half = (qcr >> (cal.lines_log2 + 1)) & 1
+    ht = np.flatnonzero(np.diff(half) != 0) + 1
+    t = ht[np.minimum(np.searchsorted(ht, s, side="right"), max(ht.size - 1, 0))] if ht.size \
+        else e
+    t = np.where((t > s) & (t < e), t, s)
+    valid &= np.abs(2 * t - s - e) <= (e - s) >> 5
     valid &= en_a[e]
     vs, ve = s[valid], e[valid]
 
@@ -153,18 +166,21 @@ def calibrate(a: np.ndarray, b: np.ndarray, en: np.ndarray | bool = True,
     off = ~en_a
     r0 = np.flatnonzero(off & ~np.concatenate(([False], off[:-1])))
 
-    cur = np.array(IDENTITY, dtype=np.int64)
-    prev = cur.copy()
+    # The recursion runs once per valid block (not per sample), on Python ints for the state
+    # and numpy slices for the block sums.
+    a16, b16 = 16 * a, 16 * b
+    lo, hi = X_MIN, X_MAX
+    cur: tuple[int, ...] = IDENTITY
+    prev = cur
     cur_eff = 0
     gear = 0
-    lo, hi = np.array(X_MIN, dtype=np.int64), np.array(X_MAX, dtype=np.int64)
     ch_idx: list[int] = [0]
-    ch_state: list[np.ndarray] = [cur.copy()]
+    ch_state: list[tuple[int, ...]] = [cur]
     gear_idx: list[int] = []
     gear_val: list[int] = []
     ri = 0
-    for k in range(vs.size):
-        s0, e0 = int(vs[k]), int(ve[k])
+    mu_l_all = np.maximum(mu_a, 1)
+    for s0, e0 in zip(vs.tolist(), ve.tolist()):
         # resets strictly before this block's end (a run cannot overlap a valid block)
         if ri < r0.size and r0[ri] < e0:
             first = int(r0[ri])          # the first reset changes the state; later ones keep it
@@ -172,43 +188,47 @@ def calibrate(a: np.ndarray, b: np.ndarray, en: np.ndarray | bool = True,
                 gear_idx.append(int(r0[ri]))
                 gear_val.append(0)
                 ri += 1
-            prev = cur
-            cur = np.array(IDENTITY, dtype=np.int64)
+            cur = IDENTITY
             cur_eff = first + 1
             ch_idx.append(cur_eff)
-            ch_state.append(cur.copy())
+            ch_state.append(cur)
             gear = 0
-        ac, bc = correct(a[s0:e0], b[s0:e0], cur)
+        oa, ob, ga, gb, kp = (v >> FRAC for v in cur)
+        a1 = a16[s0:e0] - oa
+        b1 = b16[s0:e0] - ob
+        ac = (a1 * ga + 32768) >> 16
+        bc = (b1 * gb + a1 * kp + 32768) >> 16
         if cur_eff > s0:   # the first sample still used the previous state
-            ac0, bc0 = correct(a[s0:s0 + 1], b[s0:s0 + 1], prev)
-            ac[0], bc[0] = ac0[0], bc0[0]
+            poa, pob, pga, pgb, pkp = (v >> FRAC for v in prev)
+            pa1, pb1 = int(a16[s0]) - poa, int(b16[s0]) - pob
+            ac[0] = (pa1 * pga + 32768) >> 16
+            bc[0] = (pb1 * pgb + pa1 * pkp + 32768) >> 16
         nn = e0 - s0
         gear = min(gear + 1, GEAR_MAX)
-        mu_l = max(int(mu_a[e0]), 1)
-        mu_e = min(mu_l, gear.bit_length())
-        sh = (nn.bit_length() - 1) + mu_e
+        mu_e = min(int(mu_l_all[e0]), gear.bit_length() - 1)
+        s_n = (nn.bit_length() - 1) + ((nn >> (nn.bit_length() - 2)) & 1)
+        sh = s_n + mu_e
         sa_, sb_ = int(ac.sum()), int(bc.sum())
         ua, ub = int(np.abs(ac).sum()), int(np.abs(bc).sum())
-        xx = int(np.where(ac < 0, -bc, bc).sum())
-        d = np.array([(sa_ << 9) >> sh, (sb_ << 9) >> sh,
-                      ((T16 * nn - 16 * ua) << 9) >> sh, ((T16 * nn - 16 * ub) << 9) >> sh,
-                      -((xx << 13) >> sh)], dtype=np.int64)
+        xx = int((ac * bc).sum())
+        d = ((sa_ << 10) >> sh, (sb_ << 10) >> sh, ((T16 * nn - 16 * ua) << 10) >> sh,
+             ((T16 * nn - 16 * ub) << 10) >> sh, -((xx << 5) >> sh))
         prev = cur
-        cur = np.clip(cur + d, lo, hi)
+        cur = tuple(min(max(c + dd, lw), hg) for c, dd, lw, hg in zip(cur, d, lo, hi))
         cur_eff = e0 + 1
         ch_idx.append(cur_eff)
-        ch_state.append(cur.copy())
+        ch_state.append(cur)
         gear_idx.append(e0)
         gear_val.append(gear)
     # resets after the last update
     for rr in r0[ri:]:
         ch_idx.append(int(rr) + 1)
-        ch_state.append(np.array(IDENTITY, dtype=np.int64))
+        ch_state.append(IDENTITY)
         gear_idx.append(int(rr))
         gear_val.append(0)
 
     idx = np.asarray(ch_idx, dtype=np.int64)
-    st = np.stack(ch_state)
+    st = np.array(ch_state, dtype=np.int64)
     k = np.arange(n)
     state = st[np.searchsorted(idx, k, side="right") - 1].T             # used by sample k
     state_after = st[np.searchsorted(idx - 1, k, side="right") - 1].T   # after sample k
@@ -234,3 +254,53 @@ def calibrate(a: np.ndarray, b: np.ndarray, en: np.ndarray | bool = True,
 def applied(state: np.ndarray) -> np.ndarray:
     """The applied coefficients (OA, OB, GA, GB, KP) of internal states (5, ...)."""
     return np.asarray(state) >> FRAC
+
+
+# ----------------------------------------------------------------------------------------------
+# Stimuli for the calibration's tests and benchmark (paper-like front end, seeded)
+
+
+def paper_truth(n: int, rev_s: float = 37.3, start: float = 0.37) -> np.ndarray:
+    """Constant speed, not commensurate with the sampling (the bench's accuracy runs)."""
+    from .encsig import constant
+    return constant(rev_s, n, start=start)
+
+
+def mixed_motion(n: int, seed: int = 1) -> np.ndarray:
+    """True position in lines: ramps, reversals through zero speed, standstill, fast runs."""
+    from .encsig import LINES, SAMPLE_HZ
+    rng = np.random.default_rng(seed)
+    k = np.arange(n) / SAMPLE_HZ
+    # speed (rev/s): a slow random walk of segments between -200 and 200 plus stops
+    seg = max(1, n // 40)
+    levels = rng.uniform(-200.0, 200.0, n // seg + 2)
+    levels[rng.random(levels.size) < 0.2] = 0.0
+    ramp = np.interp(np.arange(n), np.arange(levels.size) * seg, levels)
+    wob = 30.0 * np.sin(2 * np.pi * 150.0 * k)
+    v = ramp + wob * (ramp != 0)
+    return 0.3 + np.cumsum(v) * LINES / SAMPLE_HZ
+
+
+def disturbed_codes(x: np.ndarray, seed: int = 3, period: int = 250_000
+                    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Paper-like codes for truth x with, every `period` samples, a noise burst (sigma 6 LSB,
+    3000 samples), an over-range burst (amplitude x 1.35, clipping, 4000 samples) and a dropout
+    (A = B = 0, 400 samples). Returns a, b and the mask of clean samples (outside bursts and
+    within them the 20000 samples that follow, where the error is allowed to recover)."""
+    from .encsig import PAPER_LIKE, adc_codes, with_spec
+    n = x.size
+    spec = with_spec(PAPER_LIKE, seed=seed)
+    a, b = adc_codes(x, spec)
+    rng = np.random.default_rng(seed + 1)
+    clean = np.ones(n, dtype=bool)
+    for p0 in range(period // 2, n - 30_000, period):
+        nb = slice(p0, p0 + 3000)
+        na, nb_ = adc_codes(x[nb], with_spec(spec, noise_lsb=6.0, seed=int(rng.integers(1 << 30))))
+        a[nb], b[nb] = na, nb_
+        cb = slice(p0 + 8000, p0 + 12_000)
+        ca, cbb = adc_codes(x[cb], with_spec(spec, amplitude=spec.amplitude * 1.35))
+        a[cb], b[cb] = ca, cbb
+        d = slice(p0 + 16_000, p0 + 16_400)
+        a[d], b[d] = 0, 0
+        clean[p0:p0 + 16_400 + 20_000] = False
+    return a, b, clean
