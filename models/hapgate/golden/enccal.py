@@ -26,8 +26,9 @@ crossings go the same way, no step inside went the other way, every sample in it
 calibration enabled, it is shorter than 2^nlog samples, and its two halves (2^lines_log2 / 2
 lines each, cut where the counter passes the middle of the cell) took the same number of
 samples to within N / 32 (about constant speed). So the estimator sees whole lines
-traversed one way at a steady speed (the sums of sin, cos, sign(sin) cos over a line vanish to within one sample,
-with zero mean), and stands still at standstill, reversals, chatter and faults.
+traversed one way at a steady speed (the sums of sin, cos, sin cos over whole lines vanish to
+within one sample, with zero mean), and stands still at standstill, reversals, chatter and
+faults.
 
 Update at a valid block end (N samples, sums over the block of the corrected samples):
     Sa = sum ac, Sb = sum bc, Ua = sum |ac|, Ub = sum |bc|, X = sum ac bc
