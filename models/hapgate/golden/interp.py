@@ -123,6 +123,11 @@ def blocks() -> list[Block]:
         Block(name="enc_interp", top="enc_interp", sources=srcs,
               params=lambda: InterpConfig().rtl_params(),
               doc="one axis of the sin/cos interpolator"),
+        Block(name="enc_interp_cal", top="enc_interp", sources=srcs,
+              params=lambda: InterpConfig(cal=True).rtl_params(),
+              # (the generic-gate synthesis of the update's barrel shifters takes minutes)
+              lint_synth=("ice40",),
+              doc="one axis with the online calibration stage (CAL = 1, rtl/interp/enc_calib.v)"),
         Block(name="enc_interp3", top="enc_interp3",
               sources=srcs + ("interp/sample_strobe.v", "interp/enc_interp3.v"),
               params=interp3_params,
