@@ -32,6 +32,7 @@ module hapgate_top #(
     parameter integer DAC_BITS      = 14,         // DAC width
     parameter integer OFFSET_BINARY = 0,          // DAC coding: 0 two's complement, 1 offset binary
     parameter integer BUS_ADDR_BITS = 8,          // DSP word-address lines decoded
+    parameter integer SERIAL_MUL    = 0,          // 1: commutator multiplies in 16 clocks (LUT-only boards)
     parameter integer AXIS_MASK     = 7           // interpolators built (bit i = axis i); a
                                                   // cleared bit needs HG_SIM (held joint)
 ) (
@@ -295,7 +296,7 @@ module hapgate_top #(
         .CLK_HZ(CLK_HZ), .SKEW_NS(SKEW_NS), .FRAME_NS(FRAME_NS), .SETTLE_NS(SETTLE_NS),
         .WR_CYCLES(WR_CYCLES), .COUNT_BITS(COUNT_BITS), .POLE_PAIRS(POLE_PAIRS),
         .ADDR_BITS(ADDR_BITS), .MAG_BITS(MAG_BITS), .FS(FS), .LUT_FILE(SINE_FILE),
-        .DAC_BITS(DAC_BITS), .OFFSET_BINARY(OFFSET_BINARY)
+        .DAC_BITS(DAC_BITS), .OFFSET_BINARY(OFFSET_BINARY), .SERIAL_MUL(SERIAL_MUL)
     ) u_comm (
         .clk(clk), .rst(rst), .s_pos(s_pos), .s_torque(tq_cl), .ctl_offset(offset),
         .ctl_mode(mode_eff), .ctl_enable(~kill_all), .ctl_torque_limit(16'hFFFF),
