@@ -10,7 +10,7 @@ from ..base import toolenv
 from ..base.paths import ROOT
 from ..base.report import table, write_csv
 from ..runners import cosim
-from . import bench_commutation, bench_host, bench_interp
+from . import bench_calib, bench_commutation, bench_host, bench_interp
 
 
 def main(args: argparse.Namespace) -> int:
@@ -25,6 +25,8 @@ def main(args: argparse.Namespace) -> int:
     print(f"csv: {write_csv('bench_sine_rom.csv', headers, rows)}\n")
     ok &= sine_ok
     ok &= bench_interp.run(args.quick)
+    print()
+    ok &= bench_calib.run(args.quick)
     print()
     ok &= bench_commutation.run(args.quick)
     print()
