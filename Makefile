@@ -6,6 +6,8 @@
 #   make lint     ruff, verilator -Wall, Icarus elaboration, Yosys synthesis checks
 #   make bench    benchmarks: tables on stdout, CSV/PNG in build/reports/
 #   make synth    Yosys resource table per block, then nextpnr place and route of the board tops
+#                 (bitstreams; fails on a fit or timing failure)
+#   make gatelevel the board tops' post-synthesis netlists beside their RTL (minutes)
 #   make versions the tools in use, with their paths
 #   make mutants  mutation testing: every bug in tb/mutants/mutants.toml must be killed (long)
 #   make regs     regenerate the register header/document from rtl/regs/hapgate.rdl
@@ -17,7 +19,7 @@ HG      := $(VENV)/bin/hapgate
 PYTEST  := $(VENV)/bin/pytest
 PYTEST_ARGS ?= -n auto
 
-.PHONY: all venv demo test lint bench versions synth regs mutants clean distclean
+.PHONY: all venv demo test lint bench versions synth gatelevel regs mutants clean distclean
 
 all: test
 
@@ -55,6 +57,9 @@ mutants: $(STAMP)
 synth: $(STAMP)
 	$(HG) synth
 	$(HG) pnr
+
+gatelevel: $(STAMP)
+	$(PYTEST) -p no:xdist tb/boards/gatelevel_board_tops.py
 
 # Regenerate the committed register header and document from rtl/regs/hapgate.rdl
 # (tb/bus/test_regmap.py fails while they are stale).
