@@ -9,6 +9,7 @@ they fail on a wrong schedule.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from fractions import Fraction
 
 import cocotb
 import numpy as np
@@ -20,11 +21,38 @@ from .commutation import CommutationConfig, Frames, encode, load_clocks
 
 
 def period_ps(cfg: CommutationConfig) -> int:
-    p = 10**12 // cfg.clk_hz
-    if p * cfg.clk_hz != 10**12 or p % 2:
-        raise ValueError(f"CLK_HZ {cfg.clk_hz}: the period is not an even number of ps (1 ps "
-                         "simulator precision); pick e.g. 50, 25, 16 or 12.5 MHz")
+    """The simulated clock period, ps (the simulators run at 1 ps precision; cocotb's Clock
+    needs an even number of steps). Exact when 10**12 / CLK_HZ is a whole even number of ps
+    (50, 25, 12.5 MHz); otherwise the nearest even number of ps: 20834 ps for the 48 MHz default
+    (exact 20833.33), 83334 ps for the board's 12 MHz (exact 83333.33).
+
+    The RTL is synchronous, so every event it makes falls on a clock edge. `check_schedule`
+    therefore (1) requires every time difference to be a whole number of simulated periods,
+    (2) compares the clock counts with the spec (the documented latencies), and (3) asserts the
+    simulated times against the spec's real times (2 us skew, 16 us frame) with the tolerance
+    this rounding implies and nothing more: N clocks of simulated period p differ from N clocks
+    of the exact period by N * |p - 10**12 / CLK_HZ| (64 ps over a 96-clock skew at 48 MHz,
+    512 ps over a frame), less than one clock, so a schedule one clock off still fails."""
+    if cfg.clk_hz <= 0:
+        raise ValueError(f"CLK_HZ {cfg.clk_hz} must be positive")
+    p = round(10**12 / cfg.clk_hz / 2) * 2
+    if p < 2:
+        raise ValueError(f"CLK_HZ {cfg.clk_hz}: the period is below 2 ps")
     return p
+
+
+def period_error_ps(cfg: CommutationConfig) -> Fraction:
+    """|simulated period - exact period|, ps (0 where the period is exact)."""
+    return abs(Fraction(period_ps(cfg)) - Fraction(10**12, cfg.clk_hz))
+
+
+def spec_tolerance_ps(cfg: CommutationConfig, spec_ps: int) -> Fraction:
+    """The largest difference between a simulated and a real time of `spec_ps` (a whole number
+    of exact clock periods): its clock count times the period error."""
+    n = Fraction(spec_ps) / Fraction(10**12, cfg.clk_hz)
+    if n.denominator != 1:
+        raise ValueError(f"{spec_ps} ps is not a whole number of clocks at {cfg.clk_hz} Hz")
+    return n * period_error_ps(cfg)
 
 
 def now_ps() -> int:
@@ -69,7 +97,7 @@ class DacModel:
 
     async def _watch_strobe(self) -> None:
         p = period_ps(self.cfg)
-        settle = self.cfg.settle_ns * 1000
+        settle = self.cfg.clk_hz // 1000 * self.cfg.settle_ns // 1_000_000 * p  # in clocks
         dut = self.dut
         last: dict[int, int] = {}
         while True:
@@ -164,11 +192,15 @@ def check_schedule(loads: list[Load], latches: list[int], cfg: CommutationConfig
     """Check the recorded loads against the spec and return the words, shape (frames, 6).
 
     Frame i = the loads from latches[i] on. Asserted in simulation time: channel order
-    0..5 in every frame; skew between successive channels exactly skew_ns; frame start to frame
-    start of channel 0 exactly frame_ns; latency from the frame start to channel k exactly the
-    model's load time. With t0_ps (the start of frame 0 after reset), the six loads before the
-    first latch must be zero torque in the same timing."""
+    0..5 in every frame; every load on a clock edge (a whole number of periods after the frame
+    start); latency from the frame start to channel k exactly the model's load clocks; skew
+    between successive channels and frame start to frame start of channel 0 equal to skew_ns and
+    frame_ns, exactly where the simulated period is exact and otherwise within the rounding
+    tolerance of `period_ps` (less than a clock). With t0_ps (the start of frame 0 after reset),
+    the six loads before the first latch must be zero torque in the same timing."""
     p = period_ps(cfg)
+    skew_ps, frame_ps = cfg.skew_ns * 1000, cfg.frame_ns * 1000
+    tol_skew, tol_frame = spec_tolerance_ps(cfg, skew_ps), spec_tolerance_ps(cfg, frame_ps)
     t = np.array([ld.t_ps for ld in loads], dtype=np.int64)
     a = np.array([ld.addr for ld in loads], dtype=np.int64)
     w = np.array([ld.word for ld in loads], dtype=np.int64)
@@ -179,16 +211,19 @@ def check_schedule(loads: list[Load], latches: list[int], cfg: CommutationConfig
     words = []
     prev0 = None
     for ts in starts:
-        sel = (t >= ts) & (t < ts + cfg.frame_ns * 1000)
+        sel = (t >= ts) & (t < ts + cfg.frame_clocks * p)
         assert np.count_nonzero(sel) == 6, f"frame at {ts} ps: {np.count_nonzero(sel)} loads, not 6"
         tf, af = t[sel], a[sel]
         assert np.array_equal(af, np.arange(6)), f"frame at {ts} ps: channel order {af.tolist()}"
+        assert np.all((tf - ts) % p == 0), f"frame at {ts} ps: a load off the clock edges"
         skew = np.diff(tf)
-        assert np.all(skew == cfg.skew_ns * 1000), f"frame at {ts} ps: skew {skew.tolist()} ps"
+        assert np.all(np.abs(skew - skew_ps) <= tol_skew), (
+            f"frame at {ts} ps: skew {skew.tolist()} ps, spec {skew_ps} +- {float(tol_skew):g}")
         assert np.array_equal(tf - ts, want_lat), (
             f"frame at {ts} ps: latency {(tf - ts).tolist()} ps, documented {want_lat.tolist()}")
         if prev0 is not None:
-            assert tf[0] - prev0 == cfg.frame_ns * 1000, f"frame period {tf[0] - prev0} ps"
+            assert abs(int(tf[0] - prev0) - frame_ps) <= tol_frame, (
+                f"frame period {tf[0] - prev0} ps, spec {frame_ps} +- {float(tol_frame):g}")
         prev0 = tf[0]
         words.append(w[sel])
     out = np.array(words, dtype=np.int64).reshape(len(starts), 6)
