@@ -161,8 +161,28 @@ module dac_sched_formal #(
         end
     endfunction
 
+    function in_strobe;                      // clocks of the frame with dac_wr_n low
+        input integer c;
+        begin
+            in_strobe = (c >= PIPE_CYCLES + 2) && ((c - PIPE_CYCLES - 2) % SKEW_CYCLES < WR_CYCLES)
+                        && ((c - PIPE_CYCLES - 2) / SKEW_CYCLES < CHANNELS);
+        end
+    endfunction
+
     integer j;
     always @(*) begin
+        // the clock after a reset edge: every tracker and the scheduler start afresh
+        if (!init && rst_q)
+            assert (since == 0 && loads == 0 && run_n == 0 && v_pipe == 0 && dac_wr_n
+                    && !peek_wr_go && peek_frame_cnt == 0 && peek_slot_cnt == 0
+                    && peek_ch_cnt == 0 && !any && !any0);
+        if (!init && run_n != 8'hff) assert (since == run_n % FRAME_CYCLES);
+        if (!init && !rst_q && (peek_wr_go || !dac_wr_n))
+            assert (dac_addr == (since - PIPE_CYCLES - 1) / SKEW_CYCLES);
+        if (!init && !rst_q) begin
+            assert (!dac_wr_n == in_strobe(since));
+            if (!dac_wr_n) assert (low == (since - PIPE_CYCLES - 2) % SKEW_CYCLES);
+        end
         if (!init && !rst_q) begin
             assert (since < FRAME_CYCLES);
             assert (m_frame == (since == FRAME_CYCLES - 1));
@@ -174,13 +194,18 @@ module dac_sched_formal #(
             if (any0 && loads == 0) assert (gap0 == since + FRAME_CYCLES - LOAD);
             if (!dac_wr_n) assert (peek_wr_left == WR_CYCLES - 1 - low);
         end
+        // the producer pipeline and the strobe trigger: requests of the last clocks, none
+        // from before the reset
         for (j = 0; j < PIPE_CYCLES; j = j + 1)
-            if (!init && run_n > j + 1 && run_n > 1)
-                assert (v_pipe[j] == is_req((since + FRAME_CYCLES - 1 - j) % FRAME_CYCLES)
+            if (!init && !rst_q)
+                assert (v_pipe[j] == (j < run_n && is_req((since + FRAME_CYCLES - 1 - j)
+                                                           % FRAME_CYCLES))
                         && (!v_pipe[j] || ch_pipe[3*j +: 3]
                             == ((since + FRAME_CYCLES - 1 - j) % FRAME_CYCLES) / SKEW_CYCLES));
-        if (!init && run_n > PIPE_CYCLES + 1)
-            assert (peek_wr_go == is_req((since + FRAME_CYCLES - PIPE_CYCLES - 1) % FRAME_CYCLES));
+        if (!init && !rst_q)
+            assert (peek_wr_go == (PIPE_CYCLES < run_n
+                                   && is_req((since + FRAME_CYCLES - PIPE_CYCLES - 1)
+                                             % FRAME_CYCLES)));
     end
 `endif
 endmodule
