@@ -7,6 +7,7 @@
 #   make bench    benchmarks: tables on stdout, CSV/PNG in build/reports/
 #   make synth    Yosys resource table per block, then nextpnr place and route of the board tops
 #   make versions the tools in use, with their paths
+#   make formal   SymbiYosys proofs (tb/formal/) and the broken copies each must reject
 #   make regs     regenerate the register header/document from rtl/regs/hapgate.rdl
 SHELL   := bash
 PYTHON  ?= python3
@@ -16,7 +17,7 @@ HG      := $(VENV)/bin/hapgate
 PYTEST  := $(VENV)/bin/pytest
 PYTEST_ARGS ?= -n auto
 
-.PHONY: all venv demo test lint bench versions synth regs clean distclean
+.PHONY: all venv demo test lint bench versions synth regs formal clean distclean
 
 all: test
 
@@ -50,6 +51,9 @@ bench: $(STAMP)
 synth: $(STAMP)
 	$(HG) synth
 	$(HG) pnr
+
+formal: $(STAMP)
+	$(VENV)/bin/python -m hapgate.flows.formal --mutants
 
 # Regenerate the committed register header and document from rtl/regs/hapgate.rdl
 # (tb/bus/test_regmap.py fails while they are stale).
