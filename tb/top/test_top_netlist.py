@@ -36,7 +36,7 @@ def test_top_netlist_bit_exact(target: str) -> None:
     cfg = top.TopConfig(clk_hz=CLK_HZ)
     params = cfg.rtl_params()
     net = flow.netlist(rtl, params, target, flatten=False)
-    gate = Block(name=f"hapgate_top_{target}_netlist", top=rtl.top,
+    gate = Block(name=f"hapgate_top_{target}_netlist_{net.parent.name[-10:]}", top=rtl.top,
                  sources=(str(net), str(flow.simlib(target))), params=dict, doc="netlist")
     sim.run_cocotb(gate, "icarus", "cocotb_top", HERE, params={}, build_args=BUILD_ARGS,
                    extra_env={"HG_SAMPLES": str(SAMPLES),
