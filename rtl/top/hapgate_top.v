@@ -27,7 +27,9 @@ module hapgate_top #(
     parameter         SINE_FILE     = "sine.hex", // sine ROM (hapgate.sine.write_rom)
     parameter integer DAC_BITS      = 14,         // DAC width
     parameter integer OFFSET_BINARY = 0,          // DAC coding: 0 two's complement, 1 offset binary
-    parameter integer BUS_ADDR_BITS = 8           // DSP word-address lines decoded
+    parameter integer BUS_ADDR_BITS = 8,          // DSP word-address lines decoded
+    parameter integer AXIS_MASK     = 7           // interpolators built (bit i = axis i); a
+                                                  // cleared bit needs HG_SIM (held joint)
 ) (
     input  wire                     clk,
     input  wire                     rst,
@@ -50,6 +52,14 @@ module hapgate_top #(
     output wire                     bus_data_oe,
     output wire                     bus_ready,
     output wire                     irq
+`ifdef HG_SIM
+    ,
+    // simulation only (the virtual device): what the interpolator of an axis that is not built
+    // (AXIS_MASK bit clear, joint held still) would report: homed position, index latch, count
+    input  wire [95:0]              sim_hold_pos_homed,
+    input  wire [95:0]              sim_hold_index_pos,
+    input  wire [47:0]              sim_hold_index_count
+`endif
 );
     localparam integer COUNT_BITS  = LUT_BITS + 3 + LINES_LOG2;  // counts per revolution, log2
     localparam integer AB          = ADDR_BITS + 2;              // commutation angle bits
@@ -77,18 +87,87 @@ module hapgate_top #(
     wire        fault_clear;
     wire [2:0]  home_arm;
 
+    // Only the axes in AXIS_MASK are built (one compacted enc_interp3); the slots of the others
+    // show a held joint (sim_hold_*: constant, homed, no fault). The board build has all three.
+    localparam integer NAX = ((AXIS_MASK >> 0) & 1) + ((AXIS_MASK >> 1) & 1) + ((AXIS_MASK >> 2) & 1);
+    wire [8*NAX-1:0]  c_adc_a, c_adc_b;
+    wire [NAX-1:0]    c_index, c_arm, c_homed, c_fault;
+    wire [32*NAX-1:0] c_pos, c_pos_homed, c_vel, c_index_pos;
+    wire [16*NAX-1:0] c_index_count, c_overspeed_count;
+    wire [3*NAX-1:0]  c_faults;
+    wire [95:0]       hold_pos_homed, hold_index_pos;
+    wire [47:0]       hold_index_count;
+`ifdef HG_SIM
+    assign hold_pos_homed   = sim_hold_pos_homed;
+    assign hold_index_pos   = sim_hold_index_pos;
+    assign hold_index_count = sim_hold_index_count;
+`else
+    assign hold_pos_homed   = 96'd0;
+    assign hold_index_pos   = 96'd0;
+    assign hold_index_count = 48'd0;
+`endif
+    wire unused_hold = &{1'b0, hold_pos_homed, hold_index_pos, hold_index_count};
+
+    generate
+        if (AXIS_MASK < 1 || AXIS_MASK > 7) begin : g_bad_mask
+            hapgate_top_AXIS_MASK_must_be_1_to_7 u_stop ();
+        end
+`ifndef HG_SIM
+        if (AXIS_MASK != 7) begin : g_mask_sim_only
+            hapgate_top_AXIS_MASK_below_7_is_simulation_only_define_HG_SIM u_stop ();
+        end
+`endif
+    endgenerate
+
     enc_interp3 #(
-        .CLK_HZ(CLK_HZ), .SAMPLE_HZ(SAMPLE_HZ), .AXES(3), .LUT_BITS(LUT_BITS),
+        .CLK_HZ(CLK_HZ), .SAMPLE_HZ(SAMPLE_HZ), .AXES(NAX), .LUT_BITS(LUT_BITS),
         .LUT_FILE(ASIN_FILE), .VEL_LOG2W(VEL_LOG2W), .AMP_MIN(AMP_MIN), .AMP_MAX(AMP_MAX),
         .LOSS_SAMPLES(LOSS_SAMPLES)
     ) u_interp (
-        .clk(clk), .rst(rst), .adc_strobe(adc_strobe), .adc_a(adc_a), .adc_b(adc_b),
-        .enc_index(enc_index), .ctl_fault_clear({3{fault_clear}}), .ctl_home_arm(home_arm),
-        .m_valid(m_valid), .m_pos(pos), .m_pos_homed(pos_homed), .m_vel(vel),
-        .m_index_pos(index_pos), .m_index_count(index_count),
-        .m_overspeed_count(overspeed_count), .m_homed(homed), .m_faults(faults),
-        .m_fault(fault)
+        .clk(clk), .rst(rst), .adc_strobe(adc_strobe), .adc_a(c_adc_a), .adc_b(c_adc_b),
+        .enc_index(c_index), .ctl_fault_clear({NAX{fault_clear}}), .ctl_home_arm(c_arm),
+        .m_valid(m_valid), .m_pos(c_pos), .m_pos_homed(c_pos_homed), .m_vel(c_vel),
+        .m_index_pos(c_index_pos), .m_index_count(c_index_count),
+        .m_overspeed_count(c_overspeed_count), .m_homed(c_homed), .m_faults(c_faults),
+        .m_fault(c_fault)
     );
+
+    genvar ax;
+    generate
+        for (ax = 0; ax < 3; ax = ax + 1) begin : g_ax
+            // slot of axis ax in the compacted instance
+            localparam integer J = ((AXIS_MASK & ((1 << ax) - 1)) & 1) +
+                                   (((AXIS_MASK & ((1 << ax) - 1)) >> 1) & 1);
+            if (((AXIS_MASK >> ax) & 1) != 0) begin : g_built
+                assign c_adc_a[8*J +: 8]           = adc_a[8*ax +: 8];
+                assign c_adc_b[8*J +: 8]           = adc_b[8*ax +: 8];
+                assign c_index[J]                  = enc_index[ax];
+                assign c_arm[J]                    = home_arm[ax];
+                assign pos[32*ax +: 32]            = c_pos[32*J +: 32];
+                assign pos_homed[32*ax +: 32]      = c_pos_homed[32*J +: 32];
+                assign vel[32*ax +: 32]            = c_vel[32*J +: 32];
+                assign index_pos[32*ax +: 32]      = c_index_pos[32*J +: 32];
+                assign index_count[16*ax +: 16]    = c_index_count[16*J +: 16];
+                assign overspeed_count[16*ax +: 16] = c_overspeed_count[16*J +: 16];
+                assign homed[ax]                   = c_homed[J];
+                assign faults[3*ax +: 3]           = c_faults[3*J +: 3];
+                assign fault[ax]                   = c_fault[J];
+            end else begin : g_held
+                wire unused_in = &{1'b0, adc_a[8*ax +: 8], adc_b[8*ax +: 8], enc_index[ax],
+                                   home_arm[ax]};
+                assign pos[32*ax +: 32]            = hold_pos_homed[32*ax +: 32] +
+                                                     hold_index_pos[32*ax +: 32];
+                assign pos_homed[32*ax +: 32]      = hold_pos_homed[32*ax +: 32];
+                assign vel[32*ax +: 32]            = 32'd0;
+                assign index_pos[32*ax +: 32]      = hold_index_pos[32*ax +: 32];
+                assign index_count[16*ax +: 16]    = hold_index_count[16*ax +: 16];
+                assign overspeed_count[16*ax +: 16] = 16'd0;
+                assign homed[ax]                   = 1'b1;
+                assign faults[3*ax +: 3]           = 3'd0;
+                assign fault[ax]                   = 1'b0;
+            end
+        end
+    endgenerate
     // The interpolator's data outputs are registers held between samples but not reset: until
     // the first sample they are masked where the register file would remember them (the sticky
     // "index seen") or show them live (homed).

@@ -29,6 +29,9 @@ def main(args: argparse.Namespace) -> int:
     ok &= bench_commutation.run(args.quick)
     print()
     ok &= cosim.bench_section(args.quick)
+    print()
+    from . import bench_device
+    ok &= bench_device.run(args.quick)
     print("\n== DSP firmware: servo step cost (make -C dsp-fw bench) ==", flush=True)
     ok &= subprocess.run(["make", "-s", "-C", str(ROOT / "dsp-fw"), "bench"]).returncode == 0
     print("bench:", "all engines agree with the models" if ok else "MISMATCH or failure above")

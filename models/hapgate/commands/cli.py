@@ -133,6 +133,10 @@ def main(argv: list[str] | None = None) -> int:
         "commutation", help="positions and torques -> DAC codes and load times "
                             "(FRAMES.csv -> DAC.csv)"))
     rp.set_defaults(fn=cmd_replay)
+    from . import scene
+
+    scene.add_arguments(sub.add_parser(
+        "scene", help="virtual-device scenes: run FILE [--out DIR] | check FILE..."))
     bp = sub.add_parser("bench", help="benchmarks: run time beside error (build/reports/)")
     bp.add_argument("--quick", action="store_true", help="smaller runs")
     bp.set_defaults(fn=cmd_bench)

@@ -129,5 +129,11 @@ def main(_: argparse.Namespace) -> int:
     ok &= bench_commutation.demo_section()
     print()
     ok &= cosim.demo_section()
+    print()
+    print("Virtual device, closed loop (scenes/short.toml: gateware + unchanged firmware + plant "
+          "+ hand, `hapgate scene run`)", flush=True)
+    from ..base.paths import ROOT
+    from . import scene
+    ok &= scene.run_file(ROOT / "scenes" / "short.toml") == 0
     print("demo:", "RTL matches the models bit for bit" if ok else "RTL DIFFERS from a model")
     return 0 if ok else 1

@@ -41,14 +41,17 @@ FLAG_INDEX, FLAG_CLEAR, FLAG_ARM = 1, 2, 4
 def verilate_harness(name: str, top: str, sources: Sequence[Path], params: Params,
                      harness: Sequence[Path], cflags: str = "", ldflags: str = "",
                      inputs: Sequence[Path] = (),
-                     prepare: Callable[[Path], None] | None = None) -> Path:
+                     prepare: Callable[[Path], None] | None = None,
+                     vflags: Sequence[str] = ()) -> Path:
     """Verilate `top` with a C++ harness into build/native/<name>-<hash>/ and return the
     executable. The hash covers the parameters, flags and the bytes of every source, harness and
     extra input, so a change rebuilds and an unchanged scene is reused (parallel callers wait on a
-    lock). `prepare(build_dir)` runs before Verilator (e.g. to build a library to link)."""
+    lock). `prepare(build_dir)` runs before Verilator (e.g. to build a library to link);
+    `vflags` are extra Verilator options (defines, tracing)."""
     toolenv.apply()
     key = json.dumps({k: param_text(v) for k, v in sorted(params.items())} |
-                     {"_cflags": cflags, "_ldflags": ldflags})
+                     {"_cflags": cflags, "_ldflags": ldflags} |
+                     ({"_vflags": list(vflags)} if vflags else {}))
     digest = hashlib.sha1(key.encode())
     for src in [*sources, *harness, *inputs]:
         digest.update(src.read_bytes())
@@ -66,6 +69,7 @@ def verilate_harness(name: str, top: str, sources: Sequence[Path], params: Param
                "-MAKEFLAGS", "OPT_FAST=-O2 OPT_SLOW=-O2 OPT_GLOBAL=-O2"]
         if ldflags:
             cmd += ["-LDFLAGS", ldflags]
+        cmd += list(vflags)
         cmd += [f"-G{k}={param_text(v)}" for k, v in params.items()]
         cmd += [str(s) for s in [*sources, *harness]]
         out = subprocess.run(cmd, capture_output=True, text=True)

@@ -1,0 +1,124 @@
+"""The plant of the virtual device from Python: tb/native/device/plant.cpp (the same code the
+closed-loop harness links) as a shared library through ctypes, for its own tests and for tools.
+
+`Plant(config_text)` wraps one plant; `config_text` is the harness's plant configuration
+(`hapgate.device.runner.plant_config` writes it from a scene; README.md lists the keys).
+"""
+
+from __future__ import annotations
+
+import ctypes as C
+import hashlib
+import subprocess
+from pathlib import Path
+
+import numpy as np
+
+from ..base.paths import BUILD, TB, ensure
+from ..runners.sim import _locked
+
+SRC = TB / "native" / "device" / "plant.cpp"
+HDR = TB / "native" / "device" / "plant.h"
+
+
+class Out(C.Structure):
+    _fields_ = [("t", C.c_double), ("q", C.c_double * 3), ("qd", C.c_double * 3),
+                ("p", C.c_double * 3), ("v", C.c_double * 3), ("f_hand", C.c_double * 3),
+                ("tau", C.c_double * 3), ("i_ab", C.c_double * 6), ("energy", C.c_double),
+                ("theta_e", C.c_double * 3)]
+
+
+def library() -> C.CDLL:
+    """Compile plant.cpp into a shared library (cached by source hash) and load it."""
+    digest = hashlib.sha1(SRC.read_bytes() + HDR.read_bytes()).hexdigest()[:12]
+    bdir = ensure(BUILD / "native" / f"plant-{digest}")
+    so = bdir / "libhgplant.so"
+    with _locked(bdir):
+        if not so.exists():
+            out = subprocess.run(["g++", "-std=c++17", "-O2", "-Wall", "-Wextra", "-Werror",
+                                  "-shared", "-fPIC", str(SRC), "-o", str(so)],
+                                 capture_output=True, text=True)
+            if out.returncode != 0:
+                raise RuntimeError(f"plant library failed to build:\n{out.stderr}")
+    lib = C.CDLL(str(so))
+    d3 = C.POINTER(C.c_double)
+    lib.hg_plant_new.restype = C.c_void_p
+    lib.hg_plant_new.argtypes = [C.c_char_p, C.c_char_p, C.c_int]
+    lib.hg_plant_free.argtypes = [C.c_void_p]
+    lib.hg_plant_set_dac.argtypes = [C.c_void_p, C.c_int, C.c_int]
+    lib.hg_plant_step.argtypes = [C.c_void_p, C.c_int]
+    lib.hg_plant_hold.argtypes = [C.c_void_p, C.c_int]
+    lib.hg_plant_set_q.argtypes = [C.c_void_p, d3, d3]
+    lib.hg_plant_adc.argtypes = [C.c_void_p, C.POINTER(C.c_int8), C.POINTER(C.c_int8),
+                                 C.POINTER(C.c_uint8)]
+    lib.hg_plant_read.argtypes = [C.c_void_p, C.POINTER(Out)]
+    lib.hg_plant_encode.argtypes = [C.c_void_p, C.c_int, d3, C.c_int, C.POINTER(C.c_int8),
+                                    C.POINTER(C.c_int8)]
+    return lib
+
+
+class PlantError(ValueError):
+    pass
+
+
+class Plant:
+    """One plant instance (SI units)."""
+
+    def __init__(self, config_text: str = "") -> None:
+        self.lib = library()
+        err = C.create_string_buffer(256)
+        self.h = self.lib.hg_plant_new(config_text.encode(), err, 256)
+        if not self.h:
+            raise PlantError(err.value.decode())
+
+    def __del__(self) -> None:
+        if getattr(self, "h", None):
+            self.lib.hg_plant_free(self.h)
+            self.h = None
+
+    def set_dac(self, ch: int, code: int) -> None:
+        self.lib.hg_plant_set_dac(self.h, int(ch), int(code))
+
+    def step(self, n: int = 1) -> None:
+        self.lib.hg_plant_step(self.h, int(n))
+
+    def hold(self, on: bool) -> None:
+        self.lib.hg_plant_hold(self.h, int(on))
+
+    def set_q(self, q: np.ndarray, qd: np.ndarray | None = None) -> None:
+        qa = (C.c_double * 3)(*np.asarray(q, float))
+        qda = (C.c_double * 3)(*(np.zeros(3) if qd is None else np.asarray(qd, float)))
+        self.lib.hg_plant_set_q(self.h, qa, qda)
+
+    def read(self) -> dict[str, np.ndarray | float]:
+        o = Out()
+        self.lib.hg_plant_read(self.h, C.byref(o))
+        return {name: (np.array(getattr(o, name)) if name not in ("t", "energy")
+                       else float(getattr(o, name))) for name, _ in Out._fields_}
+
+    def adc(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        a, b, ix = (C.c_int8 * 3)(), (C.c_int8 * 3)(), (C.c_uint8 * 3)()
+        self.lib.hg_plant_adc(self.h, a, b, ix)
+        return np.array(a), np.array(b), np.array(ix)
+
+    def encode(self, axis: int, lines: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        x = np.ascontiguousarray(lines, dtype=np.float64)
+        a = np.zeros(x.size, np.int8)
+        b = np.zeros(x.size, np.int8)
+        self.lib.hg_plant_encode(self.h, int(axis), x.ctypes.data_as(C.POINTER(C.c_double)),
+                                 x.size, a.ctypes.data_as(C.POINTER(C.c_int8)),
+                                 b.ctypes.data_as(C.POINTER(C.c_int8)))
+        return a, b
+
+
+def config(**kw: object) -> str:
+    """A plant configuration from keyword values (sequences become space-separated lists)."""
+    lines = []
+    for k, v in kw.items():
+        vals = np.ravel(np.asarray(v, dtype=float))
+        lines.append(f"{k} = {' '.join(repr(float(x)) for x in vals)}")
+    return "\n".join(lines) + "\n"
+
+
+def lib_path() -> Path:
+    return Path(library()._name)

@@ -1,0 +1,123 @@
+"""The virtual device in a closed loop (tb/native/device/): real gateware, unchanged firmware,
+plant and hand. Short scenes (tens of ms of simulated time, one axis where the check allows).
+Budgets are derived in each docstring; timing is in simulated time."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from hapgate.base.paths import ROOT
+from hapgate.device import runner
+from hapgate.device import scene as sc
+from hapgate.golden import kinematics
+
+SCENES = ROOT / "scenes"
+CLK_BITS = 2 * math.pi / (1 << 20)        # rad per count
+
+
+def _short(**changes: object) -> sc.Scene:
+    return sc.load(SCENES / "short.toml").override(changes)
+
+
+def _wall_budget(s: sc.Scene, f: float, speed: float) -> float:
+    """Steady-state force error budget: the interpolator's error on R = 110 signals (<= 25 counts
+    per joint, the arcsine table assumes R = 127) through the Jacobian and the wall's stiffness;
+    k * speed * (one servo period of sample-and-hold + 0.2 ms of current loop and velocity
+    filter) while the contact still settles; the commutation's 0.3 % ripple; 5 mN for
+    torque-code and DAC rounding."""
+    q0 = s.q0_rad
+    jn = np.linalg.norm(kinematics.jacobian(q0), 2)
+    return (s.env.k * jn * math.sqrt(3) * 25 * CLK_BITS
+            + s.env.k * speed * (1.0 / s.run.servo_hz + 2e-4) + 0.003 * f + 0.005)
+
+
+@pytest.mark.parametrize("servo_hz", [1000, 10000])
+def test_wall_renders_its_force_law(servo_hz):
+    s = _short(**{"run.servo_hz": servo_hz, "run.duration_s": 0.04})
+    r = runner.run(s)
+    f = np.linalg.norm(r.arrays["f_hand"][-1])
+    assert f > 0.3, "the hand must push into the wall"
+    assert r.metrics["force_samples"] > 1000           # 25 ms of frames
+    budget = _wall_budget(s, 1.2, r.metrics["force_speed_max"])
+    assert r.metrics["force_error_n"] <= budget, (r.metrics, budget)
+    assert r.metrics["fw_error"] == "NONE"
+    # the device pushes back along the wall's normal (into free space): J^-T tau
+    n = np.asarray(s.env.normal) / np.linalg.norm(s.env.normal)
+    q, tau = r.arrays["q"][-1], r.arrays["tau"][-1]
+    f_dev = np.linalg.solve(kinematics.jacobian(q).T, tau)
+    assert float(f_dev @ n) > 0.99 * np.linalg.norm(f_dev) > 0.3
+
+
+def test_skipped_and_unskipped_runs_are_bit_identical():
+    """The short scene (one axis) at the lowest clock with only its axis built, against the full
+    48 MHz build with every interpolator: every recorded frame and every firmware tick of the
+    scene are bit-identical (README, "Why any clock gives the same result")."""
+    s = _short(**{"run.duration_s": 0.012})
+    low = runner.simulate(s)
+    full = runner.simulate(s, clk_hz=runner.FULL_CLK_HZ, mask=7)
+    assert low.clk_hz == runner.MIN_CLK_HZ and low.mask == 2
+    assert low.frames.size > 700 and low.frames.size == full.frames.size
+    for name in runner.FRAME_DT.names:
+        assert np.array_equal(low.frames[name], full.frames[name]), name
+    tl, tf = low.ticks[low.ticks["t"] >= 0], full.ticks[full.ticks["t"] >= 0]
+    assert tl.size >= 11
+    for name in runner.TICK_DT.names:
+        assert np.array_equal(tl[name], tf[name]), name
+    assert np.abs(low.frames["dac"]).max() > 100      # it was driving
+
+
+@pytest.mark.parametrize("kind, axis, err", [("dropout", 1, "AXIS_FAULT"),
+                                             ("watchdog", None, "WATCHDOG"),
+                                             ("hang", None, "OVERRUN")])
+def test_fault_means_zero_torque_within_one_frame(kind, axis, err):
+    """From the cause (the interpolator's loss on the 16th bad sample; the watchdog's expiry)
+    every affected DAC channel is zero within one frame (16 us) plus the load pipeline (9
+    clocks) and stays zero; the firmware latches the matching error."""
+    fault = {"at_s": 0.01, "kind": kind} | ({"axis": axis} if axis is not None else {})
+    dur = 0.016 if kind == "dropout" else 0.025 if kind == "watchdog" else 0.03
+    s = _short(**{"run.duration_s": dur, "fault": [fault]})
+    r = runner.run(s)
+    assert len(r.events) == 1
+    ev = r.events[0]
+    bound_us = 16.0 + 10 / r.clk_hz * 1e6
+    assert 0 <= ev["reaction_us"] <= bound_us, ev
+    assert r.metrics["fw_error"] == err
+    if kind == "dropout":
+        assert r.metrics["fw_error_axis"] == axis
+    # the motors were driving before the fault (not a vacuous zero)
+    t = r.arrays["t"]
+    before = (t > 0.009) & (t < 0.0099)
+    assert np.abs(r.arrays["dac"][before]).max() > 50
+
+
+def test_miscommutated_motor_loses_cos_delta():
+    """A commutation offset error of 32/1024 electrical cycle (11.25 deg) on the beta motor: it
+    delivers cos(11.25 deg) = 0.981 of the firmware's command (motor model); the correctly
+    commutated control run delivers 1.000. Budget +-0.006: torque-code and DAC rounding at
+    these torques plus the ROM's 0.25 % ripple."""
+    base = {"run.duration_s": 0.03}
+    ok = runner.run(_short(**base))
+    bad = runner.run(_short(**base, **{"firmware.comm_offset_error_counts": [0, 32, 0]}))
+    r_ok, r_bad = ok.per_axis["torque_ratio"][1], bad.per_axis["torque_ratio"][1]
+    assert abs(r_ok - 1.0) < 0.006, r_ok
+    assert abs(r_bad - math.cos(2 * math.pi * 32 / 1024)) < 0.006, r_bad
+
+
+def test_position_tracks_the_true_angle_without_slip():
+    """The firmware's joint angles (snapshot) against the true angle of the same sample, over a
+    moving scene: within the interpolator's error at R = 110 (25 counts), no slip."""
+    r = runner.run(_short(**{"run.duration_s": 0.02, "run.axes": [0, 1, 2]}))
+    assert r.metrics["slips"] == 0
+    assert r.metrics["position_error_counts"] <= 25
+    moved = np.abs(r.arrays["q"][-1] - r.arrays["q"][0]).max()
+    assert moved > 1e-3
+
+
+def test_unbuilt_axis_is_held_still():
+    r = runner.run(_short(**{"run.duration_s": 0.01}))
+    q = r.arrays["q"]
+    assert np.ptp(q[:, 0]) == 0 and np.ptp(q[:, 2]) == 0
+    assert np.ptp(q[:, 1]) > 0
+    assert any("axis 0" in x for x in r.skipped) and any("axis 2" in x for x in r.skipped)

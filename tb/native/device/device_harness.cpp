@@ -1,0 +1,581 @@
+// SPDX-License-Identifier: Apache-2.0
+// The virtual device, closed loop: the Verilated FPGA top (hapgate_top, built with HG_SIM and
+// the scene's AXIS_MASK), the DSP firmware (dsp-fw/src, unchanged) on its ISR and background
+// loop over a grid-aligned bus, and the plant (plant.cpp: motors, linkage, hand, encoders).
+// Driven by models/hapgate/device/runner.py; description: tb/native/device/README.md.
+//
+// usage: device_harness PLANT_CFG RUN_CFG OUTDIR
+// Every clock-dependent event is tied to the 1 us sample grid (README "Why any clock gives the
+// same result"), so a run is bit-identical at every CLK_HZ >= 6 MHz that the RTL accepts.
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <fstream>
+#include <map>
+#include <memory>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "Vhapgate_top.h"
+#include "Vhapgate_top___024root.h"
+#include "plant.h"
+#include "verilated.h"
+#if HG_TRACE
+#include "verilated_vcd_c.h"
+#endif
+
+extern "C" {
+#include "hg_fpga_regs.h"
+#include "hg_hal.h"
+#include "hg_servo.h"
+}
+
+#ifndef CLK_HZ
+#error "CLK_HZ must be defined to match the RTL parameter"
+#endif
+#ifndef AXIS_MASK
+#error "AXIS_MASK must be defined to match the RTL parameter"
+#endif
+
+// The generated model's evaluation, called directly in the clock loop: Vhapgate_top::eval()
+// adds a message-queue flush and a deleter pass per call (~14 % of the run here) that only
+// matter for $display/$finish from other threads; the model has neither. The first eval() goes
+// through the public entry (it runs the initial blocks).
+void Vhapgate_top___024root___eval(Vhapgate_top___024root* vlSelf);
+
+namespace {
+
+constexpr double kPi = 3.14159265358979323846;
+constexpr uint64_t D = CLK_HZ / 1000000;  // clocks per sample-grid point (1 us)
+static_assert(CLK_HZ % 1000000 == 0, "CLK_HZ must be a whole number of MHz");
+static_assert(D >= 6, "the grid-aligned bus needs a strobe of >= 5 clocks inside 1 us: CLK_HZ >= 6 MHz");
+constexpr int kLoadClocks = 9;             // frame start -> channel 0 load (rtl/top/README.md)
+constexpr uint64_t kDacDelayUs = 2;        // a word reaches the amplifier 2 us after its slot start
+
+// Cost split (HG_PROFILE=1 in the environment): wall time in the plant, in the firmware's own
+// code (its ISR minus the bus accesses, which clock the gateware) and the rest (the gateware and
+// the harness). Off by default: the clock reads cost ~2 % of a run.
+bool g_profile = false;
+double g_plant_s = 0, g_isr_s = 0, g_bus_in_isr_s = 0;
+bool g_in_isr = false;
+inline double now_s() {
+    return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count();
+}
+
+// ------------------------------------------------------------------ run configuration
+struct RunCfg {
+    double duration_s = 0.1;
+    uint32_t servo_hz = 1000;
+    int env_kind = 0;
+    double env_p[3] = {0, 0, 0}, env_n[3] = {0, 0, 0}, env_k = 0, env_b = 0, env_ki = 0;
+    double q0[3] = {0, 0, 0};
+    double q_index[3] = {0, 0, 0};
+    double sweep_rad = 0.5 * kPi / 180.0;   // homing sweep, ends at q0, index half-way
+    double t_sweep_s = 6e-3, t_settle_s = 3e-3;
+    int comm_err[3] = {0, 0, 0};
+    uint32_t hold_pos_homed[3] = {0, 0, 0}, hold_index_pos[3] = {0, 0, 0}, hold_index_count[3] = {0, 0, 0};
+    uint32_t record = 0xFF;                 // bit 0 plant (q,p,f_hand,tau,current), bit 1 dac, bit 2 adc
+    double progress_s = 0.05;               // progress line every this much simulated time
+    struct Fault { double at_s; int kind; int axis; };
+    std::vector<Fault> faults;              // kind: 1 dropout, 2 hang, 3 watchdog
+};
+
+bool parse_run(const std::string& text, RunCfg& c, std::string& err) {
+    std::istringstream in(text);
+    std::string line;
+    while (std::getline(in, line)) {
+        const auto eq = line.find('=');
+        if (line.empty() || line[0] == '#' || eq == std::string::npos) continue;
+        std::string key = line.substr(0, eq);
+        key.erase(key.find_last_not_of(" \t") + 1);
+        std::istringstream vs(line.substr(eq + 1));
+        std::vector<double> v;
+        double x;
+        while (vs >> x) v.push_back(x);
+        auto need = [&](size_t n) {
+            if (v.size() != n) err = key + ": expected " + std::to_string(n) + " values";
+            return v.size() == n;
+        };
+        if (key == "duration_s" && need(1)) c.duration_s = v[0];
+        else if (key == "servo_hz" && need(1)) c.servo_hz = static_cast<uint32_t>(v[0]);
+        else if (key == "env_kind" && need(1)) c.env_kind = static_cast<int>(v[0]);
+        else if (key == "env_point" && need(3)) std::copy(v.begin(), v.end(), c.env_p);
+        else if (key == "env_normal" && need(3)) std::copy(v.begin(), v.end(), c.env_n);
+        else if (key == "env_k" && need(1)) c.env_k = v[0];
+        else if (key == "env_b" && need(1)) c.env_b = v[0];
+        else if (key == "env_ki" && need(1)) c.env_ki = v[0];
+        else if (key == "q0" && need(3)) std::copy(v.begin(), v.end(), c.q0);
+        else if (key == "q_index" && need(3)) std::copy(v.begin(), v.end(), c.q_index);
+        else if (key == "sweep_rad" && need(1)) c.sweep_rad = v[0];
+        else if (key == "t_sweep_s" && need(1)) c.t_sweep_s = v[0];
+        else if (key == "t_settle_s" && need(1)) c.t_settle_s = v[0];
+        else if (key == "comm_err" && need(3)) for (int i = 0; i < 3; ++i) c.comm_err[i] = static_cast<int>(v[i]);
+        else if (key == "hold_pos_homed" && need(3)) for (int i = 0; i < 3; ++i) c.hold_pos_homed[i] = static_cast<uint32_t>(static_cast<int64_t>(v[i]));
+        else if (key == "hold_index_pos" && need(3)) for (int i = 0; i < 3; ++i) c.hold_index_pos[i] = static_cast<uint32_t>(static_cast<int64_t>(v[i]));
+        else if (key == "hold_index_count" && need(3)) for (int i = 0; i < 3; ++i) c.hold_index_count[i] = static_cast<uint32_t>(v[i]);
+        else if (key == "record" && need(1)) c.record = static_cast<uint32_t>(v[0]);
+        else if (key == "progress_s" && need(1)) c.progress_s = v[0];
+        else if (key == "fault" && need(3)) c.faults.push_back({v[0], static_cast<int>(v[1]), static_cast<int>(v[2])});
+        else if (err.empty()) err = "unknown key " + key;
+        if (!err.empty()) return false;
+    }
+    return true;
+}
+
+std::string slurp(const char* path) {
+    std::ifstream f(path);
+    std::stringstream ss;
+    ss << f.rdbuf();
+    return ss.str();
+}
+
+// ------------------------------------------------------------------ records
+struct FrameRec {         // one per DAC frame (16 us), sampled at the frame's grid start
+    double t;             // scene time, s
+    double q[3], p[3], f_hand[3], tau[3], i_ab[6];
+    int16_t dac[6];       // the codes loaded in this frame
+    int16_t pad;
+    uint32_t pad2;
+};
+struct TickRec {          // one per ISR call
+    double t;             // scene time of the tick (irq), s
+    double q_fw[3];       // firmware joint angles (its snapshot)
+    double q_true[3];     // true joint angles of the sample the snapshot holds
+    double p_fw[3], f_fw[3], tau_fw[3];
+    int32_t pos_err[3];   // snapshot counts minus true counts (homed frame)
+    int32_t pos[3];       // the snapshot's positions (POS registers), counts
+    uint32_t status;
+    uint8_t err, err_axis, drive, pad;
+};
+struct LoadRec { int64_t edge; int32_t ch; int32_t code; };
+
+// ------------------------------------------------------------------ the testbench
+struct Bench {
+    std::unique_ptr<VerilatedContext> ctx{new VerilatedContext};
+    std::unique_ptr<Vhapgate_top> top{new Vhapgate_top(ctx.get())};
+#if HG_TRACE
+    std::unique_ptr<VerilatedVcdC> tfp;
+#endif
+    hg_plant* plant = nullptr;
+    RunCfg* cfg = nullptr;
+    uint64_t edge = 0;          // posedges since reset release
+    int prev_wr_n = 1, prev_irq = 0;
+    bool irq_rose = false;
+    uint64_t irq_edge = 0;
+    // DAC pipeline to the amplifier: (grid us, channel, code)
+    struct Pend { uint64_t at_us; int ch; int code; };
+    std::vector<Pend> pend;
+    int16_t frame_codes[6] = {0, 0, 0, 0, 0, 0};
+    std::vector<LoadRec> loads;
+    std::vector<FrameRec> frames;
+    std::vector<int8_t> adc;      // A0 B0 A1 B1 A2 B2 per grid point of the scene (record bit 2)
+    uint32_t skew = 0, frame = 0;  // clocks (from the RTL's DAC_SKEW / DAC_FRAME)
+    // grid
+    int64_t scene0_us = 0;        // grid point of scene time 0
+    bool dynamic = false;         // plant released (after homing)
+    bool dropout[3] = {false, false, false};
+    std::vector<double> qtrue_ring;  // true q per grid point (ring), for the snapshot truth
+    static constexpr size_t kRing = 4096;
+
+    double scene_t(uint64_t g_us) const { return (static_cast<double>(g_us) - static_cast<double>(scene0_us)) * 1e-6; }
+
+    void grid(uint64_t g) {  // at grid point g (edge g*D), after the negedge evaluation
+        for (size_t k = 0; k < pend.size();) {
+            if (pend[k].at_us <= g) {
+                hg_plant_set_dac(plant, pend[k].ch, pend[k].code);
+                pend[k] = pend.back();
+                pend.pop_back();
+            } else {
+                ++k;
+            }
+        }
+        if (!dynamic) homing_pose(g);
+        hg_plant_q(plant, &qtrue_ring[(g % kRing) * 3]);
+        const bool frame_start = frame && (g * D) % frame == 0;
+        if (frame_start && dynamic && (cfg->record & 3)) {
+            hg_plant_out o;
+            hg_plant_read(plant, &o);
+            FrameRec r{};
+            r.t = scene_t(g);
+            if (cfg->record & 1) {
+                for (int i = 0; i < 3; ++i) {
+                    r.q[i] = o.q[i]; r.p[i] = o.p[i]; r.f_hand[i] = o.f_hand[i]; r.tau[i] = o.tau[i];
+                }
+                for (int i = 0; i < 6; ++i) r.i_ab[i] = o.i_ab[i];
+            }
+            frames.push_back(r);
+        }
+        // ADC words for the capture at the next edge (sample grid g), then one grid step
+        int8_t a[3], b[3];
+        uint8_t ix[3];
+        double tp0 = 0;
+        if (g_profile) tp0 = now_s();
+        hg_plant_adc(plant, a, b, ix);
+        uint32_t wa = 0, wb = 0, wi = 0;
+        for (int i = 0; i < 3; ++i) {
+            if (dropout[i]) a[i] = b[i] = 0;
+            if (dynamic && (cfg->record & 4)) {
+                adc.push_back(a[i]);
+                adc.push_back(b[i]);
+            }
+            wa |= static_cast<uint32_t>(static_cast<uint8_t>(a[i])) << (8 * i);
+            wb |= static_cast<uint32_t>(static_cast<uint8_t>(b[i])) << (8 * i);
+            wi |= static_cast<uint32_t>(ix[i]) << i;
+        }
+        top->adc_a = wa;
+        top->adc_b = wb;
+        top->enc_index = wi & 7U;  // sampled at the next posedge evaluation
+        hg_plant_step(plant, steps_per_us);
+        if (g_profile) g_plant_s += now_s() - tp0;
+    }
+
+    int steps_per_us = 1;
+
+    void homing_pose(uint64_t g) {  // raised-cosine sweep of every joint, ending at rest at q0
+        const double t = static_cast<double>(g) * 1e-6 - t_sweep0;
+        double q[3], qd[3];
+        double s = 0, ds = 0;
+        if (t <= 0) s = 0;
+        else if (t < cfg->t_sweep_s) {
+            s = 0.5 * (1 - std::cos(kPi * t / cfg->t_sweep_s));
+            ds = 0.5 * kPi / cfg->t_sweep_s * std::sin(kPi * t / cfg->t_sweep_s);
+        } else s = 1;
+        for (int i = 0; i < 3; ++i) {
+            q[i] = cfg->q0[i] - cfg->sweep_rad * (1 - s);
+            qd[i] = cfg->sweep_rad * ds;
+        }
+        hg_plant_set_q(plant, q, qd);
+    }
+    double t_sweep0 = 100e-6;   // s after reset: the sweep starts
+
+#if HG_TRACE
+    void eval() { top->eval(); }   // the public entry: it also marks the trace's activity
+#else
+    void eval() { Vhapgate_top___024root___eval(top->rootp); }
+#endif
+
+    void tick() {
+        top->clk = 1;
+        eval();
+        ++edge;
+#if HG_TRACE
+        if (tfp) tfp->dump(static_cast<uint64_t>(edge) * 2);
+#endif
+        const int wr_n = top->dac_wr_n;
+        if (wr_n && !prev_wr_n) {
+            int code = static_cast<int>(top->dac_data);
+            if (code >= 8192) code -= 16384;
+            const int ch = static_cast<int>(top->dac_addr);
+            if (cfg->record & 2) loads.push_back({static_cast<int64_t>(edge), ch, code});
+            // frame n of this load: edge = n*FRAME + ch*SKEW + LOAD
+            const uint64_t st = edge - kLoadClocks - static_cast<uint64_t>(ch) * skew;
+            const uint64_t n = frame ? st / frame : 0;
+            pend.push_back({n * (frame / D) + static_cast<uint64_t>(ch) * (skew / D) + kDacDelayUs, ch, code});
+            frame_codes[ch] = static_cast<int16_t>(code);
+            if (ch == 5 && !frames.empty() && (cfg->record & 2))
+                std::memcpy(frames.back().dac, frame_codes, sizeof frame_codes);
+        }
+        prev_wr_n = wr_n;
+        if (top->irq && !prev_irq) {
+            irq_rose = true;
+            irq_edge = edge;
+        }
+        prev_irq = top->irq;
+        top->clk = 0;
+        eval();
+#if HG_TRACE
+        if (tfp) tfp->dump(static_cast<uint64_t>(edge) * 2 + 1);
+#endif
+        if (edge % D == 0) grid(edge / D);
+    }
+};
+
+Bench* B = nullptr;
+
+bool drop_wdog = false;
+struct KeyWrite { uint64_t edge; };
+uint64_t last_key_edge = 0;
+
+void wait_grid() {
+    while (B->edge % D != 0) B->tick();
+}
+
+}  // namespace
+
+// ------------------------------------------------------------------ the HAL: one access per 2 us
+// CE and address at a grid point g, strobe from g + 1 clock to the next grid point (D - 1 >= 5
+// clocks), hold 2 clocks; the next access starts at the grid point after. Read data are taken
+// just before the strobe rises.
+struct BusTimer {
+    double t0 = 0;
+    BusTimer() { if (g_profile && g_in_isr) t0 = now_s(); }
+    ~BusTimer() { if (g_profile && g_in_isr) g_bus_in_isr_s += now_s() - t0; }
+};
+
+extern "C" uint32_t fpga_read32(uint32_t addr) {
+    BusTimer bt;
+    wait_grid();
+    auto& t = *B->top;
+    t.bus_addr = addr & 0xFFU;
+    t.bus_ce_n = 0;
+    B->tick();
+    t.bus_re_n = 0;
+    do B->tick(); while (B->edge % D != 0);
+    const uint32_t v = t.bus_data_out;
+    t.bus_re_n = 1;
+    B->tick();
+    B->tick();
+    t.bus_ce_n = 1;
+    return v;
+}
+
+extern "C" void fpga_write32(uint32_t addr, uint32_t v) {
+    if (drop_wdog && addr == HG_REG_WDOG) return;  // injected fault: the key write is lost
+    BusTimer bt;
+    wait_grid();
+    auto& t = *B->top;
+    t.bus_addr = addr & 0xFFU;
+    t.bus_data_in = v;
+    t.bus_ce_n = 0;
+    B->tick();
+    t.bus_we_n = 0;
+    do B->tick(); while (B->edge % D != 0);
+    t.bus_we_n = 1;
+    if (addr == HG_REG_WDOG) last_key_edge = B->edge;
+    B->tick();
+    B->tick();
+    t.bus_ce_n = 1;
+}
+
+extern "C" uint32_t hg_hal_irq_save(void) { return 0; }
+extern "C" void hg_hal_irq_restore(uint32_t token) { (void)token; }
+
+int main(int argc, char** argv) {
+    if (argc != 4) {
+        std::fprintf(stderr, "usage: %s PLANT_CFG RUN_CFG OUTDIR\n", argv[0]);
+        return 2;
+    }
+    RunCfg cfg;
+    std::string err;
+    const std::string ptext = slurp(argv[1]);
+    if (!parse_run(slurp(argv[2]), cfg, err)) {
+        std::fprintf(stderr, "error: %s: %s\n", argv[2], err.c_str());
+        return 2;
+    }
+    char perr[256] = {0};
+    hg_plant* plant = hg_plant_new(ptext.c_str(), perr, sizeof perr);
+    if (!plant) {
+        std::fprintf(stderr, "error: %s: %s\n", argv[1], perr);
+        return 2;
+    }
+    const std::string outdir = argv[3];
+    g_profile = std::getenv("HG_PROFILE") && std::getenv("HG_PROFILE")[0] == '1';
+    Bench bench;
+    B = &bench;
+    bench.plant = plant;
+    bench.cfg = &cfg;
+    bench.qtrue_ring.assign(Bench::kRing * 3, 0.0);
+    // integrator steps per grid point (dt from the plant config: 1e-6 / dt)
+    {
+        double dt = 1e-6;
+        std::istringstream in(ptext);
+        std::string line;
+        while (std::getline(in, line))
+            if (line.rfind("dt_s", 0) == 0) dt = std::strtod(line.substr(line.find('=') + 1).c_str(), nullptr);
+        bench.steps_per_us = std::max(1, static_cast<int>(std::lround(1e-6 / dt)));
+    }
+    auto& top = *bench.top;
+#if HG_TRACE
+    Verilated::traceEverOn(true);
+    bench.tfp.reset(new VerilatedVcdC);
+    top.trace(bench.tfp.get(), 99);
+    bench.tfp->open((outdir + "/trace.vcd").c_str());
+#endif
+    top.sim_hold_pos_homed[0] = cfg.hold_pos_homed[0];
+    top.sim_hold_pos_homed[1] = cfg.hold_pos_homed[1];
+    top.sim_hold_pos_homed[2] = cfg.hold_pos_homed[2];
+    top.sim_hold_index_pos[0] = cfg.hold_index_pos[0];
+    top.sim_hold_index_pos[1] = cfg.hold_index_pos[1];
+    top.sim_hold_index_pos[2] = cfg.hold_index_pos[2];
+    top.sim_hold_index_count = (static_cast<uint64_t>(cfg.hold_index_count[2] & 0xFFFF) << 32) |
+                               (static_cast<uint64_t>(cfg.hold_index_count[1] & 0xFFFF) << 16) |
+                               (cfg.hold_index_count[0] & 0xFFFF);
+    top.clk = 0;
+    top.rst = 1;
+    top.bus_ce_n = top.bus_re_n = top.bus_we_n = 1;
+    top.eval();
+    for (int i = 0; i < 4; ++i) {
+        top.clk = 1; top.eval();
+        top.clk = 0; top.eval();
+    }
+    top.rst = 0;
+    top.eval();
+    bench.prev_wr_n = top.dac_wr_n;
+    hg_plant_hold(plant, 1);
+    bench.grid(0);
+
+    const auto w0 = std::chrono::steady_clock::now();
+    // ---------------------------------------------------------------- firmware bring-up
+    hg_servo_cfg_t fw;
+    hg_servo_default_cfg(&fw);
+    fw.rate_hz = cfg.servo_hz;
+    fw.fpga_clk_hz = CLK_HZ;
+    for (int i = 0; i < 3; ++i) {
+        fw.enc[i].index_to_zero = static_cast<int32_t>(std::lround(-cfg.q_index[i] / (2 * kPi) * HG_ENC_COUNTS_PER_REV));
+        fw.motor[i].comm_offset = static_cast<uint32_t>(cfg.comm_err[i] & 1023);
+    }
+    static hg_servo_t s;
+    const uint8_t init_err = hg_servo_init(&s, &fw);
+    bench.skew = fpga_read32(HG_WORD(offsetof(hapgate_t, DAC_SKEW)));
+    bench.frame = fpga_read32(HG_WORD(offsetof(hapgate_t, DAC_FRAME)));
+    const uint32_t wdog_us = fpga_read32(HG_REG_WDOG_TIMEOUT);
+    fpga_write32(HG_REG_CTRL, HG_CTRL_HOME_ARM);
+    hg_servo_isr_ctx = &s;
+    if (init_err != HG_ERR_NONE) std::fprintf(stderr, "warning: firmware init error %u\n", init_err);
+
+    // scene time 0: the sweep and the settle are over; the plant is released there
+    bench.scene0_us = static_cast<int64_t>(std::llround((bench.t_sweep0 + cfg.t_sweep_s + cfg.t_settle_s) * 1e6));
+    const uint64_t end_us = static_cast<uint64_t>(bench.scene0_us) + static_cast<uint64_t>(std::llround(cfg.duration_s * 1e6));
+    std::vector<TickRec> ticks;
+    int64_t homed_isr = -1;
+    bool enabled = false, hang = false, resumed = false;
+    double enable_t = NAN;
+    uint64_t next_progress = static_cast<uint64_t>(bench.scene0_us);
+    // fault bookkeeping (scene times -> grid points)
+    std::vector<std::pair<uint64_t, RunCfg::Fault>> faults;
+    for (const auto& f : cfg.faults)
+        faults.push_back({static_cast<uint64_t>(bench.scene0_us + std::llround(f.at_s * 1e6)), f});
+    std::vector<bool> fault_on(faults.size(), false);
+    uint64_t hang_expiry_edge = 0;
+
+    while (bench.edge < end_us * D) {
+        bench.tick();
+        const uint64_t g_now = bench.edge / D;
+        if (!bench.dynamic && static_cast<int64_t>(g_now) >= bench.scene0_us) {
+            hg_plant_hold(plant, 0);
+            {
+                const double z[3] = {0, 0, 0};
+                hg_plant_set_q(plant, cfg.q0, z);
+            }
+            bench.dynamic = true;
+        }
+        if (g_now >= next_progress) {
+            std::fprintf(stderr, "progress %.6f\n", bench.scene_t(g_now));
+            std::fflush(stderr);
+            next_progress += static_cast<uint64_t>(cfg.progress_s * 1e6);
+        }
+        for (size_t k = 0; k < faults.size(); ++k) {
+            if (fault_on[k] || g_now < faults[k].first) continue;
+            fault_on[k] = true;
+            const auto& f = faults[k].second;
+            if (f.kind == 1) bench.dropout[f.axis] = true;
+            if (f.kind == 2) hang = true;
+            if (f.kind == 3) drop_wdog = true;
+        }
+        const bool rose = bench.irq_rose;
+        bench.irq_rose = false;
+        bool call = rose;
+        if (hang && !resumed) {
+            // the DSP hangs; 2 ms after the watchdog expiry it comes back and services the
+            // pending interrupt: the firmware must refuse to drive
+            call = false;
+            if (!hang_expiry_edge) hang_expiry_edge = (last_key_edge + static_cast<uint64_t>(wdog_us) * D);
+            if (bench.edge >= hang_expiry_edge + 2000 * D) {
+                resumed = true;
+                call = top.irq != 0;
+            }
+        }
+        if (!call) continue;
+        const uint64_t tick_g = (rose ? bench.irq_edge : bench.edge) / D;
+        double ti0 = 0;
+        if (g_profile) {
+            ti0 = now_s();
+            g_in_isr = true;
+        }
+        hg_servo_isr();
+        if (g_profile) {
+            g_isr_s += now_s() - ti0;
+            g_in_isr = false;
+        }
+        TickRec r{};
+        r.t = bench.scene_t(tick_g);
+        r.status = s.status;
+        r.err = s.err;
+        r.err_axis = s.err_axis;
+        r.drive = s.enabled && s.err == HG_ERR_NONE;
+        // the snapshot holds the sample of grid point tick_g - 1 (the one visible at the tick)
+        const uint64_t gs = tick_g - 1;
+        for (int i = 0; i < 3; ++i) {
+            r.q_fw[i] = s.q[i];
+            r.q_true[i] = bench.qtrue_ring[(gs % Bench::kRing) * 3 + i];
+            r.p_fw[i] = s.p[i];
+            r.f_fw[i] = s.f[i];
+            r.tau_fw[i] = s.tau[i];
+            const double cpr = HG_ENC_COUNTS_PER_REV;
+            r.pos_err[i] = static_cast<int32_t>(std::lround((s.q[i] - r.q_true[i]) / (2 * kPi) * cpr));
+            r.pos[i] = s.pos[i];
+        }
+        ticks.push_back(r);
+        // ---- background loop: homing, then the scene and enable at scene time 0
+        if (!enabled) {
+            const uint32_t homed = HG_STAT_HOMED(0) | HG_STAT_HOMED(1) | HG_STAT_HOMED(2);
+            if (homed_isr < 0 && (s.status & homed) == homed) {
+                homed_isr = static_cast<int64_t>(ticks.size()) - 1;
+            } else if (homed_isr >= 0 && static_cast<int64_t>(tick_g) >= bench.scene0_us - 1000000 / static_cast<int64_t>(cfg.servo_hz)) {
+                for (uint32_t i = 0; i < 3; ++i)
+                    hg_enc_home(&s.cfg.enc[i], static_cast<int32_t>(fpga_read32(HG_REG_AXIS(i, HG_AX_IDX_POS))));
+                hg_scene_t sc{};
+                sc.type = static_cast<uint8_t>(cfg.env_kind);
+                for (int i = 0; i < 3; ++i) {
+                    sc.p0[i] = static_cast<hg_real>(cfg.env_p[i]);
+                    sc.n[i] = static_cast<hg_real>(cfg.env_n[i]);
+                }
+                sc.k = static_cast<hg_real>(cfg.env_k);
+                sc.b = static_cast<hg_real>(cfg.env_b);
+                sc.ki = static_cast<hg_real>(cfg.env_ki);
+                const int sr = hg_servo_set_scene(&s, &sc);
+                const int en = hg_servo_enable(&s, true);
+                if (sr != 0 || en != 0) {
+                    std::fprintf(stderr, "error: the firmware refused the scene (%d) or enable (%d)\n", sr, en);
+                    return 3;
+                }
+                enabled = true;
+                enable_t = bench.scene_t(bench.edge / D);
+            }
+        }
+    }
+    const double wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - w0).count();
+#if HG_TRACE
+    bench.tfp->close();
+#endif
+    // ---------------------------------------------------------------- outputs
+    auto dump = [&](const std::string& name, const void* data, size_t bytes) {
+        FILE* f = std::fopen((outdir + "/" + name).c_str(), "wb");
+        if (!f) { std::fprintf(stderr, "error: cannot write %s/%s\n", outdir.c_str(), name.c_str()); std::exit(3); }
+        if (bytes) std::fwrite(data, 1, bytes, f);
+        std::fclose(f);
+    };
+    dump("frames.bin", bench.frames.data(), bench.frames.size() * sizeof(FrameRec));
+    dump("ticks.bin", ticks.data(), ticks.size() * sizeof(TickRec));
+    dump("loads.bin", bench.loads.data(), bench.loads.size() * sizeof(LoadRec));
+    dump("adc.bin", bench.adc.data(), bench.adc.size());
+    const double sim_s = static_cast<double>(end_us - static_cast<uint64_t>(bench.scene0_us)) * 1e-6;
+    std::printf("clk_hz=%d axis_mask=%d sim_s=%.9g wall_s=%.6g clocks=%llu frames=%zu ticks=%zu loads=%zu\n",
+                CLK_HZ, AXIS_MASK, sim_s, wall_s, static_cast<unsigned long long>(bench.edge), bench.frames.size(),
+                ticks.size(), bench.loads.size());
+    std::printf("init_err=%u fw_err=%u fw_err_axis=%u enabled_t=%.9g wdog_us=%u last_key_edge=%llu scene0_us=%lld "
+                "skew=%u frame=%u d=%llu\n",
+                init_err, s.err, s.err_axis, enable_t, wdog_us, static_cast<unsigned long long>(last_key_edge),
+                static_cast<long long>(bench.scene0_us), bench.skew, bench.frame, static_cast<unsigned long long>(D));
+    std::printf("frame_bytes=%zu tick_bytes=%zu\n", sizeof(FrameRec), sizeof(TickRec));
+    if (g_profile)
+        std::printf("profile_plant_s=%.6g profile_firmware_s=%.6g profile_gateware_s=%.6g\n", g_plant_s,
+                    g_isr_s - g_bus_in_isr_s, wall_s - g_plant_s - (g_isr_s - g_bus_in_isr_s));
+    hg_plant_free(plant);
+    top.final();
+    return 0;
+}
