@@ -107,6 +107,11 @@ class DacModel:
                 self.violations.append(f"{t_f} ps: setup {t_f - self.last_change} ps < one clock")
             await RisingEdge(dut.dac_wr_n)
             t_r = now_ps()
+            if t_f == t_r == 0:
+                # initialisation at time 0, not a pulse: a gate-level netlist's flip-flops start
+                # at their init value (iCE40: 0) and a reset-to-1 register reaches its pin
+                # through an inverter, all in zero time before the first clock
+                continue
             if t_r - t_f < p:
                 self.violations.append(f"{t_r} ps: strobe low {t_r - t_f} ps < one clock")
             a, w = int(dut.dac_addr.value), int(dut.dac_data.value)
