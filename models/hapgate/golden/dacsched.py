@@ -75,6 +75,7 @@ class DacModel:
     cfg: CommutationConfig
     loads: list[Load] = field(default_factory=list)
     violations: list[str] = field(default_factory=list)
+    powerup: list[Load] = field(default_factory=list)   # a strobe low from time 0, see below
     last_change: int = -(10**15)
     last_rise: int = -(10**15)
     reset_ps: int = 0
@@ -89,7 +90,7 @@ class DacModel:
         while True:
             await First(dut.dac_data.value_change, dut.dac_addr.value_change)
             t = now_ps()
-            if str(dut.dac_wr_n.value) == "0":
+            if t > 0 and str(dut.dac_wr_n.value) == "0":  # (t = 0: the pins' power-up values)
                 self.violations.append(f"{t} ps: data/address changed while dac_wr_n is low")
             if t - self.last_rise < p:
                 self.violations.append(f"{t} ps: hold {t - self.last_rise} ps < one clock")
@@ -103,15 +104,25 @@ class DacModel:
         while True:
             await FallingEdge(dut.dac_wr_n)
             t_f = now_ps()
+            if t_f == 0:
+                # low from time 0: the pin register's power-up value (a gate-level iCE40 netlist:
+                # every flip-flop configures to 0), raised by the first clock edge in reset. The
+                # DAC loads whatever the data pins hold then: that must be zero torque.
+                await RisingEdge(dut.dac_wr_n)
+                try:
+                    a, w = int(dut.dac_addr.value), int(dut.dac_data.value)
+                except ValueError:
+                    self.violations.append(f"{now_ps()} ps: power-up load of an unknown word")
+                    continue
+                self.powerup.append(Load(now_ps(), a, w))
+                if w != int(encode(np.zeros(1, dtype=np.int64), self.cfg)[0]):
+                    self.violations.append(f"{now_ps()} ps: power-up load of word {w} into "
+                                           f"channel {a}: not zero torque")
+                continue
             if t_f - self.last_change < p:
                 self.violations.append(f"{t_f} ps: setup {t_f - self.last_change} ps < one clock")
             await RisingEdge(dut.dac_wr_n)
             t_r = now_ps()
-            if t_f == t_r == 0:
-                # initialisation at time 0, not a pulse: a gate-level netlist's flip-flops start
-                # at their init value (iCE40: 0) and a reset-to-1 register reaches its pin
-                # through an inverter, all in zero time before the first clock
-                continue
             if t_r - t_f < p:
                 self.violations.append(f"{t_r} ps: strobe low {t_r - t_f} ps < one clock")
             a, w = int(dut.dac_addr.value), int(dut.dac_data.value)
