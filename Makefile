@@ -6,6 +6,8 @@
 #   make lint     ruff, verilator -Wall, Icarus elaboration, Yosys synthesis checks
 #   make bench    benchmarks: tables on stdout, CSV/PNG in build/reports/
 #   make synth    Yosys resource table per block, then nextpnr place and route of the board tops
+#                 (bitstreams; fails on a fit or timing failure)
+#   make gatelevel the board tops' post-synthesis netlists beside their RTL (minutes)
 #   make versions the tools in use, with their paths
 #   make formal   SymbiYosys proofs (tb/formal/) and the broken copies each must reject
 #   make regs     regenerate the register header/document from rtl/regs/hapgate.rdl
@@ -17,7 +19,7 @@ HG      := $(VENV)/bin/hapgate
 PYTEST  := $(VENV)/bin/pytest
 PYTEST_ARGS ?= -n auto
 
-.PHONY: all venv demo test lint bench versions synth regs formal clean distclean
+.PHONY: all venv demo test lint bench versions synth gatelevel formal regs clean distclean
 
 all: test
 
@@ -51,6 +53,9 @@ bench: $(STAMP)
 synth: $(STAMP)
 	$(HG) synth
 	$(HG) pnr
+
+gatelevel: $(STAMP)
+	$(PYTEST) -p no:xdist tb/boards/gatelevel_board_tops.py
 
 formal: $(STAMP)
 	$(VENV)/bin/python -m hapgate.flows.formal --mutants

@@ -15,7 +15,7 @@ extern "C" {
 #define HAPGATE__ID__VERSION_bm 0xffff
 #define HAPGATE__ID__VERSION_bp 0
 #define HAPGATE__ID__VERSION_bw 16
-#define HAPGATE__ID__VERSION_reset 0x100
+#define HAPGATE__ID__VERSION_reset 0x101
 #define HAPGATE__ID__MAGIC_bm 0xffff0000
 #define HAPGATE__ID__MAGIC_bp 16
 #define HAPGATE__ID__MAGIC_bw 16
@@ -183,6 +183,30 @@ extern "C" {
 #define HAPGATE__AXIS_T__FLAGS__HOMED_bw 1
 #define HAPGATE__AXIS_T__FLAGS__HOMED_reset 0x0
 
+// reg - hapgate::axis_t::CAL_CTRL
+#define HAPGATE__AXIS_T__CAL_CTRL__EN_bm 0x1
+#define HAPGATE__AXIS_T__CAL_CTRL__EN_bp 0
+#define HAPGATE__AXIS_T__CAL_CTRL__EN_bw 1
+#define HAPGATE__AXIS_T__CAL_CTRL__EN_reset 0x0
+#define HAPGATE__AXIS_T__CAL_CTRL__FREEZE_bm 0x2
+#define HAPGATE__AXIS_T__CAL_CTRL__FREEZE_bp 1
+#define HAPGATE__AXIS_T__CAL_CTRL__FREEZE_bw 1
+#define HAPGATE__AXIS_T__CAL_CTRL__FREEZE_reset 0x0
+#define HAPGATE__AXIS_T__CAL_CTRL__MU_bm 0xf0
+#define HAPGATE__AXIS_T__CAL_CTRL__MU_bp 4
+#define HAPGATE__AXIS_T__CAL_CTRL__MU_bw 4
+#define HAPGATE__AXIS_T__CAL_CTRL__MU_reset 0x6
+
+// reg - hapgate::axis_t::CAL_STAT
+#define HAPGATE__AXIS_T__CAL_STAT__GEAR_bm 0xff
+#define HAPGATE__AXIS_T__CAL_STAT__GEAR_bp 0
+#define HAPGATE__AXIS_T__CAL_STAT__GEAR_bw 8
+#define HAPGATE__AXIS_T__CAL_STAT__GEAR_reset 0x0
+#define HAPGATE__AXIS_T__CAL_STAT__UPDATES_bm 0xffff0000
+#define HAPGATE__AXIS_T__CAL_STAT__UPDATES_bp 16
+#define HAPGATE__AXIS_T__CAL_STAT__UPDATES_bw 16
+#define HAPGATE__AXIS_T__CAL_STAT__UPDATES_reset 0x0
+
 // reg - hapgate::axis_t::TORQUE
 #define HAPGATE__AXIS_T__TORQUE__VALUE_bm 0xffff
 #define HAPGATE__AXIS_T__TORQUE__VALUE_bp 0
@@ -207,6 +231,32 @@ extern "C" {
 #define HAPGATE__AXIS_T__TQ_LIMIT__VALUE_bw 16
 #define HAPGATE__AXIS_T__TQ_LIMIT__VALUE_reset 0x0
 
+// reg - hapgate::axis_t::CAL_OFS
+#define HAPGATE__AXIS_T__CAL_OFS__OFS_A_bm 0xffff
+#define HAPGATE__AXIS_T__CAL_OFS__OFS_A_bp 0
+#define HAPGATE__AXIS_T__CAL_OFS__OFS_A_bw 16
+#define HAPGATE__AXIS_T__CAL_OFS__OFS_A_reset 0x0
+#define HAPGATE__AXIS_T__CAL_OFS__OFS_B_bm 0xffff0000
+#define HAPGATE__AXIS_T__CAL_OFS__OFS_B_bp 16
+#define HAPGATE__AXIS_T__CAL_OFS__OFS_B_bw 16
+#define HAPGATE__AXIS_T__CAL_OFS__OFS_B_reset 0x0
+
+// reg - hapgate::axis_t::CAL_GAIN
+#define HAPGATE__AXIS_T__CAL_GAIN__GAIN_A_bm 0xffff
+#define HAPGATE__AXIS_T__CAL_GAIN__GAIN_A_bp 0
+#define HAPGATE__AXIS_T__CAL_GAIN__GAIN_A_bw 16
+#define HAPGATE__AXIS_T__CAL_GAIN__GAIN_A_reset 0x4000
+#define HAPGATE__AXIS_T__CAL_GAIN__GAIN_B_bm 0xffff0000
+#define HAPGATE__AXIS_T__CAL_GAIN__GAIN_B_bp 16
+#define HAPGATE__AXIS_T__CAL_GAIN__GAIN_B_bw 16
+#define HAPGATE__AXIS_T__CAL_GAIN__GAIN_B_reset 0x4000
+
+// reg - hapgate::axis_t::CAL_PHASE
+#define HAPGATE__AXIS_T__CAL_PHASE__PHASE_bm 0xffff
+#define HAPGATE__AXIS_T__CAL_PHASE__PHASE_bp 0
+#define HAPGATE__AXIS_T__CAL_PHASE__PHASE_bw 16
+#define HAPGATE__AXIS_T__CAL_PHASE__PHASE_reset 0x0
+
 // regfile - hapgate::axis_t
 typedef struct __attribute__ ((__packed__)) {
     uint32_t POS;
@@ -215,12 +265,16 @@ typedef struct __attribute__ ((__packed__)) {
     uint32_t COUNTS;
     uint32_t POS_HOMED;
     uint32_t FLAGS;
-    uint8_t RESERVED_18_1f[0x8];
+    uint32_t CAL_CTRL;
+    uint32_t CAL_STAT;
     uint32_t TORQUE;
     uint32_t OFFSET;
     uint32_t MODE;
     uint32_t TQ_LIMIT;
-    uint8_t RESERVED_30_3f[0x10];
+    uint32_t CAL_OFS;
+    uint32_t CAL_GAIN;
+    uint32_t CAL_PHASE;
+    uint8_t RESERVED_3c_3f[0x4];
 } hapgate__axis_t__stride40_t;
 
 // addrmap - hapgate

@@ -47,8 +47,21 @@ static void get_vec(const uint8_t *d, hg_real v[3])
         v[i] = get_f32(d + 4 * i);
 }
 
+static uint32_t get_u16(const uint8_t *d)
+{
+    return (uint32_t)d[0] | (uint32_t)d[1] << 8;
+}
+
+static uint32_t get_u32(const uint8_t *d)
+{
+    return get_u16(d) | get_u16(d + 2) << 16;
+}
+
+#define NO_REPLY (-1) /* a handler's "accepted, answer nothing" (FORCE) */
+
 /* A handler reads req (its exact length is guaranteed), writes reply data to out and its
- * length to *n, and returns 0, or a HG_NAK_* reason. */
+ * length to *n, and returns 0, NO_REPLY, or a HG_NAK_* reason. l->ver is the request's
+ * protocol version. */
 typedef int (*handler_fn)(hg_link_t *l, const uint8_t *req, uint8_t *out, size_t *n);
 
 static int h_ping(hg_link_t *l, const uint8_t *req, uint8_t *out, size_t *n)
@@ -82,13 +95,42 @@ static int h_get_state(hg_link_t *l, const uint8_t *req, uint8_t *out, size_t *n
     return 0;
 }
 
+/* A step has rendered the pending FORCE: it becomes the one the pushes name. */
+static void promote(hg_link_t *l)
+{
+    if (l->pend && (int32_t)(l->servo->seq - l->pend_tick) >= 0) {
+        l->pend = false;
+        l->live = true;
+        l->live_first = l->pend_tick;
+        l->live_ttl = l->pend_ttl;
+        l->live_ctr = l->pend_ctr;
+        l->live_lat = l->pend_lat;
+    }
+}
+
+/* A PC force (FORCE or SET_FORCE) was accepted: the next step renders it for ttl ticks. The
+ * pushes name it (and flag "PC force live") from that tick on, not before: a push reports
+ * what its own tick rendered even if a newer force arrived before it was sent. */
+static void pend_force(hg_link_t *l, uint32_t ttl, uint16_t ctr, uint16_t lat)
+{
+    promote(l); /* before this one replaces it */
+    l->pend = true;
+    l->pend_tick = l->servo->seq + 1u;
+    l->pend_ttl = ttl;
+    l->pend_ctr = ctr;
+    l->pend_lat = lat;
+}
+
 static int h_set_force(hg_link_t *l, const uint8_t *req, uint8_t *out, size_t *n)
 {
     hg_real f[3];
     (void)out;
     (void)n;
     get_vec(req, f);
-    return hg_servo_set_force(l->servo, f) ? HG_NAK_RANGE : 0;
+    if (hg_servo_set_force(l->servo, f))
+        return HG_NAK_RANGE;
+    pend_force(l, l->servo->cfg.pc_force_timeout, l->force_ctr, 0);
+    return 0;
 }
 
 static int h_set_scene(hg_link_t *l, const uint8_t *req, uint8_t *out, size_t *n)
@@ -111,18 +153,90 @@ static int h_enable(hg_link_t *l, const uint8_t *req, uint8_t *out, size_t *n)
     (void)n;
     if (req[0] > 1)
         return HG_NAK_RANGE;
-    return hg_servo_enable(l->servo, req[0] == 1) ? HG_NAK_ERROR_LATCHED : 0;
+    if (hg_servo_enable(l->servo, req[0] == 1))
+        return HG_NAK_ERROR_LATCHED;
+    l->armed = req[0] == 1 && l->cfg.timeout_ms > 0; /* from now on silence disables */
+    return 0;
 }
 
 static int h_get_stats(hg_link_t *l, const uint8_t *req, uint8_t *out, size_t *n)
 {
-    const uint32_t v[7] = { l->st.good, l->st.bad_framing, l->st.bad_crc, l->st.bad_version,
-                            l->st.bad_type, l->st.bad_len, l->st.rejected };
+    const uint32_t v[11] = { l->st.good, l->st.bad_framing, l->st.bad_crc, l->st.bad_version,
+                             l->st.bad_type, l->st.bad_len, l->st.rejected, l->st.replayed,
+                             l->st.pushed, l->st.push_dropped, l->st.timeouts };
+    const size_t k = l->ver == HG_PROTO_V1 ? 7u : 11u; /* a v1 request gets the v1 reply */
     (void)req;
-    for (int i = 0; i < 7; i++)
+    for (size_t i = 0; i < k; i++)
         put_u32(out + 4 * i, v[i]);
-    *n = HG_STATS_LEN;
+    *n = 4u * k;
     return 0;
+}
+
+static uint32_t ms_to_ticks(const hg_servo_t *s, uint32_t ms)
+{
+    return (uint32_t)(((uint64_t)ms * s->cfg.rate_hz + 999u) / 1000u);
+}
+
+static int h_info(hg_link_t *l, const uint8_t *req, uint8_t *out, size_t *n)
+{
+    const hg_servo_t *s = l->servo;
+    (void)req;
+    put_u16(out, HG_FW_VERSION);
+    out[2] = HG_PROTO_VERSION;
+    out[3] = 0;
+    put_u32(out + 4, s->fpga_id);
+    put_u16(out + 8, s->cfg.rate_hz);
+    put_u16(out + 10, l->cfg.timeout_ms);
+    put_u32(out + 12, l->cfg.baud);
+    put_vec(out + 16, l->cfg.box_lo);
+    put_vec(out + 28, l->cfg.box_hi);
+    put_f32(out + 40, s->cfg.f_max);
+    put_f32(out + 44, HG_SCENE_K_MAX);
+    put_f32(out + 48, HG_SCENE_B_MAX);
+    put_u16(out + 52, (uint32_t)((uint64_t)s->cfg.pc_force_timeout * 1000u / s->cfg.rate_hz));
+    put_u16(out + 54, l->force_ctr);
+    *n = HG_INFO_LEN;
+    return 0;
+}
+
+static int h_stream(hg_link_t *l, const uint8_t *req, uint8_t *out, size_t *n)
+{
+    const uint32_t period = get_u16(req);
+    if (period > HG_STREAM_MAX_PERIOD)
+        return HG_NAK_RANGE;
+    l->period = period;
+    l->last_push = l->servo->seq - period; /* the first push goes out at the next poll */
+    put_u16(out, period);
+    *n = HG_STREAM_ACK_LEN;
+    return 0;
+}
+
+/* f32 F[3] N, u16 ttl ms, u16 counter, u32 SEQ of the state the force answers. */
+static int h_force(hg_link_t *l, const uint8_t *req, uint8_t *out, size_t *n)
+{
+    hg_servo_t *s = l->servo;
+    hg_real f[3];
+    (void)out;
+    (void)n;
+    get_vec(req, f);
+    const uint32_t ttl = ms_to_ticks(s, get_u16(req + 12));
+    const uint16_t ctr = (uint16_t)get_u16(req + 14);
+    if (ttl == 0 || ttl > s->cfg.pc_force_timeout)
+        return HG_NAK_RANGE;
+    if (l->have_force && (uint16_t)(ctr - l->force_ctr) - 1u >= 0x7FFFu) {
+        l->st.replayed++; /* not newer than the last accepted one: a replay, or stale */
+        return HG_NAK_REPLAY;
+    }
+    if (hg_servo_set_force(s, f))
+        return HG_NAK_RANGE;
+    const uint32_t t = hg_hal_irq_save();
+    s->f_pc_age = s->cfg.pc_force_timeout - ttl; /* live for exactly ttl ticks */
+    const uint32_t lat = s->seq + 1u - get_u32(req + 16);
+    hg_hal_irq_restore(t);
+    l->have_force = true;
+    l->force_ctr = ctr;
+    pend_force(l, ttl, ctr, (uint16_t)(lat > 0xFFFFu ? 0xFFFFu : lat));
+    return NO_REPLY;
 }
 
 static int h_clear_error(hg_link_t *l, const uint8_t *req, uint8_t *out, size_t *n)
@@ -136,28 +250,43 @@ static int h_clear_error(hg_link_t *l, const uint8_t *req, uint8_t *out, size_t 
 
 static const struct {
     uint8_t type;
-    uint8_t len; /* exact request data length */
+    uint8_t len;     /* exact request data length */
+    uint8_t min_ver; /* lowest protocol version that has the message */
     handler_fn fn;
 } msgs[] = {
-    { HG_MSG_PING, 0, h_ping },           { HG_MSG_GET_STATE, 0, h_get_state },
-    { HG_MSG_SET_FORCE, 12, h_set_force }, { HG_MSG_SET_SCENE, 37, h_set_scene },
-    { HG_MSG_ENABLE, 1, h_enable },        { HG_MSG_GET_STATS, 0, h_get_stats },
-    { HG_MSG_CLEAR_ERROR, 0, h_clear_error },
+    { HG_MSG_PING, 0, 1, h_ping },           { HG_MSG_GET_STATE, 0, 1, h_get_state },
+    { HG_MSG_SET_FORCE, 12, 1, h_set_force }, { HG_MSG_SET_SCENE, 37, 1, h_set_scene },
+    { HG_MSG_ENABLE, 1, 1, h_enable },        { HG_MSG_GET_STATS, 0, 1, h_get_stats },
+    { HG_MSG_CLEAR_ERROR, 0, 1, h_clear_error }, { HG_MSG_INFO, 0, 2, h_info },
+    { HG_MSG_STREAM, 2, 2, h_stream },        { HG_MSG_FORCE, HG_FORCE_LEN, 2, h_force },
 };
 
 void hg_link_init(hg_link_t *l, hg_servo_t *servo)
 {
+    static const hg_link_cfg_t dflt = {
+        0, HG_LINK_TIMEOUT_MS,
+        /* bounding box of the endpoint over the wall-limited joint range (default linkage) */
+        { HG_C(-0.086), HG_C(0.016), HG_C(-0.093) }, { HG_C(0.086), HG_C(0.099), HG_C(0.093) },
+    };
     *l = (hg_link_t){ 0 };
     l->servo = servo;
+    l->cfg = dflt;
+    l->ver = HG_PROTO_V1;
 }
 
 size_t hg_link_encode(uint8_t type, uint8_t seq, const uint8_t *data, size_t n,
                       uint8_t out[HG_LINK_MAX_FRAME])
 {
+    return hg_link_encode_v(HG_PROTO_V1, type, seq, data, n, out);
+}
+
+size_t hg_link_encode_v(uint8_t version, uint8_t type, uint8_t seq, const uint8_t *data,
+                        size_t n, uint8_t out[HG_LINK_MAX_FRAME])
+{
     uint8_t raw[HG_LINK_MAX_RAW];
     if (n > HG_LINK_MAX_DATA)
         return 0;
-    raw[0] = HG_PROTO_VERSION;
+    raw[0] = version;
     raw[1] = type;
     raw[2] = seq;
     for (size_t i = 0; i < n; i++)
@@ -185,12 +314,12 @@ static size_t handle_frame(hg_link_t *l, uint8_t tx[HG_LINK_MAX_FRAME])
         l->st.bad_crc++;
         return 0;
     }
-    if (raw[0] != HG_PROTO_VERSION) {
+    if (raw[0] < HG_PROTO_V1 || raw[0] > HG_PROTO_VERSION) {
         l->st.bad_version++;
         return 0;
     }
     size_t m = 0;
-    while (m < sizeof msgs / sizeof msgs[0] && msgs[m].type != raw[1])
+    while (m < sizeof msgs / sizeof msgs[0] && (msgs[m].type != raw[1] || raw[0] < msgs[m].min_ver))
         m++;
     if (m == sizeof msgs / sizeof msgs[0]) {
         l->st.bad_type++;
@@ -201,16 +330,63 @@ static size_t handle_frame(hg_link_t *l, uint8_t tx[HG_LINK_MAX_FRAME])
         return 0;
     }
     l->st.good++;
+    l->last_rx = l->servo->seq;
+    l->ver = raw[0];
     uint8_t out[HG_LINK_MAX_DATA];
     size_t out_n = 0;
     const int nak = msgs[m].fn(l, raw + HG_LINK_HDR, out, &out_n);
+    if (nak == NO_REPLY)
+        return 0;
     if (nak) {
         l->st.rejected++;
         out[0] = raw[1];
         out[1] = (uint8_t)nak;
-        return hg_link_encode(HG_MSG_NAK, raw[2], out, 2, tx);
+        return hg_link_encode_v(raw[0], HG_MSG_NAK, raw[2], out, 2, tx);
     }
-    return hg_link_encode((uint8_t)(raw[1] | HG_MSG_REPLY), raw[2], out, out_n, tx);
+    return hg_link_encode_v(raw[0], (uint8_t)(raw[1] | HG_MSG_REPLY), raw[2], out, out_n, tx);
+}
+
+size_t hg_link_poll(hg_link_t *l, bool tx_free, uint8_t tx[HG_LINK_MAX_FRAME])
+{
+    hg_servo_t *s = l->servo;
+    const uint32_t seq = s->seq;
+    const uint32_t limit = ms_to_ticks(s, l->cfg.timeout_ms);
+    if (limit > 0 && l->armed && seq - l->last_rx > limit) { /* the driving PC went silent */
+        hg_servo_enable(s, false);
+        l->armed = false;
+        l->period = 0;
+        l->st.timeouts++;
+    }
+    promote(l);
+    if (l->period == 0 || seq - l->last_push < l->period)
+        return 0;
+    if (!tx_free) { /* a push waits for the line; once the next one is due, one is lost */
+        if (seq - l->last_push >= 2u * l->period) {
+            l->st.push_dropped++;
+            l->last_push += l->period;
+        }
+        return 0;
+    }
+    l->last_push = seq;
+    uint8_t d[HG_PUSH_LEN];
+    const uint32_t t = hg_hal_irq_save();
+    put_u32(d, s->seq);
+    put_vec(d + 4, s->p);
+    put_vec(d + 16, s->v);
+    put_vec(d + 28, s->f);
+    d[40] = (uint8_t)((s->enabled ? 1u : 0u) | (s->err ? 2u : 0u)
+                      | (l->live && seq - l->live_first < l->live_ttl ? 4u : 0u)
+                      | (l->armed ? 8u : 0u));
+    d[41] = s->err;
+    d[42] = s->err_axis;
+    d[43] = s->scene.type;
+    for (int i = 0; i < 3; i++)
+        put_u16(d + 44 + 2 * i, (uint32_t)(uint16_t)s->code[i]);
+    hg_hal_irq_restore(t);
+    put_u16(d + 50, l->live_ctr);
+    put_u16(d + 52, l->live_lat);
+    l->st.pushed++;
+    return hg_link_encode_v(HG_PROTO_VERSION, HG_MSG_STATE_PUSH, l->push_seq++, d, HG_PUSH_LEN, tx);
 }
 
 size_t hg_link_rx_byte(hg_link_t *l, uint8_t b, uint8_t tx[HG_LINK_MAX_FRAME])

@@ -25,14 +25,16 @@ static uint32_t rnd(void) /* xorshift64* */
     return (uint32_t)((rng * 0x2545F4914F6CDD1Du) >> 32);
 }
 
-/* request data length per type, from the protocol table; -1 = unknown type */
-static int ref_len(uint8_t type)
+/* request data length per type and version, from the protocol table; -1 = unknown type */
+static int ref_len(uint8_t version, uint8_t type)
 {
-    static const int len[8] = { -1, 0, 0, 12, 37, 1, 0, 0 };
-    return type < 8 ? len[type] : -1;
+    static const int len[11] = { -1, 0, 0, 12, 37, 1, 0, 0, 0, 2, 20 };
+    if (version == 1 && type >= 8)
+        return -1; /* the version-2 messages do not exist in version 1 */
+    return type < 11 ? len[type] : -1;
 }
 
-static int ref_classify(const uint8_t *e, size_t n, uint8_t *seq)
+static int ref_classify(const uint8_t *e, size_t n, uint8_t *seq, uint8_t *type)
 {
     uint8_t raw[1024];
     size_t o = 0;
@@ -51,13 +53,14 @@ static int ref_classify(const uint8_t *e, size_t n, uint8_t *seq)
         return FRAMING;
     if (hg_crc16(raw, o - 2) != (raw[o - 2] << 8 | raw[o - 1]))
         return CRC;
-    if (raw[0] != 1)
+    if (raw[0] != 1 && raw[0] != 2)
         return VERSION;
-    if (ref_len(raw[1]) < 0)
+    if (ref_len(raw[0], raw[1]) < 0)
         return TYPE;
-    if ((int)o - 5 != ref_len(raw[1]))
+    if ((int)o - 5 != ref_len(raw[0], raw[1]))
         return LEN;
     *seq = raw[2];
+    *type = raw[1];
     return GOOD;
 }
 
@@ -66,17 +69,18 @@ static int ref_classify(const uint8_t *e, size_t n, uint8_t *seq)
  * knows. Returns the encoded length (delimiter not included). */
 static size_t make_chunk(uint8_t *out, int *want)
 {
-    static const uint8_t types[] = { 1, 2, 3, 4, 5, 6, 7 };
+    static const uint8_t types[] = { 1, 2, 3, 4, 5, 6, 7, 8, 9, 10 };
     uint8_t raw[HG_LINK_MAX_RAW + 8];
-    const uint8_t type = types[rnd() % 7];
-    size_t n = 3 + (size_t)ref_len(type);
-    raw[0] = 1;
+    const uint8_t type = types[rnd() % 10];
+    const uint8_t ver = type >= 8 ? 2 : (uint8_t)(1 + rnd() % 2);
+    size_t n = 3 + (size_t)ref_len(ver, type);
+    raw[0] = ver;
     raw[1] = type;
     raw[2] = (uint8_t)rnd();
     for (size_t i = 3; i < n; i++)
         raw[i] = (uint8_t)rnd();
-    if (type == 3 || type == 4) /* half the time small finite floats, so some are accepted */
-        for (size_t i = (type == 4 ? 4 : 3); i + 3 < n && rnd() % 2; i += 4) {
+    if (type == 3 || type == 4 || type == 10) /* often small finite floats: some accepted */
+        for (size_t i = (type == 4 ? 4 : 3); i + 3 < n && i < 15 && rnd() % 2; i += 4) {
             const float f = (float)((int)(rnd() % 2001) - 1000) / 1000.0f;
             memcpy(raw + i, &f, 4);
         }
@@ -84,15 +88,25 @@ static size_t make_chunk(uint8_t *out, int *want)
         raw[3] = (uint8_t)(rnd() % 6);
     if (type == 5)
         raw[3] = (uint8_t)(rnd() % 3);
+    if (type == 9) /* stream period: mostly in range */
+        raw[4] = (uint8_t)(rnd() % 5);
+    if (type == 10 && rnd() % 2) { /* FORCE: a valid TTL and a newer counter half the time */
+        static uint16_t ctr;
+        ctr = (uint16_t)(ctr + 1 + rnd() % 3);
+        raw[15] = (uint8_t)(1 + rnd() % 100);
+        raw[16] = 0;
+        raw[17] = (uint8_t)ctr;
+        raw[18] = (uint8_t)(ctr >> 8);
+    }
     const uint32_t kind = rnd() % 8;
     *want = kind <= 1 ? GOOD : -1;
     if (kind == 5) { /* wrong version, unknown type or wrong length under a valid CRC */
         const uint32_t w = rnd() % 3;
         if (w == 0) {
-            raw[0] = (uint8_t)(2 + rnd() % 250);
+            raw[0] = (uint8_t)(3 + rnd() % 253); /* versions 3..255; 0 comes with garbage */
             *want = VERSION;
         } else if (w == 1) {
-            raw[1] = (uint8_t)(8 + rnd() % 248);
+            raw[1] = (uint8_t)(11 + rnd() % 245);
             *want = TYPE;
         } else {
             size_t nn;
@@ -146,13 +160,24 @@ int main(int argc, char **argv)
     hg_link_init(&l, &s);
 
     uint32_t count[NCLASS] = { 0 };
-    long chunks = 0, bytes = 0, replies = 0, naks = 0, fails = 0;
+    long chunks = 0, bytes = 0, replies = 0, naks = 0, fails = 0, pushes = 0;
     const int32_t pos[3] = { 0, 131072, 131072 }, vel[3] = { 0 }; /* q = (0, 45, 45) deg */
     const clock_t t0 = clock();
     for (long f = 0; f < frames && fails < 10; f++) {
         if (f % 64 == 0) { /* keep the servo running; clear anything it latched */
             hal_sim_snapshot(pos, vel);
             hg_servo_step(&s);
+            uint8_t tx[HG_LINK_MAX_FRAME], raw[HG_LINK_MAX_RAW];
+            const size_t r = hg_link_poll(&l, rnd() % 4 != 0, tx);
+            if (r) { /* a push is a well-formed version-2 STATE_PUSH */
+                const size_t rn = hg_cobs_decode(tx, r - 1, raw, sizeof raw);
+                pushes++;
+                if (rn != HG_PUSH_LEN + 5 || raw[0] != 2 || raw[1] != HG_MSG_STATE_PUSH
+                    || hg_crc16(raw, rn - 2) != (uint16_t)(raw[rn - 2] << 8 | raw[rn - 1])) {
+                    printf("FAIL frame %ld: malformed push\n", f);
+                    fails++;
+                }
+            }
         }
         uint8_t buf[512];
         int want;
@@ -163,15 +188,15 @@ int main(int argc, char **argv)
             if (buf[i] != 0)
                 continue;
             const size_t len = i - start;
-            uint8_t seq = 0;
-            const int cls = len ? ref_classify(buf + start, len, &seq) : -1;
+            uint8_t seq = 0, type = 0;
+            const int cls = len ? ref_classify(buf + start, len, &seq, &type) : -1;
             if (want >= 0 && start == 0 && i == m && cls != want) {
                 printf("FAIL frame %ld: mutation guarantees %s, reference says %s\n", f,
                        NAMES[want], cls < 0 ? "idle" : NAMES[cls]);
                 fails++;
             }
             const hg_servo_t before = s;
-            size_t got = 0;
+            size_t got = 0, got_nak = 0;
             uint8_t tx[HG_LINK_MAX_FRAME];
             for (size_t j = start; j <= i; j++) {
                 const size_t r = hg_link_rx_byte(&l, buf[j], tx);
@@ -184,6 +209,7 @@ int main(int argc, char **argv)
                         fails++;
                     }
                     naks += raw[1] == HG_MSG_NAK;
+                    got_nak += raw[1] == HG_MSG_NAK;
                 }
             }
             bytes += (long)(i - start + 1);
@@ -200,7 +226,9 @@ int main(int argc, char **argv)
                            (unsigned)st[c], (unsigned)count[c]);
                     fails++;
                 }
-            if (cls == GOOD ? got != 1 : (got != 0 || memcmp(&before, &s, sizeof s) != 0)) {
+            /* a good FORCE is answered only when refused (NAK); every other good frame once */
+            const bool reply_ok = type == HG_MSG_FORCE ? got == got_nak && got <= 1 : got == 1;
+            if (cls == GOOD ? !reply_ok : (got != 0 || memcmp(&before, &s, sizeof s) != 0)) {
                 printf("FAIL frame %ld: class %s gave %zu replies%s\n", f, NAMES[cls], got,
                        cls == GOOD ? "" : " or changed the servo");
                 fails++;
@@ -214,9 +242,11 @@ int main(int argc, char **argv)
     }
     printf("fuzz: %ld frames, %ld bytes in %.2f s (seed %s)\n", chunks, bytes, secs,
            argc > 2 ? argv[2] : "1");
-    printf("  good %u (rejected %u) | bad: framing %u, crc %u, version %u, type %u, len %u\n",
-           count[GOOD], (unsigned)l.st.rejected, count[FRAMING], count[CRC], count[VERSION],
-           count[TYPE], count[LEN]);
+    printf("  good %u (rejected %u, replayed %u) | bad: framing %u, crc %u, version %u, type %u, "
+           "len %u | pushes %ld (dropped %u)\n",
+           count[GOOD], (unsigned)l.st.rejected, (unsigned)l.st.replayed, count[FRAMING],
+           count[CRC], count[VERSION], count[TYPE], count[LEN], pushes,
+           (unsigned)l.st.push_dropped);
     printf("fuzz %s\n", fails || chunks < frames ? "FAILED" : "PASSED");
     return fails || chunks < frames ? 1 : 0;
 }

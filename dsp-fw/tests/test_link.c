@@ -44,7 +44,7 @@ static size_t request(uint8_t type, const uint8_t *data, size_t n, uint8_t want,
     const size_t m = hg_link_encode(type, ++seq, data, n, f);
     CHECK(m > 0);
     CHECK(feed(f, m, raw, &rn) == 1);
-    CHECK(raw[0] == HG_PROTO_VERSION && raw[1] == want && raw[2] == seq);
+    CHECK(raw[0] == HG_PROTO_V1 && raw[1] == want && raw[2] == seq);
     return rn - 5;
 }
 
@@ -154,13 +154,14 @@ void test_link_bad_frames(void)
 
     /* right CRC, wrong content: build the raw frame by hand */
     const uint8_t cases[][6] = {
-        { 4, 2, HG_MSG_ENABLE, 1, 1 },    /* version 2 */
+        { 4, 3, HG_MSG_ENABLE, 1, 1 },    /* version 3 */
         { 4, 1, 0x55, 1, 1 },             /* unknown type */
         { 4, 1, 0x85, 1, 1 },             /* a reply type sent to the device */
+        { 3, 1, HG_MSG_INFO, 1 },         /* a version-2 message in a version-1 frame */
         { 5, 1, HG_MSG_ENABLE, 1, 1, 1 }, /* ENABLE with 2 data bytes */
         { 3, 1, HG_MSG_ENABLE, 1 },       /* ENABLE with none */
     };
-    for (unsigned c = 0; c < 5; c++) {
+    for (unsigned c = 0; c < 6; c++) {
         uint8_t r[8], e[16];
         const size_t n = cases[c][0];
         memcpy(r, cases[c] + 1, n);
@@ -171,7 +172,7 @@ void test_link_bad_frames(void)
         e[k] = 0;
         CHECK(feed(e, k + 1, raw, &rn) == 0);
     }
-    CHECK(L.st.bad_version == 1 && L.st.bad_type == 2 && L.st.bad_len == 2);
+    CHECK(L.st.bad_version == 1 && L.st.bad_type == 3 && L.st.bad_len == 2);
     CHECK(L.st.bad_framing == 3 && L.st.good == 0);
 
     /* over-long: 200 non-zero bytes, then the valid frame still works */
@@ -199,4 +200,191 @@ void test_link_resync(void)
     m = 1 + hg_link_encode(HG_MSG_PING, 2, NULL, 0, f + 1);
     m += hg_link_encode(HG_MSG_GET_STATS, 3, NULL, 0, f + m);
     CHECK(feed(f, m, raw, &rn) == 2 && L.st.good == 2 && raw[1] == 0x86);
+}
+
+/* A version-2 request: one frame, the replies (0, 1 or more) counted, the last one in raw. */
+static int request2(uint8_t type, const uint8_t *data, size_t n, uint8_t raw[HG_LINK_MAX_RAW],
+                    size_t *rn)
+{
+    static uint8_t seq;
+    uint8_t f[HG_LINK_MAX_FRAME];
+    const size_t m = hg_link_encode_v(2, type, ++seq, data, n, f);
+    CHECK(m > 0);
+    const int r = feed(f, m, raw, rn);
+    if (r)
+        CHECK(raw[0] == 2 && raw[2] == seq);
+    return r;
+}
+
+static void force_req(uint8_t *d, float fx, float fy, float fz, uint32_t ttl_ms, uint32_t ctr,
+                      uint32_t ref)
+{
+    put_f32(d, fx);
+    put_f32(d + 4, fy);
+    put_f32(d + 8, fz);
+    d[12] = (uint8_t)ttl_ms;
+    d[13] = (uint8_t)(ttl_ms >> 8);
+    d[14] = (uint8_t)ctr;
+    d[15] = (uint8_t)(ctr >> 8);
+    for (int i = 0; i < 4; i++)
+        d[16 + i] = (uint8_t)(ref >> (8 * i));
+}
+
+static void tick(void)
+{
+    static const int32_t pos[3] = { 0, 1 << 17, 1 << 17 }, vel[3] = { 0, 0, 0 };
+    hal_sim_snapshot(pos, vel);
+    hg_servo_step(&S);
+}
+
+/* INFO, stats in both versions, v2 replies carry version 2. */
+void test_link_v2_info_stats(void)
+{
+    uint8_t raw[HG_LINK_MAX_RAW];
+    size_t rn = 0;
+    setup();
+    L.cfg.baud = 1000000;
+    CHECK(request2(HG_MSG_INFO, NULL, 0, raw, &rn) == 1 && raw[1] == 0x88);
+    CHECK(rn - 5 == HG_INFO_LEN);
+    const uint8_t *d = raw + 3;
+    CHECK(d[0] == 0x00 && d[1] == 0x01 && d[2] == HG_PROTO_VERSION);
+    CHECK(d[4] == 0x01 && d[6] == 0x47 && d[7] == 0x48);             /* FPGA ID */
+    CHECK(d[8] == (1000 & 0xFF) && d[9] == 1000 >> 8);               /* rate */
+    CHECK(d[10] == (HG_LINK_TIMEOUT_MS & 0xFF) && d[11] == HG_LINK_TIMEOUT_MS >> 8);
+    CHECK(d[12] == 0x40 && d[13] == 0x42 && d[14] == 0x0F && d[15] == 0); /* 1000000 */
+    CHECK_NEAR(f32_at(d + 16 + 4), 0.016, 1e-7);                     /* box_lo y */
+    CHECK_NEAR(f32_at(d + 40), 10.0, 0);                              /* f_max */
+    CHECK_NEAR(f32_at(d + 44), 3500.0, 0);
+    CHECK_NEAR(f32_at(d + 48), 100.0, 0);
+    CHECK(d[52] == 100 && d[53] == 0);                                /* ttl max 100 ms */
+    /* GET_STATS: 28 bytes in v1 (unchanged), 44 in v2 */
+    CHECK(request(HG_MSG_GET_STATS, NULL, 0, 0x86, raw) == HG_STATS_LEN && raw[3] == 2);
+    CHECK(request2(HG_MSG_GET_STATS, NULL, 0, raw, &rn) == 1 && rn - 5 == HG_STATS2_LEN);
+    CHECK(raw[3] == 3);
+    /* v1 PING in a v2 frame: same data, version-2 reply */
+    CHECK(request2(HG_MSG_PING, NULL, 0, raw, &rn) == 1 && raw[1] == 0x81 && rn - 5 == HG_PING_LEN);
+}
+
+/* FORCE: no reply, TTL in ticks, counter and latency; replays and out-of-range refused. */
+void test_link_v2_force(void)
+{
+    uint8_t raw[HG_LINK_MAX_RAW], f[HG_FORCE_LEN], sc[37] = { 0 }, on = 1;
+    size_t rn = 0;
+    setup();
+    tick();
+    sc[0] = HG_SCENE_PC_FORCE;
+    CHECK(request2(HG_MSG_SET_SCENE, sc, 37, raw, &rn) == 1 && raw[1] == 0x84);
+    CHECK(request2(HG_MSG_ENABLE, &on, 1, raw, &rn) == 1 && raw[1] == 0x85 && L.armed);
+    const uint32_t seq0 = S.seq;
+    force_req(f, 1.0f, -2.0f, 0.5f, 5, 1, seq0 - 2);
+    CHECK(request2(HG_MSG_FORCE, f, HG_FORCE_LEN, raw, &rn) == 0);    /* accepted: silent */
+    CHECK(S.f_pc[1] == -2.0f && L.force_ctr == 1 && L.pend_lat == 3);
+    uint8_t tx[HG_LINK_MAX_FRAME], per[2] = { 1, 0 };
+    CHECK(request2(HG_MSG_STREAM, per, 2, raw, &rn) == 1);
+    size_t m0 = hg_link_poll(&L, true, tx);                           /* not rendered yet: */
+    CHECK(m0 > 0 && L.live_ctr == 0);
+    rn = hg_cobs_decode(tx, m0 - 1, raw, HG_LINK_MAX_RAW);
+    CHECK((raw[3 + 40] & 4) == 0 && f32_at(raw + 3 + 32) == 0.0f);   /* not live, F = 0 */
+    for (int k = 0; k < 5; k++) {                                     /* live for 5 ticks */
+        tick();
+        const size_t m = hg_link_poll(&L, true, tx);
+        CHECK(m > 0 && L.live_ctr == 1 && L.live_lat == 3);          /* the push names it */
+        rn = hg_cobs_decode(tx, m - 1, raw, HG_LINK_MAX_RAW);
+        CHECK(raw[3 + 50] == 1 && raw[3 + 52] == 3 && f32_at(raw + 3 + 32) == -2.0f);
+        CHECK(raw[3 + 40] & 4);                                       /* live */
+        CHECK(S.f[0] == 1.0f && S.f[1] == -2.0f && hal_sim_torque(1) != 0);
+    }
+    tick();                                                           /* then gone */
+    CHECK(S.f[0] == 0.0f && S.f[1] == 0.0f && S.f[2] == 0.0f && hal_sim_torque(1) == 0);
+    /* the same frame again (a replay), and an older counter: refused, nothing moves */
+    CHECK(request2(HG_MSG_FORCE, f, HG_FORCE_LEN, raw, &rn) == 1);
+    CHECK(raw[1] == HG_MSG_NAK && raw[4] == HG_NAK_REPLAY && L.st.replayed == 1);
+    tick();
+    CHECK(S.f[1] == 0.0f && hal_sim_torque(1) == 0);
+    force_req(f, 1.0f, -2.0f, 0.5f, 5, 0xFFF0, S.seq);
+    CHECK(request2(HG_MSG_FORCE, f, HG_FORCE_LEN, raw, &rn) == 1 && raw[4] == HG_NAK_REPLAY);
+    /* TTL 0 and TTL above the firmware's limit, and |F| > f_max: range */
+    force_req(f, 1.0f, 0, 0, 0, 2, S.seq);
+    CHECK(request2(HG_MSG_FORCE, f, HG_FORCE_LEN, raw, &rn) == 1 && raw[4] == HG_NAK_RANGE);
+    force_req(f, 1.0f, 0, 0, 101, 2, S.seq);
+    CHECK(request2(HG_MSG_FORCE, f, HG_FORCE_LEN, raw, &rn) == 1 && raw[4] == HG_NAK_RANGE);
+    force_req(f, 11.0f, 0, 0, 5, 2, S.seq);
+    CHECK(request2(HG_MSG_FORCE, f, HG_FORCE_LEN, raw, &rn) == 1 && raw[4] == HG_NAK_RANGE);
+    CHECK(L.st.rejected == 5 && L.force_ctr == 1);
+    force_req(f, 0.0f, 3.0f, 0, 1, 2, S.seq);                          /* ttl 1 ms = 1 tick */
+    CHECK(request2(HG_MSG_FORCE, f, HG_FORCE_LEN, raw, &rn) == 0 && L.force_ctr == 2);
+    tick();
+    CHECK(S.f[1] == 3.0f);
+    tick();
+    CHECK(S.f[1] == 0.0f);
+}
+
+/* Streaming: a push every N ticks, dropped (and counted) while the transmitter is busy. */
+void test_link_v2_stream(void)
+{
+    uint8_t raw[HG_LINK_MAX_RAW], tx[HG_LINK_MAX_FRAME], per[2] = { 3, 0 };
+    size_t rn = 0;
+    setup();
+    tick();
+    CHECK(request2(HG_MSG_STREAM, per, 2, raw, &rn) == 1 && raw[1] == 0x89 && raw[3] == 3);
+    int pushes = 0;
+    uint32_t last = 0;
+    for (int k = 0; k < 30; k++) {
+        tick();
+        for (int r = 0; r < 3; r++) { /* the background loop polls several times a tick */
+            const size_t m = hg_link_poll(&L, true, tx);
+            if (!m)
+                continue;
+            pushes++;
+            rn = hg_cobs_decode(tx, m - 1, raw, HG_LINK_MAX_RAW);
+            CHECK(rn == HG_PUSH_LEN + 5 && raw[0] == 2 && raw[1] == HG_MSG_STATE_PUSH);
+            const uint32_t sq = (uint32_t)raw[3] | (uint32_t)raw[4] << 8;
+            CHECK(pushes == 1 || sq - last == 3);
+            last = sq;
+            CHECK_NEAR(f32_at(raw + 3 + 8), 0.0707107, 1e-6);         /* p y */
+        }
+    }
+    CHECK(pushes == 10 && L.st.pushed == 10 && L.st.push_dropped == 0);
+    for (int k = 0; k < 9; k++) {
+        tick();
+        CHECK(hg_link_poll(&L, false, tx) == 0);
+    }
+    CHECK(L.st.push_dropped == 2 && L.st.pushed == 10); /* 9 busy ticks, period 3 */
+    per[0] = 0xE9; /* 1001 */
+    per[1] = 0x03;
+    CHECK(request2(HG_MSG_STREAM, per, 2, raw, &rn) == 1 && raw[1] == HG_MSG_NAK);
+}
+
+/* Link silence beyond the timeout disables an enabled servo and stops the stream; nothing
+ * re-enables it, not even new traffic. */
+void test_link_v2_timeout(void)
+{
+    uint8_t raw[HG_LINK_MAX_RAW], tx[HG_LINK_MAX_FRAME], on = 1, per[2] = { 1, 0 };
+    size_t rn = 0;
+    setup();
+    L.cfg.timeout_ms = 20;
+    tick();
+    CHECK(request2(HG_MSG_ENABLE, &on, 1, raw, &rn) == 1 && S.enabled);
+    CHECK(request2(HG_MSG_STREAM, per, 2, raw, &rn) == 1);
+    for (int k = 0; k < 20; k++) {
+        tick();
+        (void)hg_link_poll(&L, true, tx);
+        CHECK(S.enabled);
+    }
+    tick();
+    CHECK(hg_link_poll(&L, true, tx) == 0);
+    CHECK(!S.enabled && !L.armed && L.period == 0 && L.st.timeouts == 1);
+    CHECK(request2(HG_MSG_PING, NULL, 0, raw, &rn) == 1);
+    for (int k = 0; k < 5; k++) {
+        tick();
+        CHECK(hg_link_poll(&L, true, tx) == 0 && !S.enabled);
+    }
+    CHECK(L.st.timeouts == 1);
+    /* a stream without enabled forces is not stopped by silence */
+    CHECK(request2(HG_MSG_STREAM, per, 2, raw, &rn) == 1);
+    for (int k = 0; k < 40; k++) {
+        tick();
+        CHECK(hg_link_poll(&L, true, tx) > 0);
+    }
+    CHECK(L.st.timeouts == 1 && !S.enabled);
 }

@@ -1,21 +1,24 @@
 // SPDX-License-Identifier: Apache-2.0
-// Board wrapper for an iCE40-HX8K (CT256) lab board, e.g. Lattice's iCE40-HX8K breakout: the
-// 12 MHz oscillator as the FPGA clock, an active-low reset button synchronised into it (reset is
-// held for at least 4 clocks after release), and the DSP data bus as real bidirectional pins.
-// Everything else passes straight to hapgate_top. Place and route: `make synth` (hapgate pnr).
+// Board top for Lattice's iCE40-HX8K breakout board (iCE40HX8K-CT256): the 12 MHz oscillator as
+// the FPGA clock (no PLL), a power-on reset plus an active-low reset input synchronised into it
+// (reset held >= 4 clocks after both), the DSP data bus as real bidirectional pins, the shift-add
+// commutation multiplier (the HX8K has no DSP blocks) and the ADC pair adapter (adc_pair_mux):
+// the four headers carry 108 usable pins, the paper's buses need 116. Pins: hx8k_breakout.pcf.
 `timescale 1ns / 1ps
 `default_nettype none
 
 module hapgate_ice40_hx8k #(
-    parameter integer CLK_HZ    = 12_000_000, // the board oscillator
-    parameter         ASIN_FILE = "asin.hex", // arcsine table (hapgate.interp.write_lut)
-    parameter         SINE_FILE = "sine.hex"  // sine ROM (hapgate.sine.write_rom)
+    parameter integer CLK_HZ     = 12_000_000, // the board oscillator
+    parameter integer SERIAL_MUL = 1,          // shift-add commutation multiplier (fit: no DSPs)
+    parameter         ASIN_FILE  = "asin.hex", // arcsine table (hapgate.interp.write_lut)
+    parameter         SINE_FILE  = "sine.hex"  // sine ROM (hapgate.sine.write_rom)
 ) (
     input  wire        clk,
-    input  wire        rst_n,          // push button, active low, asynchronous
-    output wire        adc_strobe,
-    input  wire [23:0] adc_a,
-    input  wire [23:0] adc_b,
+    input  wire        rst_n,          // header pin with pull-up, active low, asynchronous
+    output wire        adc_strobe,     // converter sample clock (one clock high per sample)
+    input  wire [23:0] adc_d,          // A and B converters of each axis share 8 lines
+    output wire        adc_oe_a_n,
+    output wire        adc_oe_b_n,
     input  wire [2:0]  enc_index,
     output wire [13:0] dac_data,
     output wire [2:0]  dac_addr,
@@ -28,11 +31,19 @@ module hapgate_ice40_hx8k #(
     output wire        bus_ready,
     output wire        irq
 );
-    // Reset: asserted asynchronously by the button, released synchronously after 4 clocks.
+    // Reset: the power-on counter (iCE40 registers start at their initial value after
+    // configuration) and the pin assert it asynchronously; released synchronously 4 clocks later.
+    reg [3:0] por;
+    initial por = 4'h0;
+    wire      por_done = &por;
+    always @(posedge clk) begin
+        if (!por_done) por <= por + 4'd1;
+    end
+    wire arst_n = rst_n & por_done;
     reg [3:0] rst_pipe;
-    always @(posedge clk or negedge rst_n) begin
-        if (!rst_n) rst_pipe <= 4'hf;
-        else        rst_pipe <= {rst_pipe[2:0], 1'b0};
+    always @(posedge clk or negedge arst_n) begin
+        if (!arst_n) rst_pipe <= 4'hf;
+        else         rst_pipe <= {rst_pipe[2:0], 1'b0};
     end
     wire rst = rst_pipe[3];
 
@@ -40,11 +51,19 @@ module hapgate_ice40_hx8k #(
     wire        data_oe;
     assign bus_data = data_oe ? data_out : 32'bz;
 
+    wire [23:0] adc_a, adc_b;
+    wire [2:0]  index;
+    adc_pair_mux #(.CLK_HZ(CLK_HZ), .SAMPLE_HZ(1_000_000)) u_adc (
+        .clk(clk), .rst(rst), .strobe(adc_strobe), .pin_d(adc_d), .pin_index(enc_index),
+        .pin_oe_a_n(adc_oe_a_n), .pin_oe_b_n(adc_oe_b_n), .core_a(adc_a), .core_b(adc_b),
+        .core_index(index)
+    );
+
     hapgate_top #(
-        .CLK_HZ(CLK_HZ), .ASIN_FILE(ASIN_FILE), .SINE_FILE(SINE_FILE)
+        .CLK_HZ(CLK_HZ), .ASIN_FILE(ASIN_FILE), .SINE_FILE(SINE_FILE), .SERIAL_MUL(SERIAL_MUL)
     ) u_top (
         .clk(clk), .rst(rst),
-        .adc_strobe(adc_strobe), .adc_a(adc_a), .adc_b(adc_b), .enc_index(enc_index),
+        .adc_strobe(adc_strobe), .adc_a(adc_a), .adc_b(adc_b), .enc_index(index),
         .dac_data(dac_data), .dac_addr(dac_addr), .dac_wr_n(dac_wr_n),
         .bus_ce_n(bus_ce_n), .bus_re_n(bus_re_n), .bus_we_n(bus_we_n), .bus_addr(bus_addr),
         .bus_data_in(bus_data), .bus_data_out(data_out), .bus_data_oe(data_oe),

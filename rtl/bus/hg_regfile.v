@@ -33,6 +33,11 @@ module hg_regfile #(
     input  wire [2:0]           in_homed,
     input  wire [8:0]           in_faults,
     input  wire [2:0]           in_fault,
+    // live calibration state (rtl/interp/enc_calib.v), 32 bits per axis in the register layout
+    input  wire [95:0]          in_cal_ofs,      // {OFS_B, OFS_A}
+    input  wire [95:0]          in_cal_gain,     // {GAIN_B, GAIN_A}
+    input  wire [47:0]          in_cal_phase,
+    input  wire [95:0]          in_cal_stat,     // {UPDATES, 8'd0, GEAR}
     // control outputs
     output wire                 ctl_global_en,
     output wire [2:0]           ctl_axis_en,
@@ -42,6 +47,9 @@ module hg_regfile #(
     output wire [29:0]          ctl_offset,
     output wire [5:0]           ctl_mode,
     output wire [47:0]          ctl_tq_limit,
+    output wire [2:0]           ctl_cal_en,      // AXIS[i].CAL_CTRL.EN
+    output wire [2:0]           ctl_cal_freeze,  // AXIS[i].CAL_CTRL.FREEZE
+    output wire [11:0]          cfg_cal_mu,      // AXIS[i].CAL_CTRL.MU, 4 bits per axis
     output wire                 wdog_expired,    // sticky: all torque to zero
     output wire                 irq,             // servo tick pending (level)
     output reg                  tick             // one clock after each servo tick (observation)
@@ -63,7 +71,7 @@ module hg_regfile #(
     localparam [19:0] WD_MIN   = WD_MIN_I[19:0];
     localparam [19:0] WD_MAX   = WD_MAX_I[19:0];
     localparam [19:0] WD_RST   = WD_RST_I[19:0];
-    localparam [31:0] ID_VALUE = 32'h4847_0100;      // magic "HG", map version 1.0
+    localparam [31:0] ID_VALUE = 32'h4847_0101;      // magic "HG", map version 1.1
     localparam [31:0] WD_KEY   = 32'h5AFE_C0DE;
     localparam [31:0] UNMAPPED = 32'hDEAD_BEEF;
     localparam [31:0] SAMPLE_C = SAMPLE_HZ;
@@ -77,8 +85,9 @@ module hg_regfile #(
                      A_TICK_DIV = 6'h04, A_IRQ = 6'h05, A_WDOG = 6'h06, A_SCRATCH = 6'h07,
                      A_WDOG_TO = 6'h08, A_SKEW = 6'h09, A_FRAME = 6'h0A, A_CLK = 6'h0B;
     localparam [3:0] R_POS = 4'h0, R_VEL = 4'h1, R_IDX_POS = 4'h2, R_COUNTS = 4'h3,
-                     R_POS_HOMED = 4'h4, R_FLAGS = 4'h5, R_TORQUE = 4'h8, R_OFFSET = 4'h9,
-                     R_MODE = 4'hA, R_TQ_LIMIT = 4'hB;
+                     R_POS_HOMED = 4'h4, R_FLAGS = 4'h5, R_CAL_CTRL = 4'h6, R_CAL_STAT = 4'h7,
+                     R_TORQUE = 4'h8, R_OFFSET = 4'h9, R_MODE = 4'hA, R_TQ_LIMIT = 4'hB,
+                     R_CAL_OFS = 4'hC, R_CAL_GAIN = 4'hD, R_CAL_PHASE = 4'hE;
 
     generate
         if (CLK_HZ < 1_000_000 || CLK_HZ % 1_000_000 != 0 || CLK_HZ / 100 > 16_777_215)
@@ -114,7 +123,7 @@ module hg_regfile #(
             else if (a[5:4] == 2'b00)
                 mapped = (a[3:0] <= A_CLK[3:0]);
             else
-                mapped = (a[3:0] <= R_FLAGS) || (a[3:0] >= R_TORQUE && a[3:0] <= R_TQ_LIMIT);
+                mapped = (a[3:0] <= R_CAL_PHASE);  // 0x0..0xE: all but word 0xF
         end
     endfunction
 
@@ -128,6 +137,7 @@ module hg_regfile #(
     reg [29:0] offset_q;
     reg [5:0]  mode_q;
     reg [47:0] tq_lim_q;
+    reg [23:0] cal_ctrl_q;          // per axis {MU, 2'b00, FREEZE, EN}
     reg        snap_req;            // CTRL.SNAP written this clock
     reg        cfg_err_set;
 
@@ -154,6 +164,7 @@ module hg_regfile #(
             offset_q        <= 30'd0;
             mode_q          <= 6'b11_11_11;  // OFF
             tq_lim_q        <= 48'd0;
+            cal_ctrl_q      <= 24'h60_60_60;  // MU = 6
         end else begin
             ctl_fault_clear <= fault_clr_w;
             ctl_home_arm    <= (wr && glob_w && wa[3:0] == A_CTRL[3:0]) ? s_wdata[7:5] : 3'b000;
@@ -177,6 +188,7 @@ module hg_regfile #(
                     R_OFFSET:   offset_q[10*ax_w +: 10] <= s_wdata[9:0];
                     R_MODE:     mode_q[2*ax_w +: 2]     <= s_wdata[1:0];
                     R_TQ_LIMIT: tq_lim_q[16*ax_w +: 16] <= s_wdata[15:0];
+                    R_CAL_CTRL: cal_ctrl_q[8*ax_w +: 8] <= {s_wdata[7:4], 2'b00, s_wdata[1:0]};
                     default: ;
                 endcase
             end
@@ -189,6 +201,9 @@ module hg_regfile #(
     assign ctl_offset    = offset_q;
     assign ctl_mode      = mode_q;
     assign ctl_tq_limit  = tq_lim_q;
+    assign ctl_cal_en     = {cal_ctrl_q[16], cal_ctrl_q[8], cal_ctrl_q[0]};
+    assign ctl_cal_freeze = {cal_ctrl_q[17], cal_ctrl_q[9], cal_ctrl_q[1]};
+    assign cfg_cal_mu     = {cal_ctrl_q[23:20], cal_ctrl_q[15:12], cal_ctrl_q[7:4]};
 
     // ---------------------------------------------------------------- servo tick and snapshot
     // A tick every tick_div_q clocks, exactly; a TICK_DIV write restarts the period (the first
@@ -339,7 +354,12 @@ module hg_regfile #(
                     R_TORQUE:    s_rdata = {16'd0, torque_q[16*ax_r +: 16]};
                     R_OFFSET:    s_rdata = {22'd0, offset_q[10*ax_r +: 10]};
                     R_MODE:      s_rdata = {30'd0, mode_q[2*ax_r +: 2]};
-                    default:     s_rdata = {16'd0, tq_lim_q[16*ax_r +: 16]};
+                    R_TQ_LIMIT:  s_rdata = {16'd0, tq_lim_q[16*ax_r +: 16]};
+                    R_CAL_CTRL:  s_rdata = {24'd0, cal_ctrl_q[8*ax_r +: 8]};
+                    R_CAL_STAT:  s_rdata = in_cal_stat[32*ax_r +: 32];
+                    R_CAL_OFS:   s_rdata = in_cal_ofs[32*ax_r +: 32];
+                    R_CAL_GAIN:  s_rdata = in_cal_gain[32*ax_r +: 32];
+                    default:     s_rdata = {16'd0, in_cal_phase[16*ax_r +: 16]};
                 endcase
             end
         end

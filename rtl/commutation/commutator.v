@@ -3,7 +3,9 @@
 // over six DAC channels (m0a, m0b, m1a, m1b, m2a, m2b) by dac_sched. Every per-motor input is
 // latched at the frame start, so a change takes effect at the next frame, never mid-frame.
 // Bit-exact model and full description: models/hapgate/commutation.py.
-// Latency: channel k loads (dac_wr_n rises) k*SKEW + 8 clocks after the frame start (WR_CYCLES=1).
+// Latency: channel k loads (dac_wr_n rises) k*SKEW + 8 clocks after the frame start (WR_CYCLES=1),
+// + 16 clocks with SERIAL_MUL=1 (one shift-add multiplier, 16 clocks per product: the LUT-only
+// iCE40-HX8K build; the codes are bit-identical, the load times shift by MUL_EXTRA clocks).
 `timescale 1ns / 1ps
 `default_nettype none
 
@@ -20,7 +22,8 @@ module commutator #(
     parameter integer FS            = 8191,       // sine ROM full scale (six-step level)
     parameter         LUT_FILE      = "sine.hex", // sine ROM contents (models/hapgate/sine.py)
     parameter integer DAC_BITS      = 14,         // DAC width; codes saturate to +-(2**(DAC_BITS-1)-1)
-    parameter integer OFFSET_BINARY = 0           // DAC coding: 0 two's complement, 1 offset binary
+    parameter integer OFFSET_BINARY = 0,          // DAC coding: 0 two's complement, 1 offset binary
+    parameter integer SERIAL_MUL    = 0           // 1: shift-add multiplier, 16 clocks (no DSP/LUT array)
 ) (
     input  wire                           clk,
     input  wire                           rst,
@@ -44,7 +47,9 @@ module commutator #(
     localparam integer PB    = VB + 16;                // product width
     localparam integer SH    = 15 + VB - DAC_BITS;     // code = round(product / 2**SH)
     localparam integer QB    = PB - SH;                // = DAC_BITS + 1: code before saturation
-    localparam integer PIPE  = 5;                      // m_req clock to s_valid clock
+    localparam integer MUL_EXTRA = (SERIAL_MUL != 0) ? 16 : 0;  // extra clocks of the serial multiply
+    localparam integer PIPE  = 5 + MUL_EXTRA;          // m_req clock to s_valid clock
+    localparam integer SKEW_CYCLES_I = CLK_HZ / 1000 * SKEW_NS / 1_000_000;
 
     localparam integer PHASE_B_I = ((1 << AB) + 1) / 3;         // round(2**AB / 3): 341 of 1024
     localparam integer MAXC_I    = (1 << (DAC_BITS - 1)) - 1;   // +-8191
@@ -83,6 +88,12 @@ module commutator #(
         end
         if (DAC_BITS < 4 || DAC_BITS > 16) begin : g_bad_dac_bits
             commutator_DAC_BITS_must_be_4_to_16 u_stop ();
+        end
+        if (SERIAL_MUL != 0 && SERIAL_MUL != 1) begin : g_bad_serial_mul
+            commutator_SERIAL_MUL_must_be_0_or_1 u_stop ();
+        end
+        if (SERIAL_MUL != 0 && SKEW_CYCLES_I < MUL_EXTRA + 2) begin : g_serial_mul_too_slow
+            commutator_SERIAL_MUL_needs_SKEW_of_at_least_18_clocks u_stop ();
         end
     endgenerate
 
@@ -226,11 +237,53 @@ module commutator #(
     reg signed [PB-1:0]  prod;
     reg [2:0]            ch_m;
     reg                  zero_mq;
-    always @(posedge clk) begin
-        prod    <= mul_a * $signed(tq_c);
-        ch_m    <= ch_c;
-        zero_mq <= zero_c;
-    end
+    wire                 mul_done;
+
+    generate
+        if (SERIAL_MUL == 0) begin : g_mul_array
+            // one clock, one multiplier (a DSP block where the device has one)
+            always @(posedge clk) begin
+                prod    <= mul_a * $signed(tq_c);
+                ch_m    <= ch_c;
+                zero_mq <= zero_c;
+            end
+            assign mul_done = lut_valid;
+        end else begin : g_mul_serial
+            // Shift-add over the 16 torque bits, LSB first; bit 15 has weight -2**15 (two's
+            // complement), so the last step subtracts. The product is exact (PB bits hold it);
+            // one product per 16 clocks (SKEW >= 18 clocks is checked above).
+            reg signed [PB-1:0] acc, mcand;
+            reg [15:0]          mplier;
+            reg [4:0]           step;      // 0..15 working, 16 idle
+            wire                last = (step == 5'd15);
+            wire signed [PB-1:0] addend = mplier[0] ? (last ? -mcand : mcand) : {PB{1'b0}};
+            always @(posedge clk) begin
+                if (lut_valid) begin
+                    acc     <= {PB{1'b0}};
+                    mcand   <= {{(PB - VB){mul_a[VB-1]}}, mul_a};
+                    mplier  <= tq_c;
+                    ch_m    <= ch_c;
+                    zero_mq <= zero_c;
+                end else if (!step[4]) begin
+                    acc    <= acc + addend;
+                    mcand  <= mcand <<< 1;
+                    mplier <= mplier >> 1;
+                end
+                if (last) prod <= acc + addend;  // the product, 16 clocks after lut_valid
+            end
+            always @(posedge clk) begin
+                if (rst) begin
+                    step <= 5'd16;
+                end else begin
+                    if (lut_valid)
+                        step <= 5'd0;
+                    else if (!step[4])
+                        step <= step + 5'd1;
+                end
+            end
+            assign mul_done = last;
+        end
+    endgenerate
 
     // ---------------------------------------------------------------- stage R: round, saturate, code
     // Round half away from zero: (p + 2**(SH-1) - [p < 0]) >> SH, then clamp to +-MAXC.
@@ -257,7 +310,7 @@ module commutator #(
             vr <= 1'b0;
         end else begin
             va <= req;
-            vm <= lut_valid;
+            vm <= mul_done;
             vr <= vm;
         end
     end

@@ -2,7 +2,8 @@
 // Sin/cos encoder interpolator, one axis: sign-bit quadrant + arcsine LUT on the smaller channel
 // (the paper's method), 32-bit position, index latch and homing, window-difference velocity,
 // sticky faults. Bit-exact model and full description: models/hapgate/interp.py.
-// Latency: 5 clocks from the cycle with s_valid high to the cycle with m_valid high.
+// Latency: 5 clocks from the cycle with s_valid high to the cycle with m_valid high (6 with CAL = 1:
+// the online calibration stage enc_calib.v between capture and angle, models/hapgate/enccal.py).
 `timescale 1ns / 1ps
 `default_nettype none
 
@@ -13,7 +14,11 @@ module enc_interp #(
     parameter integer AMP_MIN      = 40,        // signal-loss window on sqrt(a^2+b^2), ADC codes
     parameter integer AMP_MAX      = 170,
     parameter integer LOSS_SAMPLES = 16,        // consecutive out-of-window samples -> signal loss
-    parameter integer INVERT       = 0          // 1: count the other way (A and B swapped at capture)
+    parameter integer INVERT       = 0,         // 1: count the other way (A and B swapped at capture)
+    parameter integer CAL          = 0,         // 1: build the online calibration stage (enc_calib)
+    parameter         CAL_LUT_FILE = "asin512.hex", // CAL = 1: 512-entry table (enccal.cal_table)
+    parameter integer CAL_LINES_LOG2 = 3,       // CAL = 1: calibration block 2**N lines
+    parameter integer CAL_NLOG     = 14         // CAL = 1: blocks of 2**N samples or more ignored
 ) (
     input  wire        clk,
     input  wire        rst,
@@ -25,6 +30,10 @@ module enc_interp #(
     // control pulses: apply to the first sample captured at or after the pulse
     input  wire        ctl_fault_clear,
     input  wire        ctl_home_arm,
+    // calibration controls (CAL = 1; levels captured with each sample, mu read at an update)
+    input  wire        ctl_cal_en,
+    input  wire        ctl_cal_freeze,
+    input  wire [3:0]  cfg_cal_mu,
     // results, one per sample
     output reg         m_valid,
     output reg  [31:0] m_pos,             // position, counts (2**(LUT_BITS+3) per line), wraps
@@ -35,7 +44,17 @@ module enc_interp #(
     output reg  [15:0] m_overspeed_count, // two-quadrant steps seen (saturates)
     output reg         m_homed,
     output reg  [2:0]  m_faults,          // sticky: {loss, clip, overspeed}
-    output wire        m_fault            // any fault: the commutator zeroes this axis's torque
+    output wire        m_fault,           // any fault: the commutator zeroes this axis's torque
+    // calibration state (live; the identity constants with CAL = 0). In the cycle m_cal_valid
+    // is high it is the state after sample k, the samples in the order of m_valid's results.
+    output wire        m_cal_valid,
+    output wire [15:0] m_cal_ofs_a,       // signed, 1/16 LSB
+    output wire [15:0] m_cal_ofs_b,
+    output wire [15:0] m_cal_gain_a,      // 2^-14
+    output wire [15:0] m_cal_gain_b,
+    output wire [15:0] m_cal_phase,       // signed, 2^-14
+    output wire [7:0]  m_cal_gear,        // valid blocks since enable (saturating)
+    output wire [15:0] m_cal_updates      // valid blocks since reset (wrapping)
 );
     localparam integer FB   = LUT_BITS + 1;             // fine bits per quadrant
     localparam integer QCW  = 32 - FB;                  // quadrant counter width
@@ -69,6 +88,12 @@ module enc_interp #(
         if (INVERT != 0 && INVERT != 1) begin : g_bad_invert
             enc_interp_INVERT_must_be_0_or_1 u_stop ();
         end
+        if (CAL != 0 && CAL != 1) begin : g_bad_cal
+            enc_interp_CAL_must_be_0_or_1 u_stop ();
+        end
+        if (CAL != 0 && LUT_BITS > 8) begin : g_bad_cal_lut
+            enc_interp_CAL_needs_LUT_BITS_at_most_8 u_stop ();
+        end
     endgenerate
 
     // ---------------------------------------------------------------- stage A: capture
@@ -76,9 +101,12 @@ module enc_interp #(
     reg [7:0] a_a, b_a;
     reg       idx_a, clr_a, arm_a;
     reg       clr_pend, arm_pend_ctl;
+    reg       cal_en_a, cal_fr_a;
 
     always @(posedge clk) begin
         if (s_valid) begin
+            cal_en_a <= ctl_cal_en;
+            cal_fr_a <= ctl_cal_freeze;
             // INVERT: A' = B, B' = A is the angle 90deg - phi: the count runs the other way and
             // quadrant 0 (the index quadrant) maps onto itself.
             a_a   <= (INVERT != 0) ? s_b : s_a;
@@ -108,39 +136,112 @@ module enc_interp #(
         end
     end
 
+    // ---------------------------------------------------------------- stage K: calibration (CAL = 1)
+    // The angle stage sees channels of AW bits: the raw codes, or the corrected quarter-LSB ones.
+    localparam integer AW    = (CAL != 0) ? 12 : 8;
+    localparam integer LUT_N = (CAL != 0) ? 512 : 129;
+    wire          v_in;                 // stage B input: valid, channels, index, pulses, faults
+    wire [AW-1:0] a_in, b_in;
+    wire          idx_in, clr_in, arm_in, clip_in, bad_in;
+
+    generate
+        if (CAL != 0) begin : g_cal
+            wire        vk, clip_k, bad_k;
+            wire [11:0] ac_k, bc_k;
+            reg         idx_k, clr_k, arm_k;
+            enc_calib #(
+                .LINES_LOG2(CAL_LINES_LOG2), .NLOG(CAL_NLOG), .AMP_MIN(AMP_MIN), .AMP_MAX(AMP_MAX)
+            ) u_cal (
+                .clk(clk), .rst(rst), .s_valid(va), .s_a(a_a), .s_b(b_a),
+                .ctl_en(cal_en_a), .ctl_freeze(cal_fr_a), .cfg_mu(cfg_cal_mu),
+                .m_valid(vk), .m_a(ac_k), .m_b(bc_k), .m_clip(clip_k), .m_bad(bad_k),
+                .m_ofs_a(m_cal_ofs_a), .m_ofs_b(m_cal_ofs_b), .m_gain_a(m_cal_gain_a),
+                .m_gain_b(m_cal_gain_b), .m_phase(m_cal_phase), .m_gear(m_cal_gear),
+                .m_updates(m_cal_updates)
+            );
+            always @(posedge clk) begin
+                if (va) idx_k <= idx_a;
+            end
+            always @(posedge clk) begin
+                if (rst) begin
+                    clr_k <= 1'b0;
+                    arm_k <= 1'b0;
+                end else begin
+                    clr_k <= va & clr_a;
+                    arm_k <= va & arm_a;
+                end
+            end
+            assign v_in    = vk;
+            assign m_cal_valid = vk;
+            assign a_in    = ac_k;
+            assign b_in    = bc_k;
+            assign idx_in  = idx_k;
+            assign clr_in  = clr_k;
+            assign arm_in  = arm_k;
+            assign clip_in = clip_k;
+            assign bad_in  = bad_k;
+        end else begin : g_nocal
+            wire signed [15:0] a_sq = $signed(a_a) * $signed(a_a);
+            wire signed [15:0] b_sq = $signed(b_a) * $signed(b_a);
+            wire        [16:0] amp2 = {1'b0, a_sq} + {1'b0, b_sq};
+            assign v_in    = va;
+            assign m_cal_valid = va;
+            assign a_in    = a_a;
+            assign b_in    = b_a;
+            assign idx_in  = idx_a;
+            assign clr_in  = clr_a;
+            assign arm_in  = arm_a;
+            assign clip_in = (a_a == 8'h80) || (a_a == 8'h7f) || (b_a == 8'h80) || (b_a == 8'h7f);
+            assign bad_in  = (amp2 < AMP2_MIN) || (amp2 > AMP2_MAX);
+            assign m_cal_ofs_a   = 16'd0;
+            assign m_cal_ofs_b   = 16'd0;
+            assign m_cal_gain_a  = 16'h4000;
+            assign m_cal_gain_b  = 16'h4000;
+            assign m_cal_phase   = 16'd0;
+            assign m_cal_gear    = 8'd0;
+            assign m_cal_updates = 16'd0;
+            wire unused_cal = &{1'b0, cal_en_a, cal_fr_a, cfg_cal_mu};
+        end
+    endgenerate
+
     // ---------------------------------------------------------------- stage B: quadrant, LUT
     // Sign bits with the zero code held (+-1/2 LSB hysteresis: every quadrant exactly 90 deg
     // wide, so the decoder tracks to 244.14 rev/s; the position is the same either way at 0).
-    reg        sa_prev, sb_prev;
-    wire       sa  = (a_a == 8'd0) ? sa_prev : a_a[7];
-    wire       sb  = (b_a == 8'd0) ? sb_prev : b_a[7];
-    wire       odd = sa ^ sb;
-    wire [7:0] ma  = sa ? (~a_a + 8'd1) : a_a;  // |a|, 0..128 (|-128| = 128 fits 8 bits unsigned)
-    wire [7:0] mb  = sb ? (~b_a + 8'd1) : b_a;
-    wire [7:0] y   = odd ? mb : ma;             // sin of the local angle
-    wire [7:0] x   = odd ? ma : mb;             // cos of the local angle
-    wire       half = (y >= x);                 // local angle >= 45 deg: the smaller is x
-    wire [7:0] addr = half ? x : y;             // 0..128
-
-    wire signed [15:0] a_sq = $signed(a_a) * $signed(a_a);
-    wire signed [15:0] b_sq = $signed(b_a) * $signed(b_a);
-    wire        [16:0] amp2 = {1'b0, a_sq} + {1'b0, b_sq};
-
-    reg [LUT_BITS-1:0] lut [0:128];
-    initial $readmemh(LUT_FILE, lut);
+    reg           sa_prev, sb_prev;
+    wire          sa  = (a_in == {AW{1'b0}}) ? sa_prev : a_in[AW-1];
+    wire          sb  = (b_in == {AW{1'b0}}) ? sb_prev : b_in[AW-1];
+    wire          odd = sa ^ sb;
+    wire [AW-1:0] ma  = sa ? (~a_in + 1'b1) : a_in;  // |a| (|-2**(AW-1)| fits AW bits unsigned)
+    wire [AW-1:0] mb  = sb ? (~b_in + 1'b1) : b_in;
+    wire [AW-1:0] y   = odd ? mb : ma;             // sin of the local angle
+    wire [AW-1:0] x   = odd ? ma : mb;             // cos of the local angle
+    wire          half = (y >= x);                 // local angle >= 45 deg: the smaller is x
+    wire [AW-1:0] msm  = half ? x : y;             // the smaller magnitude
 
     reg                vb;
     reg [LUT_BITS-1:0] lut_b;
+    generate
+        if (CAL != 0) begin : g_lut_cal
+            wire [8:0]         addr = (msm > 12'd511) ? 9'd511 : msm[8:0];  // the table clamps
+            reg [LUT_BITS-1:0] lut [0:LUT_N-1];
+            initial $readmemh(CAL_LUT_FILE, lut);
+            always @(posedge clk) lut_b <= lut[addr];
+        end else begin : g_lut
+            wire [7:0]         addr = msm;                                 // 0..128
+            reg [LUT_BITS-1:0] lut [0:LUT_N-1];
+            initial $readmemh(LUT_FILE, lut);
+            always @(posedge clk) lut_b <= lut[addr];
+        end
+    endgenerate
     reg [1:0]          q_b;
     reg                half_b, idx_b, clr_b, arm_b, clip_b, bad_b;
 
     always @(posedge clk) begin
-        lut_b  <= lut[addr];
         q_b    <= {sa, odd};
         half_b <= half;
-        idx_b  <= idx_a;
-        clip_b <= (a_a == 8'h80) || (a_a == 8'h7f) || (b_a == 8'h80) || (b_a == 8'h7f);
-        bad_b  <= (amp2 < AMP2_MIN) || (amp2 > AMP2_MAX);
+        idx_b  <= idx_in;
+        clip_b <= clip_in;
+        bad_b  <= bad_in;
     end
 
     always @(posedge clk) begin
@@ -151,10 +252,10 @@ module enc_interp #(
             sa_prev <= 1'b0;
             sb_prev <= 1'b0;
         end else begin
-            vb    <= va;
-            clr_b <= va & clr_a;
-            arm_b <= va & arm_a;
-            if (va) begin
+            vb    <= v_in;
+            clr_b <= v_in & clr_in;
+            arm_b <= v_in & arm_in;
+            if (v_in) begin
                 sa_prev <= sa;
                 sb_prev <= sb;
             end

@@ -1,7 +1,7 @@
 // SPDX-License-Identifier: Apache-2.0
 // The interpolator as the FPGA has it: AXES (1..3) axes of enc_interp sharing one ADC sample
 // strobe derived from CLK_HZ. Per-axis buses are packed, axis 0 in the low bits.
-// Latency: 5 clocks from the cycle with adc_strobe high to the cycle with m_valid high.
+// Latency: 5 clocks from the cycle with adc_strobe high to the cycle with m_valid high (6: CAL = 1).
 `timescale 1ns / 1ps
 `default_nettype none
 
@@ -15,7 +15,11 @@ module enc_interp3 #(
     parameter integer AMP_MIN      = 40,         // signal-loss amplitude window, ADC codes
     parameter integer AMP_MAX      = 170,
     parameter integer LOSS_SAMPLES = 16,         // consecutive bad samples -> signal loss
-    parameter integer INVERT_MASK  = 0           // bit i set: axis i counts the other way
+    parameter integer INVERT_MASK  = 0,          // bit i set: axis i counts the other way
+    parameter integer CAL          = 0,          // 1: online calibration stage in every axis
+    parameter         CAL_LUT_FILE = "asin512.hex", // CAL = 1: 512-entry arcsine table
+    parameter integer CAL_LINES_LOG2 = 3,        // CAL = 1: calibration block 2**N lines
+    parameter integer CAL_NLOG     = 14          // CAL = 1: blocks of 2**N samples ignored
 ) (
     input  wire                 clk,
     input  wire                 rst,
@@ -25,6 +29,9 @@ module enc_interp3 #(
     input  wire [AXES-1:0]      enc_index,
     input  wire [AXES-1:0]      ctl_fault_clear,
     input  wire [AXES-1:0]      ctl_home_arm,
+    input  wire [AXES-1:0]      ctl_cal_en,      // calibration controls (CAL = 1), per axis
+    input  wire [AXES-1:0]      ctl_cal_freeze,
+    input  wire [4*AXES-1:0]    cfg_cal_mu,
     output wire                 m_valid,
     output wire [32*AXES-1:0]   m_pos,
     output wire [32*AXES-1:0]   m_pos_homed,
@@ -34,7 +41,15 @@ module enc_interp3 #(
     output wire [16*AXES-1:0]   m_overspeed_count,
     output wire [AXES-1:0]      m_homed,
     output wire [3*AXES-1:0]    m_faults,
-    output wire [AXES-1:0]      m_fault
+    output wire [AXES-1:0]      m_fault,
+    output wire                 m_cal_valid,     // the state below is after sample k (in order)
+    output wire [16*AXES-1:0]   m_cal_ofs_a,     // calibration state (live), see enc_interp
+    output wire [16*AXES-1:0]   m_cal_ofs_b,
+    output wire [16*AXES-1:0]   m_cal_gain_a,
+    output wire [16*AXES-1:0]   m_cal_gain_b,
+    output wire [16*AXES-1:0]   m_cal_phase,
+    output wire [8*AXES-1:0]    m_cal_gear,
+    output wire [16*AXES-1:0]   m_cal_updates
 );
     generate
         if (AXES < 1 || AXES > 3) begin : g_bad_axes
@@ -48,6 +63,8 @@ module enc_interp3 #(
 
     wire [AXES-1:0] valid;
     assign m_valid = &valid;  // the axes run in lockstep
+    wire [AXES-1:0] cal_valid;
+    assign m_cal_valid = &cal_valid;
 
     genvar i;
     generate
@@ -55,7 +72,8 @@ module enc_interp3 #(
             enc_interp #(
                 .LUT_BITS(LUT_BITS), .LUT_FILE(LUT_FILE), .VEL_LOG2W(VEL_LOG2W),
                 .AMP_MIN(AMP_MIN), .AMP_MAX(AMP_MAX), .LOSS_SAMPLES(LOSS_SAMPLES),
-                .INVERT((INVERT_MASK >> i) & 1)
+                .INVERT((INVERT_MASK >> i) & 1), .CAL(CAL), .CAL_LUT_FILE(CAL_LUT_FILE),
+                .CAL_LINES_LOG2(CAL_LINES_LOG2), .CAL_NLOG(CAL_NLOG)
             ) u_axis (
                 .clk(clk), .rst(rst),
                 .s_valid(adc_strobe),
@@ -66,7 +84,13 @@ module enc_interp3 #(
                 .m_vel(m_vel[32*i +: 32]), .m_index_pos(m_index_pos[32*i +: 32]),
                 .m_index_count(m_index_count[16*i +: 16]),
                 .m_overspeed_count(m_overspeed_count[16*i +: 16]),
-                .m_homed(m_homed[i]), .m_faults(m_faults[3*i +: 3]), .m_fault(m_fault[i])
+                .m_homed(m_homed[i]), .m_faults(m_faults[3*i +: 3]), .m_fault(m_fault[i]),
+                .ctl_cal_en(ctl_cal_en[i]), .ctl_cal_freeze(ctl_cal_freeze[i]),
+                .cfg_cal_mu(cfg_cal_mu[4*i +: 4]), .m_cal_valid(cal_valid[i]),
+                .m_cal_ofs_a(m_cal_ofs_a[16*i +: 16]), .m_cal_ofs_b(m_cal_ofs_b[16*i +: 16]),
+                .m_cal_gain_a(m_cal_gain_a[16*i +: 16]), .m_cal_gain_b(m_cal_gain_b[16*i +: 16]),
+                .m_cal_phase(m_cal_phase[16*i +: 16]), .m_cal_gear(m_cal_gear[8*i +: 8]),
+                .m_cal_updates(m_cal_updates[16*i +: 16])
             );
         end
     endgenerate

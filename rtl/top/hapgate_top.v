@@ -15,6 +15,10 @@ module hapgate_top #(
     parameter integer AMP_MIN       = 40,         // signal-loss amplitude window, ADC codes
     parameter integer AMP_MAX       = 170,        // (upper bound of that window)
     parameter integer LOSS_SAMPLES  = 16,         // consecutive bad samples -> signal loss
+    parameter integer CAL           = 0,          // 1: online encoder calibration in every axis
+    parameter         CAL_LUT_FILE  = "asin512.hex", // CAL = 1: its arcsine table (enccal.cal_table)
+    parameter integer CAL_LINES_LOG2 = 3,         // CAL = 1: calibration block 2**N lines
+    parameter integer CAL_NLOG      = 14,         // CAL = 1: blocks of 2**N samples ignored
     parameter integer LINES_LOG2    = 10,         // encoder lines per revolution = 2**LINES_LOG2
     parameter integer POLE_PAIRS    = 2,          // motor electrical cycles per revolution
     parameter integer SKEW_NS       = 2000,       // DAC channel-to-channel skew
@@ -28,6 +32,7 @@ module hapgate_top #(
     parameter integer DAC_BITS      = 14,         // DAC width
     parameter integer OFFSET_BINARY = 0,          // DAC coding: 0 two's complement, 1 offset binary
     parameter integer BUS_ADDR_BITS = 8,          // DSP word-address lines decoded
+    parameter integer SERIAL_MUL    = 0,          // 1: commutator multiplies in 16 clocks (LUT-only boards)
     parameter integer AXIS_MASK     = 7           // interpolators built (bit i = axis i); a
                                                   // cleared bit needs HG_SIM (held joint)
 ) (
@@ -86,6 +91,10 @@ module hapgate_top #(
     wire [8:0]  faults;
     wire        fault_clear;
     wire [2:0]  home_arm;
+    wire [2:0]  cal_en, cal_freeze;
+    wire [11:0] cal_mu;
+    wire [47:0] cal_phase;
+    wire        cal_valid;
 
     // Only the axes in AXIS_MASK are built (one compacted enc_interp3); the slots of the others
     // show a held joint (sim_hold_*: constant, homed, no fault). The board build has all three.
@@ -95,6 +104,11 @@ module hapgate_top #(
     wire [32*NAX-1:0] c_pos, c_pos_homed, c_vel, c_index_pos;
     wire [16*NAX-1:0] c_index_count, c_overspeed_count;
     wire [3*NAX-1:0]  c_faults;
+    wire [NAX-1:0]    c_cal_en, c_cal_freeze;
+    wire [4*NAX-1:0]  c_cal_mu;
+    wire [16*NAX-1:0] c_cal_ofs_a, c_cal_ofs_b, c_cal_gain_a, c_cal_gain_b, c_cal_phase,
+                      c_cal_updates;
+    wire [8*NAX-1:0]  c_cal_gear;
     wire [95:0]       hold_pos_homed, hold_index_pos;
     wire [47:0]       hold_index_count;
 `ifdef HG_SIM
@@ -122,15 +136,22 @@ module hapgate_top #(
     enc_interp3 #(
         .CLK_HZ(CLK_HZ), .SAMPLE_HZ(SAMPLE_HZ), .AXES(NAX), .LUT_BITS(LUT_BITS),
         .LUT_FILE(ASIN_FILE), .VEL_LOG2W(VEL_LOG2W), .AMP_MIN(AMP_MIN), .AMP_MAX(AMP_MAX),
-        .LOSS_SAMPLES(LOSS_SAMPLES)
+        .LOSS_SAMPLES(LOSS_SAMPLES), .CAL(CAL), .CAL_LUT_FILE(CAL_LUT_FILE),
+        .CAL_LINES_LOG2(CAL_LINES_LOG2), .CAL_NLOG(CAL_NLOG)
     ) u_interp (
         .clk(clk), .rst(rst), .adc_strobe(adc_strobe), .adc_a(c_adc_a), .adc_b(c_adc_b),
         .enc_index(c_index), .ctl_fault_clear({NAX{fault_clear}}), .ctl_home_arm(c_arm),
         .m_valid(m_valid), .m_pos(c_pos), .m_pos_homed(c_pos_homed), .m_vel(c_vel),
         .m_index_pos(c_index_pos), .m_index_count(c_index_count),
         .m_overspeed_count(c_overspeed_count), .m_homed(c_homed), .m_faults(c_faults),
-        .m_fault(c_fault)
+        .m_fault(c_fault),
+        .ctl_cal_en(c_cal_en), .ctl_cal_freeze(c_cal_freeze), .cfg_cal_mu(c_cal_mu),
+        .m_cal_valid(cal_valid), .m_cal_ofs_a(c_cal_ofs_a), .m_cal_ofs_b(c_cal_ofs_b),
+        .m_cal_gain_a(c_cal_gain_a), .m_cal_gain_b(c_cal_gain_b), .m_cal_phase(c_cal_phase),
+        .m_cal_gear(c_cal_gear), .m_cal_updates(c_cal_updates)
     );
+    wire unused_cal_valid = cal_valid;  // (the registers read the live state)
+    wire [95:0] cal_ofs_w, cal_gain_w, cal_stat_w;
 
     genvar ax;
     generate
@@ -143,6 +164,9 @@ module hapgate_top #(
                 assign c_adc_b[8*J +: 8]           = adc_b[8*ax +: 8];
                 assign c_index[J]                  = enc_index[ax];
                 assign c_arm[J]                    = home_arm[ax];
+                assign c_cal_en[J]                 = cal_en[ax];
+                assign c_cal_freeze[J]             = cal_freeze[ax];
+                assign c_cal_mu[4*J +: 4]          = cal_mu[4*ax +: 4];
                 assign pos[32*ax +: 32]            = c_pos[32*J +: 32];
                 assign pos_homed[32*ax +: 32]      = c_pos_homed[32*J +: 32];
                 assign vel[32*ax +: 32]            = c_vel[32*J +: 32];
@@ -152,9 +176,14 @@ module hapgate_top #(
                 assign homed[ax]                   = c_homed[J];
                 assign faults[3*ax +: 3]           = c_faults[3*J +: 3];
                 assign fault[ax]                   = c_fault[J];
+                assign cal_ofs_w[32*ax +: 32]  = {c_cal_ofs_b[16*J +: 16], c_cal_ofs_a[16*J +: 16]};
+                assign cal_gain_w[32*ax +: 32] = {c_cal_gain_b[16*J +: 16], c_cal_gain_a[16*J +: 16]};
+                assign cal_phase[16*ax +: 16]  = c_cal_phase[16*J +: 16];
+                assign cal_stat_w[32*ax +: 32] = {c_cal_updates[16*J +: 16], 8'd0,
+                                                  c_cal_gear[8*J +: 8]};
             end else begin : g_held
                 wire unused_in = &{1'b0, adc_a[8*ax +: 8], adc_b[8*ax +: 8], enc_index[ax],
-                                   home_arm[ax]};
+                                   home_arm[ax], cal_en[ax], cal_freeze[ax], cal_mu[4*ax +: 4]};
                 assign pos[32*ax +: 32]            = hold_pos_homed[32*ax +: 32] +
                                                      hold_index_pos[32*ax +: 32];
                 assign pos_homed[32*ax +: 32]      = hold_pos_homed[32*ax +: 32];
@@ -165,6 +194,10 @@ module hapgate_top #(
                 assign homed[ax]                   = 1'b1;
                 assign faults[3*ax +: 3]           = 3'd0;
                 assign fault[ax]                   = 1'b0;
+                assign cal_ofs_w[32*ax +: 32]      = 32'd0;          // the identity
+                assign cal_gain_w[32*ax +: 32]     = 32'h4000_4000;
+                assign cal_phase[16*ax +: 16]      = 16'd0;
+                assign cal_stat_w[32*ax +: 32]     = 32'd0;
             end
         end
     endgenerate
@@ -203,6 +236,9 @@ module hapgate_top #(
         .in_pos(pos), .in_pos_homed(pos_homed), .in_vel(vel), .in_index_pos(index_pos),
         .in_index_count(index_count_ok), .in_overspeed_count(overspeed_count),
         .in_homed(homed_ok), .in_faults(faults), .in_fault(fault),
+        .in_cal_ofs(cal_ofs_w), .in_cal_gain(cal_gain_w), .in_cal_phase(cal_phase),
+        .in_cal_stat(cal_stat_w), .ctl_cal_en(cal_en), .ctl_cal_freeze(cal_freeze),
+        .cfg_cal_mu(cal_mu),
         .ctl_global_en(global_en), .ctl_axis_en(axis_en), .ctl_fault_clear(fault_clear),
         .ctl_home_arm(home_arm), .ctl_torque(torque), .ctl_offset(offset), .ctl_mode(mode),
         .ctl_tq_limit(tq_limit), .wdog_expired(wdog_expired), .irq(irq), .tick(tick),
@@ -260,7 +296,7 @@ module hapgate_top #(
         .CLK_HZ(CLK_HZ), .SKEW_NS(SKEW_NS), .FRAME_NS(FRAME_NS), .SETTLE_NS(SETTLE_NS),
         .WR_CYCLES(WR_CYCLES), .COUNT_BITS(COUNT_BITS), .POLE_PAIRS(POLE_PAIRS),
         .ADDR_BITS(ADDR_BITS), .MAG_BITS(MAG_BITS), .FS(FS), .LUT_FILE(SINE_FILE),
-        .DAC_BITS(DAC_BITS), .OFFSET_BINARY(OFFSET_BINARY)
+        .DAC_BITS(DAC_BITS), .OFFSET_BINARY(OFFSET_BINARY), .SERIAL_MUL(SERIAL_MUL)
     ) u_comm (
         .clk(clk), .rst(rst), .s_pos(s_pos), .s_torque(tq_cl), .ctl_offset(offset),
         .ctl_mode(mode_eff), .ctl_enable(~kill_all), .ctl_torque_limit(16'hFFFF),

@@ -57,6 +57,16 @@ class Inputs:
         d.in_faults.value = pack("faults", 3)
         d.in_fault.value = sum(a.fault << i for i, a in enumerate(axes))
 
+        def pack2(lo: str, hi: str, lo_w: int, hi_lsb: int) -> int:
+            return sum((((getattr(a, lo) & ((1 << lo_w) - 1))
+                         | ((getattr(a, hi) & 0xFFFF) << hi_lsb)) << (32 * i))
+                       for i, a in enumerate(axes))
+
+        d.in_cal_ofs.value = pack2("cal_ofs_a", "cal_ofs_b", 16, 16)
+        d.in_cal_gain.value = pack2("cal_gain_a", "cal_gain_b", 16, 16)
+        d.in_cal_stat.value = pack2("cal_gear", "cal_updates", 8, 16)
+        d.in_cal_phase.value = pack("cal_phase", 16)
+
     def set(self, axes: list[AxisInputs], edge: int) -> None:
         """Drive now (between edges); the hardware sees it from `edge` on."""
         self.drive(axes)
@@ -71,7 +81,11 @@ def random_axes(rng: random.Random) -> list[AxisInputs]:
     return [AxisInputs(pos=s32(), pos_homed=s32(), vel=rng.randint(-(2**18), 2**18 - 1),
                        index_pos=s32(), index_count=rng.getrandbits(16) * rng.randint(0, 1),
                        overspeed_count=rng.getrandbits(16), homed=rng.randint(0, 1),
-                       faults=rng.choice((0, 0, 0, 1, 2, 4, 7))) for _ in range(3)]
+                       faults=rng.choice((0, 0, 0, 1, 2, 4, 7)),
+                       cal_ofs_a=rng.randint(-512, 511), cal_ofs_b=rng.randint(-512, 511),
+                       cal_gain_a=rng.randint(8192, 32767), cal_gain_b=rng.randint(8192, 32767),
+                       cal_phase=rng.randint(-2048, 2047), cal_gear=rng.getrandbits(8),
+                       cal_updates=rng.getrandbits(16)) for _ in range(3)]
 
 
 async def setup(dut, watch: tuple[str, ...] = ("tick", "wdog_expired")

@@ -21,6 +21,9 @@ CONFIGS = {
     # board-like 50 MHz, offset binary, a 128-entry ROM, three pole pairs, a 2-clock strobe
     "c50_ob": cm.CommutationConfig(clk_hz=50_000_000, offset_binary=True, pole_pairs=3,
                                    rom=SineRomConfig(addr_bits=7), wr_cycles=2),
+    # the LUT-only HX8K build's shift-add multiplier (16 clocks later) near its 12 MHz clock
+    # (12 MHz itself is not a whole number of ps periods: 12.5 MHz, SKEW = 25 clocks)
+    "c12m5_serial": cm.CommutationConfig(clk_hz=12_500_000, serial_mul=True),
 }
 
 

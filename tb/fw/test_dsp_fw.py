@@ -191,7 +191,7 @@ def test_pclink_against_firmware() -> None:
     reqs = [p.encode(p.PING, 1), b"\x13\x37garbage\x00",
             p.encode(p.SET_SCENE, 2, p.set_scene(p.SCENE_WALL, (0, 0.07, 0), (0, -1, 0), 2000)),
             p.encode(p.SET_SCENE, 3, p.set_scene(p.SCENE_WALL, (0, 0.07, 0), (0, -1, 0), 4000)),
-            p.encode(p.ENABLE, 4, b"\x01"), p.encode(p.ENABLE, 5, b"\x01", version=2),
+            p.encode(p.ENABLE, 4, b"\x01"), p.encode(p.ENABLE, 5, b"\x01", version=3),
             p.encode(p.GET_STATE, 6), p.encode(p.GET_STATS, 7)]
     r = subprocess.run([BUILD / "link-pipe"], input=b"".join(reqs), capture_output=True,
                        timeout=60, check=True)

@@ -29,7 +29,7 @@ from cocotb.triggers import ClockCycles, RisingEdge, Timer
 from cocotb.utils import get_sim_time
 from hapgate.golden import emif, encsig, interp, regmap
 from hapgate.golden import top as topm
-from hapgate.golden.commutation import SINE, SIX_STEP
+from hapgate.golden.commutation import SINE, SIX_STEP, CommutationConfig
 from hapgate.golden.dacsched import DacModel
 from hapgate.golden.regmodel import WDOG_KEY, AxisInputs, RegModel
 from hapgate.runners import tbutil
@@ -37,7 +37,16 @@ from hapgate.runners import tbutil
 P = tbutil.params()
 CLK_HZ = int(P["CLK_HZ"])  # type: ignore[arg-type]
 PERIOD_PS = 10**12 // CLK_HZ
-CFG = topm.TopConfig(clk_hz=CLK_HZ)
+CFG = topm.TopConfig(clk_hz=CLK_HZ, comm=CommutationConfig(
+    serial_mul=bool(P.get("SERIAL_MUL", 0))))
+# A board top under tb/boards/board_harness.v: its reset synchroniser releases the core
+# RESET_DELAY clocks after rst (held RESET_CYCLES clocks: past a power-on reset), an ADC adapter
+# that reads the converters in the period before the core's capture needs sample k + ADC_LEAD
+# presented at strobe k, and the register file sits deeper in the hierarchy.
+RESET_CYCLES = int(os.environ.get("HG_RESET_CYCLES", "4"))
+RESET_DELAY = int(os.environ.get("HG_RESET_DELAY", "0"))
+ADC_LEAD = int(os.environ.get("HG_ADC_LEAD", "0"))
+BUS_SCOPE = os.environ.get("HG_BUS_SCOPE", "u_bus")
 RM = regmap.load(CLK_HZ)
 W = {r.name: r.word for r in RM.registers}
 N_SAMPLES = int(os.environ.get("HG_SAMPLES", "2000"))
@@ -64,13 +73,20 @@ def stimulus(n: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
 
 
 async def drive_adc(dut, a: np.ndarray, b: np.ndarray, idx: np.ndarray) -> None:
-    """Present sample k while adc_strobe is high (captured at the end of that cycle)."""
+    """Present sample k while adc_strobe is high (captured at the end of that cycle); with an
+    ADC adapter, sample k + ADC_LEAD (from the start: sample 0)."""
     n = a.shape[0]
-    for k in range(n):
-        await RisingEdge(dut.adc_strobe)
+
+    def put(k: int) -> None:
         dut.adc_a.value = sum((int(a[k, i]) & 0xFF) << (8 * i) for i in range(3))
         dut.adc_b.value = sum((int(b[k, i]) & 0xFF) << (8 * i) for i in range(3))
         dut.enc_index.value = sum(int(idx[k, i]) << i for i in range(3))
+
+    if ADC_LEAD:
+        put(0)
+    for k in range(ADC_LEAD, n):
+        await RisingEdge(dut.adc_strobe)
+        put(k)
 
 
 def controls(model: RegModel) -> topm.Controls:
@@ -102,11 +118,14 @@ async def firmware_like_run(dut) -> None:
     dut.enc_index.value = 0
     dut.rst.value = 1
     dac.start()
-    await ClockCycles(dut.clk, 4)
-    ref = int(get_sim_time(unit="ps"))
+    await ClockCycles(dut.clk, RESET_CYCLES)
+    ref = int(get_sim_time(unit="ps")) + RESET_DELAY * PERIOD_PS
     dac.reset_ps = ref
     dut.rst.value = 0
-    mon = emif.Monitor(dut, PERIOD_PS, ref, scope=dut.u_bus)
+    scope = dut
+    for part in BUS_SCOPE.split("."):
+        scope = getattr(scope, part)
+    mon = emif.Monitor(dut, PERIOD_PS, ref, scope=scope)
     mon.start("tick", "wdog_expired")
     cocotb.start_soon(drive_adc(dut, a, b, idx))
     end_ps = ref + (N_SAMPLES * CFG.div - 200) * PERIOD_PS
@@ -289,6 +308,8 @@ async def firmware_like_run(dut) -> None:
     assert periods <= {CLK_HZ // TICK_HZ, 2 * CLK_HZ // TICK_HZ} and CLK_HZ // TICK_HZ in periods, \
         f"irq periods {periods} clocks"
     reads = sum(1 for acc in master.log if not acc.we)
+    if hasattr(dut, "gl_checked"):  # tb/boards/board_gl_harness.v: the netlist beside the RTL
+        assert int(dut.gl_checked.value) >= end_edge, "the netlist comparison did not run"
     dut._log.info(
         f"top: {N_SAMPLES} samples, {got_w.size} DAC loads bit-exact ({nonzero} non-zero), "
         f"{reads} reads checked, {len(model.ticks)} ticks; zero torque after: watchdog "

@@ -10,7 +10,7 @@ from ..base import toolenv
 from ..base.paths import ROOT
 from ..base.report import table, write_csv
 from ..runners import cosim
-from . import bench_commutation, bench_interp
+from . import bench_calib, bench_commutation, bench_host, bench_interp
 
 
 def main(args: argparse.Namespace) -> int:
@@ -26,12 +26,16 @@ def main(args: argparse.Namespace) -> int:
     ok &= sine_ok
     ok &= bench_interp.run(args.quick)
     print()
+    ok &= bench_calib.run(args.quick)
+    print()
     ok &= bench_commutation.run(args.quick)
     print()
     ok &= cosim.bench_section(args.quick)
     print()
     from . import bench_device
     ok &= bench_device.run(args.quick)
+    print()
+    ok &= bench_host.run(args.quick)
     print("\n== DSP firmware: servo step cost (make -C dsp-fw bench) ==", flush=True)
     ok &= subprocess.run(["make", "-s", "-C", str(ROOT / "dsp-fw"), "bench"]).returncode == 0
     print("bench:", "all engines agree with the models" if ok else "MISMATCH or failure above")

@@ -69,23 +69,36 @@ def cmd_pnr(args: argparse.Namespace) -> int:
     from ..base.report import table
     from ..flows import boards
 
-    rows, ok = [], True
-    for name in args.board or list(boards.BOARDS):
+    if args.seeds < 1:
+        print(f"error: --seeds must be >= 1, got {args.seeds}", file=sys.stderr)
+        return 2
+    for name in args.board:
         if name not in boards.BOARDS:
             print(f"error: unknown board {name!r}; known: {', '.join(boards.BOARDS)}",
                   file=sys.stderr)
             return 2
+    rows, ok = [], True
+    for name in args.board or list(boards.BOARDS):
         b = boards.BOARDS[name]
-        f = boards.pnr(b)
+        f = boards.pnr(b, seeds=args.seeds)
         ok &= f.ok
-        util = ", ".join(f"{k} {v}/{f.resources.get(k + '/avail', '?')}"
-                         for k, v in f.resources.items() if not k.endswith("/avail") and v)
-        rows.append([name, b.doc, "ok" if f.ok else "FAIL", f"{f.seconds:.1f}",
+        r = f.resources
+        util = ", ".join(f"{k} {v}/{r[k + '/avail']} ({v / r[k + '/avail']:.0%})"
+                         for k, v in r.items() if k + "/avail" in r and v)
+        rows.append([name, b.doc, "ok" if f.ok else "FAIL",
+                     f"{r.get('synth_s', 0)} + {r.get('pnr_s_per_seed', 0)}/seed",
                      f.detail.splitlines()[0] if f.detail else "", util])
         if not f.ok:
             print(f"--- {name} ---\n{f.detail}", file=sys.stderr)
-    print(table(["board", "device", "result", "seconds", "fmax", "utilisation"], rows))
+    print(table(["board", "device", "result", "seconds (synth + pnr)", "fmax", "utilisation"],
+                rows))
     return 0 if ok else 1
+
+
+def cmd_fusesoc(args: argparse.Namespace) -> int:
+    from ..flows import fusesoc
+
+    return fusesoc.run(args.args)
 
 
 def cmd_demo(args: argparse.Namespace) -> int:
@@ -106,6 +119,12 @@ def cmd_replay(args: argparse.Namespace) -> int:
     return int(import_module(f"hapgate.commands.replay_{args.block}").main(args))
 
 
+def cmd_device(args: argparse.Namespace) -> int:
+    from . import device
+
+    return device.main(args)
+
+
 def main(argv: list[str] | None = None) -> int:
     p = argparse.ArgumentParser(prog="hapgate", description=__doc__)
     sub = p.add_subparsers(dest="cmd", required=True)
@@ -120,7 +139,12 @@ def main(argv: list[str] | None = None) -> int:
         sp.set_defaults(fn=fn)
     pp = sub.add_parser("pnr", help="synthesize and place-and-route the board tops (nextpnr)")
     pp.add_argument("board", nargs="*", help="boards (default: all)")
+    pp.add_argument("--seeds", type=int, default=1,
+                    help="place and route with seeds 1..N, report the fmax spread")
     pp.set_defaults(fn=cmd_pnr)
+    fp = sub.add_parser("fusesoc", help="fusesoc with the pinned tools (hapgate.core)")
+    fp.add_argument("args", nargs=argparse.REMAINDER, help="fusesoc arguments")
+    fp.set_defaults(fn=cmd_fusesoc)
     sub.add_parser("demo", help="the main job: run the design on RTL and models, compare"
                    ).set_defaults(fn=cmd_demo)
     rp = sub.add_parser("replay", help="run a capture CSV through the RTL or the model")
@@ -137,6 +161,13 @@ def main(argv: list[str] | None = None) -> int:
 
     scene.add_arguments(sub.add_parser(
         "scene", help="virtual-device scenes: run FILE [--out DIR] | check FILE..."))
+    dp = sub.add_parser("device", help="the virtual device")
+    dsub = dp.add_subparsers(dest="device_cmd", required=True)
+    from . import device
+
+    device.add_arguments(dsub.add_parser(
+        "serve", help="serve the virtual device's PC link on a pty (prints 'port: /dev/pts/N')"))
+    dp.set_defaults(fn=cmd_device)
     bp = sub.add_parser("bench", help="benchmarks: run time beside error (build/reports/)")
     bp.add_argument("--quick", action="store_true", help="smaller runs")
     bp.set_defaults(fn=cmd_bench)

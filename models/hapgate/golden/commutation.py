@@ -29,9 +29,10 @@ Per frame (every input latched at the frame start; a change takes effect at the 
 
 Timing (dac_sched): frame of FRAME_NS (16 us), channel k = 0..5 (m0a, m0b, m1a, m1b, m2a, m2b)
 requested k * SKEW_NS (2 us) after the frame start; its DAC load (rising edge of dac_wr_n) comes
-LOAD_CLOCKS = PIPE + 2 + WR_CYCLES = 8 clocks later. The frame start is the clock edge at which the
-inputs are latched; frame 0 starts at the last clock edge that samples rst high (its six loads
-are zero torque).
+LOAD_CLOCKS = PIPE + 2 + WR_CYCLES = 8 clocks later (PIPE = 5, or 21 with serial_mul: the
+shift-add multiplier of the LUT-only boards takes 16 clocks more; the codes are the same).
+The frame start is the clock edge at which the inputs are latched; frame 0 starts at the last
+clock edge that samples rst high (its six loads are zero torque).
 """
 
 from __future__ import annotations
@@ -48,6 +49,7 @@ SINE, SIX_STEP, ALIGN, OFF = 0, 1, 2, 3
 MODES = {"sine": SINE, "six_step": SIX_STEP, "align": ALIGN, "off": OFF}
 CHANNELS = ("m0a", "m0b", "m1a", "m1b", "m2a", "m2b")
 PIPE_CLOCKS = 5          # commutator: request clock to result clock (documented in the RTL)
+SERIAL_MUL_CLOCKS = 16   # extra pipeline clocks of the shift-add multiplier (SERIAL_MUL=1)
 TORQUE_FULL = 32767      # the torque command that maps sin = 1 to the DAC's full scale
 
 
@@ -63,6 +65,7 @@ class CommutationConfig:
     rom: SineRomConfig = field(default_factory=SineRomConfig)
     dac_bits: int = 14
     offset_binary: bool = False
+    serial_mul: bool = False   # one shift-add multiplier (16 clocks per product), no array/DSP
 
     @property
     def angle_bits(self) -> int:
@@ -94,9 +97,14 @@ class CommutationConfig:
         return self.clk_hz // 1000 * self.frame_ns // 1_000_000
 
     @property
+    def pipe_clocks(self) -> int:
+        """Commutator latency: request clock to result clock."""
+        return PIPE_CLOCKS + (SERIAL_MUL_CLOCKS if self.serial_mul else 0)
+
+    @property
     def load_clocks(self) -> int:
         """Clocks from a channel's request to its DAC load (rising dac_wr_n)."""
-        return PIPE_CLOCKS + 2 + self.wr_cycles
+        return self.pipe_clocks + 2 + self.wr_cycles
 
     def to_json(self) -> dict[str, object]:
         d = {k: getattr(self, k) for k in self.__dataclass_fields__ if k != "rom"}
@@ -116,7 +124,7 @@ class CommutationConfig:
                 "COUNT_BITS": self.count_bits, "POLE_PAIRS": self.pole_pairs,
                 "ADDR_BITS": self.rom.addr_bits, "MAG_BITS": self.rom.mag_bits, "FS": self.rom.fs,
                 "LUT_FILE": write_rom(self.rom), "DAC_BITS": self.dac_bits,
-                "OFFSET_BINARY": int(self.offset_binary)}
+                "OFFSET_BINARY": int(self.offset_binary), "SERIAL_MUL": int(self.serial_mul)}
 
     def with_(self, **kw: object) -> CommutationConfig:
         return replace(self, **kw)  # type: ignore[arg-type]
@@ -126,7 +134,7 @@ def dac_sched_params(cfg: CommutationConfig = CommutationConfig()) -> Params:
     """Parameters of rtl/dac_sched/dac_sched.v alone (the commutator's scheduler)."""
     return {"CLK_HZ": cfg.clk_hz, "SKEW_NS": cfg.skew_ns, "FRAME_NS": cfg.frame_ns,
             "SETTLE_NS": cfg.settle_ns, "CHANNELS": 6, "ADDR_BITS": 3,
-            "DAC_BITS": cfg.dac_bits, "WR_CYCLES": cfg.wr_cycles, "PIPE_CYCLES": PIPE_CLOCKS}
+            "DAC_BITS": cfg.dac_bits, "WR_CYCLES": cfg.wr_cycles, "PIPE_CYCLES": cfg.pipe_clocks}
 
 
 def blocks() -> list[Block]:

@@ -65,6 +65,9 @@ class InterpConfig:
     loss_samples: int = 16     # consecutive out-of-window samples that raise signal loss
     lines: int = 1024          # encoder lines per revolution (for unit conversions only)
     invert: bool = False       # count the other way: A and B swapped at capture (90deg - phi)
+    cal: bool = False          # build the online calibration stage (RTL CAL; hapgate.golden.enccal)
+    cal_lines_log2: int = 3    # calibration block = 2**cal_lines_log2 lines (RTL CAL_LINES_LOG2)
+    cal_nlog: int = 14         # calibration blocks of >= 2**cal_nlog samples are ignored
 
     @property
     def fine_bits(self) -> int:
@@ -89,10 +92,14 @@ class InterpConfig:
 
     def rtl_params(self) -> Params:
         """Parameters of rtl/interp/enc_interp.v for this configuration (writes the LUT file)."""
-        return {"LUT_BITS": self.lut_bits, "VEL_LOG2W": self.vel_log2w,
-                "AMP_MIN": self.amp_min, "AMP_MAX": self.amp_max,
-                "LOSS_SAMPLES": self.loss_samples, "LUT_FILE": write_lut(self),
-                "INVERT": int(self.invert)}
+        p: Params = {"LUT_BITS": self.lut_bits, "VEL_LOG2W": self.vel_log2w,
+                     "AMP_MIN": self.amp_min, "AMP_MAX": self.amp_max,
+                     "LOSS_SAMPLES": self.loss_samples, "LUT_FILE": write_lut(self),
+                     "INVERT": int(self.invert)}
+        if self.cal:
+            p.update({"CAL": 1, "CAL_LUT_FILE": write_cal_lut(self),
+                      "CAL_LINES_LOG2": self.cal_lines_log2, "CAL_NLOG": self.cal_nlog})
+        return p
 
 
 BOARD_CLK_HZ = 48_000_000   # a board-like clock (iCE40 UP5K class)
@@ -111,11 +118,16 @@ def interp3_params(cfg: InterpConfig | None = None, clk_hz: int = BOARD_CLK_HZ,
 
 
 def blocks() -> list[Block]:
-    srcs = ("interp/enc_interp.v",)
+    srcs = ("interp/enc_calib.v", "interp/enc_interp.v")
     return [
         Block(name="enc_interp", top="enc_interp", sources=srcs,
               params=lambda: InterpConfig().rtl_params(),
               doc="one axis of the sin/cos interpolator"),
+        Block(name="enc_interp_cal", top="enc_interp", sources=srcs,
+              params=lambda: InterpConfig(cal=True).rtl_params(),
+              # (the generic-gate synthesis of the update's barrel shifters takes minutes)
+              lint_synth=("ice40",),
+              doc="one axis with the online calibration stage (CAL = 1, rtl/interp/enc_calib.v)"),
         Block(name="enc_interp3", top="enc_interp3",
               sources=srcs + ("interp/sample_strobe.v", "interp/enc_interp3.v"),
               params=interp3_params,
@@ -132,6 +144,13 @@ def asin_table(cfg: InterpConfig = InterpConfig()) -> np.ndarray:
 
 def write_lut(cfg: InterpConfig = InterpConfig(), directory: Path | None = None) -> Path:
     return write_hex(cfg.lut_name, asin_table(cfg), cfg.lut_bits, directory)
+
+
+def write_cal_lut(cfg: InterpConfig = InterpConfig(), directory: Path | None = None) -> Path:
+    """The 512-entry arcsine table of the calibrated path (hapgate.golden.enccal.cal_table)."""
+    from .enccal import cal_table
+    return write_hex(f"asin512_l{cfg.lut_bits}_r{cfg.r_nom}", cal_table(cfg), cfg.lut_bits,
+                     directory)
 
 
 def sign_bits(v: np.ndarray) -> np.ndarray:
@@ -163,7 +182,7 @@ def quadrant_and_fine(a: np.ndarray, b: np.ndarray, table: np.ndarray, lut_bits:
     y = np.where(odd, mb, ma)
     x = np.where(odd, ma, mb)
     half = y >= x
-    t = table[np.where(half, x, y)]
+    t = table[np.minimum(np.where(half, x, y), table.size - 1)]  # (the calibrated table clamps)
     f = np.where(half, (2 << lut_bits) - t, t)
     return q.astype(np.int32), f.astype(np.int32)
 
@@ -225,8 +244,14 @@ class InterpOut:
 def run(a: np.ndarray, b: np.ndarray, index: np.ndarray | None = None,
         cfg: InterpConfig = InterpConfig(), clear_at: list[int] | np.ndarray | None = None,
         arm_at: list[int] | np.ndarray | None = None,
-        table: np.ndarray | None = None) -> InterpOut:
-    """Bit-exact model of one axis over a whole capture (arrays of equal length)."""
+        table: np.ndarray | None = None, cal_en: np.ndarray | bool = False,
+        cal_freeze: np.ndarray | bool = False, cal_mu: np.ndarray | int = 6) -> InterpOut:
+    """Bit-exact model of one axis over a whole capture (arrays of equal length).
+
+    With cfg.cal the calibration stage (hapgate.golden.enccal) runs between capture and angle:
+    cal_en, cal_freeze and cal_mu are its controls per sample (or constant); its corrected
+    channels feed the quadrant and the 512-entry table, the faults still see the raw codes, and
+    `extra` carries its state ("cal_state", "cal_gear", "cal_updates")."""
     a = np.asarray(a)
     b = np.asarray(b)
     n = a.size
@@ -235,11 +260,23 @@ def run(a: np.ndarray, b: np.ndarray, index: np.ndarray | None = None,
     if n == 0:
         raise ValueError("no samples")
     idx = np.zeros(n, dtype=bool) if index is None else np.asarray(index).astype(bool)
+    table_arg = table
     table = asin_table(cfg) if table is None else table
     fb = cfg.fine_bits
     if cfg.invert:
         a, b = b, a
-    q, f = quadrant_and_fine(a, b, table, cfg.lut_bits)
+    extra: dict[str, np.ndarray] = {}
+    if cfg.cal:
+        from .enccal import CalConfig, cal_table, calibrate
+        c = calibrate(a, b, cal_en, cal_freeze, cal_mu, cfg,
+                      CalConfig(cfg.cal_lines_log2, cfg.cal_nlog))
+        ctab = cal_table(cfg) if table_arg is None else table_arg
+        q, f = quadrant_and_fine(c.ac, c.bc, ctab, cfg.lut_bits)
+        extra = {"cal_state": c.state, "cal_state_after": c.state_after, "cal_gear": c.gear,
+                 "cal_updates": c.updates,
+                 "cal_ac": c.ac, "cal_bc": c.bc}
+    else:
+        q, f = quadrant_and_fine(a, b, table, cfg.lut_bits)
 
     # 4. quadrant counter: a cumulative sum of steps; overspeed steps follow the last direction.
     # int32 arithmetic wraps exactly like the 32-bit register.
@@ -308,7 +345,7 @@ def run(a: np.ndarray, b: np.ndarray, index: np.ndarray | None = None,
     return InterpOut(pos=pos, pos_homed=pos_homed, vel=vel,
                      index_pos=index_pos.astype(np.int32), index_count=index_count, homed=homed,
                      faults=faults.astype(np.int64), overspeed_count=ovs_count,
-                     extra={"q": q, "fine": f, "qc": qc})
+                     extra={"q": q, "fine": f, "qc": qc, **extra})
 
 
 # ----------------------------------------------------------------------------------------------

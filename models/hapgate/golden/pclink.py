@@ -1,15 +1,24 @@
 """PC side of the dsp-fw PC link (dsp-fw/README.md): COBS frames delimited by 0x00, raw frame
 = version, type, seq, data, CRC-16/CCITT-FALSE (big-endian). Encoder, stream decoder and the
-message layouts, for host tools and tests (pyserial gives the byte stream on real hardware)."""
+message layouts, for host tools and tests (pyserial gives the byte stream on real hardware).
+Protocol version 2 adds INFO, STREAM / STATE_PUSH and FORCE (TTL, counter, latency); the
+version-1 messages are unchanged and answered in the version of the request."""
 
 from __future__ import annotations
 
 import struct
 from dataclasses import dataclass
 
-VERSION = 1
+VERSION = 1                  # the first protocol version (its frames are answered unchanged)
+VERSION2 = 2                 # the current one
+VERSIONS = (VERSION, VERSION2)
 PING, GET_STATE, SET_FORCE, SET_SCENE, ENABLE, GET_STATS, CLEAR_ERROR = range(1, 8)
+INFO, STREAM, FORCE = 8, 9, 10           # version 2
+STATE_PUSH = 0x8A                        # version 2, device -> PC only
 REPLY, NAK = 0x80, 0xFF
+NAK_RANGE, NAK_ERROR_LATCHED, NAK_REPLAY = 1, 2, 3
+NAK_REASONS = {NAK_RANGE: "value out of range", NAK_ERROR_LATCHED: "an error is latched",
+               NAK_REPLAY: "force counter not newer (replay)"}
 SCENE_NONE, SCENE_WALL, SCENE_SPRING, SCENE_VISCOUS, SCENE_PC_FORCE = range(5)
 
 
@@ -60,16 +69,17 @@ class Frame:
     msg_type: int
     seq: int
     data: bytes
+    version: int = VERSION
 
 
 def decode(chunk: bytes) -> Frame:
-    """One frame without its delimiter; ValueError if it is not a valid version-1 frame."""
+    """One frame without its delimiter; ValueError if it is not a valid version-1/2 frame."""
     raw = cobs_decode(chunk)
     if len(raw) < 5 or crc16(raw[:-2]) != int.from_bytes(raw[-2:], "big"):
         raise ValueError("short frame or bad CRC")
-    if raw[0] != VERSION:
+    if raw[0] not in VERSIONS:
         raise ValueError(f"protocol version {raw[0]}")
-    return Frame(raw[1], raw[2], raw[3:-2])
+    return Frame(raw[1], raw[2], raw[3:-2], raw[0])
 
 
 def split(stream: bytes) -> list[Frame]:
@@ -114,10 +124,96 @@ def parse_state(data: bytes) -> State:
 
 
 STATS_FIELDS = ("good", "bad_framing", "bad_crc", "bad_version", "bad_type", "bad_len", "rejected")
+STATS2_FIELDS = STATS_FIELDS + ("replayed", "pushed", "push_dropped", "timeouts")
 
 
 def parse_stats(data: bytes) -> dict[str, int]:
-    return dict(zip(STATS_FIELDS, struct.unpack("<7I", data)))
+    """The 28-byte version-1 reply or the 44-byte version-2 one."""
+    names = STATS_FIELDS if len(data) == 28 else STATS2_FIELDS
+    return dict(zip(names, struct.unpack(f"<{len(names)}I", data)))
+
+
+# ---------------------------------------------------------------------------- version 2
+INFO_FMT = "<HBBIHHI6f3fHH"
+PUSH_FMT = "<I9f4B3hHH"
+FORCE_FMT = "<3fHHI"
+PUSH_LEN = struct.calcsize(PUSH_FMT)      # 54
+FORCE_LEN = struct.calcsize(FORCE_FMT)    # 20
+
+
+@dataclass(frozen=True)
+class Info:
+    fw_version: int
+    protocol: int
+    fpga_id: int
+    servo_hz: int
+    link_timeout_ms: int      # silence beyond this disables forces (0: never)
+    baud: int                 # the device UART's rate (0: unknown, e.g. USB)
+    box_lo: tuple[float, float, float]   # m, workspace box
+    box_hi: tuple[float, float, float]
+    f_max_n: float
+    k_max_n_per_m: float
+    b_max_ns_per_m: float
+    ttl_max_ms: int           # longest TTL a FORCE may carry
+    force_counter: int        # counter of the last FORCE the device accepted
+
+
+def parse_info(data: bytes) -> Info:
+    v = struct.unpack(INFO_FMT, data)
+    return Info(v[0], v[1], v[3], v[4], v[5], v[6], v[7:10], v[10:13], v[13], v[14], v[15],
+                v[16], v[17])
+
+
+@dataclass(frozen=True)
+class Push:
+    """The compact streamed state (STATE_PUSH)."""
+    seq: int                                  # FPGA tick of the sample (device time)
+    p: tuple[float, float, float]             # m
+    v: tuple[float, float, float]             # m/s
+    f: tuple[float, float, float]             # N, the force rendered at that tick
+    flags: int     # bit 0 enabled, 1 error latched, 2 this tick rendered a PC force, 3 link
+    #                timeout armed
+    err: int
+    err_axis: int
+    scene: int
+    code: tuple[int, int, int]                # torque codes written at that tick
+    force_counter: int                        # last FORCE accepted
+    force_latency_ticks: int                  # its first tick minus the tick it answered
+
+
+def parse_push(data: bytes) -> Push:
+    v = struct.unpack(PUSH_FMT, data)
+    return Push(v[0], v[1:4], v[4:7], v[7:10], v[10], v[11], v[12], v[13], v[14:17], v[17],
+                v[18])
+
+
+def force(f: tuple[float, float, float], ttl_ms: int, counter: int, answers_seq: int) -> bytes:
+    """FORCE data: F [N], TTL [ms], counter (must be newer than the last accepted one, modulo
+    2^16), and the SEQ of the state the force was computed from (for the latency)."""
+    return struct.pack(FORCE_FMT, *f, ttl_ms, counter & 0xFFFF, answers_seq & 0xFFFFFFFF)
+
+
+def stream(period_ticks: int) -> bytes:
+    return struct.pack("<H", period_ticks)
+
+
+def wire_bytes(data_len: int) -> int:
+    """Bytes a frame with this much data takes on the line: header and CRC (5), one COBS
+    overhead byte per 254, the delimiter."""
+    raw = data_len + 5
+    return raw + (raw + 253) // 254 + 1
+
+
+def max_stream(baud: int, servo_hz: int, headroom: float = 0.3) -> tuple[int, float]:
+    """The shortest push period (ticks) and its rate [Hz] for which pushes one way and FORCE
+    frames the other fit the link with `headroom` to spare (10 bit-times per byte)."""
+    per_s = (1.0 - headroom) * baud / 10.0
+    per_exchange = max(wire_bytes(PUSH_LEN), wire_bytes(FORCE_LEN))   # full duplex
+    hz_max = per_s / per_exchange
+    period = max(1, -(-servo_hz // int(hz_max)) if hz_max >= 1 else servo_hz)
+    while servo_hz / period > hz_max:
+        period += 1
+    return period, servo_hz / period
 
 
 def parse_ping(data: bytes) -> tuple[int, int, int]:

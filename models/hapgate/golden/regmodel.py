@@ -46,6 +46,14 @@ class AxisInputs:
     overspeed_count: int = 0
     homed: int = 0
     faults: int = 0          # 3 bits
+    # live calibration state (enc_calib), read directly (not part of the snapshot)
+    cal_ofs_a: int = 0
+    cal_ofs_b: int = 0
+    cal_gain_a: int = 0x4000
+    cal_gain_b: int = 0x4000
+    cal_phase: int = 0
+    cal_gear: int = 0
+    cal_updates: int = 0
 
     @property
     def fault(self) -> int:
@@ -264,6 +272,9 @@ class RegModel:
             if name == "WDOG":
                 return int(self.wd_expired)
             return int(self.sticky[name])
+        if reg.startswith("AXIS[") and ".CAL_" in reg:   # live, like STATUS
+            live = self.inputs(self.done + 1)[int(reg[5])]
+            return int(getattr(live, "cal_" + name.lower()))
         if reg.startswith("AXIS["):
             a = self.snap[int(reg[5])]
             sub = reg.split(".")[1]

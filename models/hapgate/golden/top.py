@@ -76,11 +76,15 @@ class TopConfig:
                 "WR_CYCLES": c.wr_cycles, **{k: v for k, v in c.rtl_params().items()
                                              if k in ("ADDR_BITS", "MAG_BITS", "FS")},
                 "SINE_FILE": c.rtl_params()["LUT_FILE"], "DAC_BITS": c.dac_bits,
-                "OFFSET_BINARY": int(c.offset_binary), "BUS_ADDR_BITS": 8}
+                "OFFSET_BINARY": int(c.offset_binary), "SERIAL_MUL": int(c.serial_mul),
+                "BUS_ADDR_BITS": 8,
+                **({"CAL": 1, "CAL_LUT_FILE": interp.write_cal_lut(i),
+                    "CAL_LINES_LOG2": i.cal_lines_log2, "CAL_NLOG": i.cal_nlog} if i.cal else {})}
 
 
 def blocks() -> list[Block]:
-    srcs = ("interp/enc_interp.v", "interp/sample_strobe.v", "interp/enc_interp3.v",
+    srcs = ("interp/enc_calib.v", "interp/enc_interp.v", "interp/sample_strobe.v",
+            "interp/enc_interp3.v",
             "commutation/sine_lut.v", "dac_sched/dac_sched.v", "commutation/commutator.v",
             "bus/emif_slave.v", "bus/hg_regfile.v", "bus/hg_bus.v", "top/hapgate_top.v")
     return [Block(name="hapgate_top", top="hapgate_top", sources=srcs,

@@ -29,13 +29,20 @@ from ..golden.interp import InterpConfig
 from .sim import _locked
 
 HARNESS = TB / "native" / "interp" / "interp_harness.cpp"
-SOURCES = [RTL / "interp" / "enc_interp.v", RTL / "interp" / "sample_strobe.v",
+SOURCES = [RTL / "interp" / "enc_calib.v", RTL / "interp" / "enc_interp.v",
+           RTL / "interp" / "sample_strobe.v",
            RTL / "interp" / "enc_interp3.v"]
 COLUMNS = ("pos", "pos_homed", "vel", "index_pos", "index_count", "homed", "faults",
            "overspeed_count")
+# the calibration state (CAL = 1 builds; the identity constants otherwise), see cal_columns()
+CAL_COLUMNS = ("cal_ofs_a", "cal_ofs_b", "cal_gain_a", "cal_gain_b", "cal_phase", "cal_gear",
+               "cal_updates")
+ALL_COLUMNS = COLUMNS + CAL_COLUMNS
 COLUMN_DTYPES = {"pos": "<i4", "pos_homed": "<i4", "vel": "<i4", "index_pos": "<i4",
-                 "index_count": "<u2", "homed": "u1", "faults": "u1", "overspeed_count": "<u2"}
-FLAG_INDEX, FLAG_CLEAR, FLAG_ARM = 1, 2, 4
+                 "index_count": "<u2", "homed": "u1", "faults": "u1", "overspeed_count": "<u2",
+                 "cal_ofs_a": "<i2", "cal_ofs_b": "<i2", "cal_gain_a": "<u2", "cal_gain_b": "<u2",
+                 "cal_phase": "<i2", "cal_gear": "u1", "cal_updates": "<u2"}
+FLAG_INDEX, FLAG_CLEAR, FLAG_ARM, FLAG_CAL_EN, FLAG_CAL_FREEZE = 1, 2, 4, 8, 16
 
 
 def verilate_harness(name: str, top: str, sources: Sequence[Path], params: Params,
@@ -108,6 +115,22 @@ def _as_2d(x: np.ndarray | None, n: int, axes: int, dtype: str) -> np.ndarray:
     return arr.astype(dtype)
 
 
+def _levels(v: np.ndarray | bool, n: int, axes: int) -> np.ndarray:
+    arr = np.asarray(v, dtype=bool)
+    if arr.ndim == 1:
+        arr = arr[:, None]
+    return np.broadcast_to(arr, (n, axes)).astype(np.uint8)
+
+
+def cal_columns(out: interp.InterpOut) -> dict[str, np.ndarray]:
+    """The model's calibration state (cfg.cal runs) in the harness's cal_* column form."""
+    from ..golden import enccal
+    c = enccal.applied(out.extra["cal_state_after"])
+    return {"cal_ofs_a": c[0], "cal_ofs_b": c[1], "cal_gain_a": c[2], "cal_gain_b": c[3],
+            "cal_phase": c[4], "cal_gear": np.asarray(out.extra["cal_gear"]),
+            "cal_updates": np.asarray(out.extra["cal_updates"])}
+
+
 def _events_to_mask(events: Sequence[Sequence[int]] | None, n: int, axes: int) -> np.ndarray:
     m = np.zeros((n, axes), dtype=bool)
     if events is not None:
@@ -120,20 +143,24 @@ def _events_to_mask(events: Sequence[Sequence[int]] | None, n: int, axes: int) -
 def run_interp(a: np.ndarray, b: np.ndarray, index: np.ndarray | None = None,
                cfg: InterpConfig = InterpConfig(), clk_hz: int = interp.MIN_CLK_HZ,
                columns: Sequence[str] = COLUMNS, clear_at: Sequence[Sequence[int]] | None = None,
-               arm_at: Sequence[Sequence[int]] | None = None) -> NativeRun:
+               arm_at: Sequence[Sequence[int]] | None = None,
+               cal_en: np.ndarray | bool = False, cal_freeze: np.ndarray | bool = False,
+               cal_mu: int = 6) -> NativeRun:
     """Run samples (arrays of shape (n,) for one axis or (n, axes)) through the Verilated RTL.
 
     clear_at / arm_at: per axis, the sample numbers at which a fault clear / home arm pulse is
-    applied (the same convention as hapgate.golden.interp.run)."""
+    applied (the same convention as hapgate.golden.interp.run). cal_en / cal_freeze: the
+    calibration levels per sample (shape (n,), (n, axes) or a constant), cal_mu for every axis
+    (cfg.cal builds)."""
     a = np.asarray(a)
     axes = 1 if a.ndim == 1 else a.shape[1]
     n = a.shape[0]
     if n == 0:
         raise ValueError("no samples")
-    unknown = set(columns) - set(COLUMNS)
+    unknown = set(columns) - set(ALL_COLUMNS)
     if unknown:
-        raise ValueError(f"unknown columns {sorted(unknown)}; known: {', '.join(COLUMNS)}")
-    cols = [c for c in COLUMNS if c in columns]
+        raise ValueError(f"unknown columns {sorted(unknown)}; known: {', '.join(ALL_COLUMNS)}")
+    cols = [c for c in ALL_COLUMNS if c in columns]
     exe = build_interp(cfg, clk_hz=clk_hz, axes=axes)
     rec = np.zeros((n, axes, 3), dtype=np.uint8)
     rec[:, :, 0] = _as_2d(a, n, axes, "int8").view(np.uint8)
@@ -141,14 +168,16 @@ def run_interp(a: np.ndarray, b: np.ndarray, index: np.ndarray | None = None,
     flags = _as_2d(index, n, axes, "bool").astype(np.uint8) * FLAG_INDEX
     flags |= _events_to_mask(clear_at, n, axes).astype(np.uint8) * FLAG_CLEAR
     flags |= _events_to_mask(arm_at, n, axes).astype(np.uint8) * FLAG_ARM
+    flags |= _levels(cal_en, n, axes) * FLAG_CAL_EN
+    flags |= _levels(cal_freeze, n, axes) * FLAG_CAL_FREEZE
     rec[:, :, 2] = flags
-    mask = sum(1 << COLUMNS.index(c) for c in cols)
+    mask = sum(1 << ALL_COLUMNS.index(c) for c in cols)
     dtype = np.dtype([(f"{c}{ax}", COLUMN_DTYPES[c]) for ax in range(axes) for c in cols])
     with tempfile.TemporaryDirectory(dir=ensure(BUILD / "native" / "runs")) as tmp:
         fin, fout = Path(tmp) / "in.bin", Path(tmp) / "out.bin"
         rec.tofile(fin)
         t0 = time.perf_counter()
-        out = subprocess.run([str(exe), str(fin), str(fout), str(n), str(mask)],
+        out = subprocess.run([str(exe), str(fin), str(fout), str(n), str(mask), str(cal_mu)],
                              capture_output=True, text=True)
         wall = time.perf_counter() - t0
         if out.returncode != 0:

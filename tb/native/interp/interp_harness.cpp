@@ -3,18 +3,23 @@
 // through the Verilated RTL and writes the per-sample outputs. The path for 10^7..10^9 samples
 // (cocotb pays ~15 us of Python per clock). Driven by models/hapgate/native.py.
 //
-// usage: interp_harness IN OUT N_SAMPLES COLMASK
+// usage: interp_harness IN OUT N_SAMPLES COLMASK [CAL_MU]
 //   IN : N_SAMPLES records of AXES x {int8 a, int8 b, uint8 flags}; flags bit0 index,
-//        bit1 fault clear, bit2 home arm (pulses applied with that sample).
+//        bit1 fault clear, bit2 home arm (pulses applied with that sample), bit3 calibration
+//        enable, bit4 calibration freeze (levels captured with that sample; CAL = 1 builds).
 //   OUT: N_SAMPLES records of AXES x the selected columns, in this order and size:
 //        pos i32, pos_homed i32, vel i32, index_pos i32, index_count u16, homed u8,
-//        faults u8, overspeed_count u16  (COLMASK bit k selects column k).
+//        faults u8, overspeed_count u16, cal_ofs_a i16, cal_ofs_b i16, cal_gain_a u16,
+//        cal_gain_b u16, cal_phase i16, cal_gear u8, cal_updates u16 (COLMASK bit k: column k).
+//   CAL_MU: the calibration adaptation shift of every axis (default 6).
 // Prints "samples=N clocks=C seconds=S" on stdout.
+#include <array>
 #include <chrono>
 #include <cstdint>
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
+#include <deque>
 #include <memory>
 #include <vector>
 
@@ -47,7 +52,9 @@ inline uint64_t field(const VlWide<N>& v, int lo, int width) {
 struct Column {
     int bytes;
 };
-constexpr Column kColumns[8] = {{4}, {4}, {4}, {4}, {2}, {1}, {1}, {2}};
+constexpr int kNCol = 15;
+constexpr Column kColumns[kNCol] = {{4}, {4}, {4}, {4}, {2}, {1}, {1}, {2},
+                                   {2}, {2}, {2}, {2}, {2}, {1}, {2}};
 
 template <typename T>
 void put(std::vector<uint8_t>& buf, T value, int bytes) {
@@ -57,8 +64,8 @@ void put(std::vector<uint8_t>& buf, T value, int bytes) {
 }  // namespace
 
 int main(int argc, char** argv) {
-    if (argc != 5) {
-        std::fprintf(stderr, "usage: %s IN OUT N_SAMPLES COLMASK\n", argv[0]);
+    if (argc != 5 && argc != 6) {
+        std::fprintf(stderr, "usage: %s IN OUT N_SAMPLES COLMASK [CAL_MU]\n", argv[0]);
         return 2;
     }
     const uint64_t n = std::strtoull(argv[3], nullptr, 10);
@@ -84,6 +91,13 @@ int main(int argc, char** argv) {
     top->rst = 1;
     top->adc_a = top->adc_b = 0;
     top->enc_index = top->ctl_fault_clear = top->ctl_home_arm = 0;
+    top->ctl_cal_en = top->ctl_cal_freeze = 0;
+    {
+        const unsigned mu = (argc == 6) ? static_cast<unsigned>(std::strtoul(argv[5], nullptr, 0)) & 15U : 6U;
+        uint32_t mus = 0;
+        for (int ax = 0; ax < AXES; ++ax) mus |= mu << (4 * ax);
+        top->cfg_cal_mu = mus;
+    }
     top->eval();
     for (int i = 0; i < 4; ++i) {
         top->clk = 1; top->eval();
@@ -92,6 +106,8 @@ int main(int argc, char** argv) {
     top->rst = 0;
     top->eval();
 
+    // the calibration state of sample k comes m_cal_valid cycles before its m_valid result
+    std::deque<std::array<uint64_t, 7 * AXES>> cal_q;
     uint64_t fed = 0, got = 0, clocks = 0;
     const auto t0 = std::chrono::steady_clock::now();
     while (got < n) {
@@ -108,7 +124,7 @@ int main(int argc, char** argv) {
                 ibuf_len = r * rec_in;
                 ibuf_pos = 0;
             }
-            uint32_t a = 0, b = 0, idx = 0, clr = 0, arm = 0;
+            uint32_t a = 0, b = 0, idx = 0, clr = 0, arm = 0, cen = 0, cfr = 0;
             for (int ax = 0; ax < AXES; ++ax) {
                 const uint8_t* r = &ibuf[ibuf_pos + 3 * ax];
                 a |= static_cast<uint32_t>(r[0]) << (8 * ax);
@@ -116,6 +132,8 @@ int main(int argc, char** argv) {
                 idx |= static_cast<uint32_t>(r[2] & 1U) << ax;
                 clr |= static_cast<uint32_t>((r[2] >> 1) & 1U) << ax;
                 arm |= static_cast<uint32_t>((r[2] >> 2) & 1U) << ax;
+                cen |= static_cast<uint32_t>((r[2] >> 3) & 1U) << ax;
+                cfr |= static_cast<uint32_t>((r[2] >> 4) & 1U) << ax;
             }
             ibuf_pos += rec_in;
             top->adc_a = a;
@@ -123,6 +141,8 @@ int main(int argc, char** argv) {
             top->enc_index = idx;
             top->ctl_fault_clear = clr;
             top->ctl_home_arm = arm;
+            top->ctl_cal_en = cen;
+            top->ctl_cal_freeze = cfr;
             ++fed;
         } else {
             top->ctl_fault_clear = 0;
@@ -131,14 +151,35 @@ int main(int argc, char** argv) {
         top->clk = 1;
         top->eval();
         ++clocks;
-        if (top->m_valid) {
+        if (top->m_cal_valid) {
+            std::array<uint64_t, 7 * AXES> c{};
             for (int ax = 0; ax < AXES; ++ax) {
-                const uint64_t v[8] = {
+                c[7 * ax + 0] = field(top->m_cal_ofs_a, 16 * ax, 16);
+                c[7 * ax + 1] = field(top->m_cal_ofs_b, 16 * ax, 16);
+                c[7 * ax + 2] = field(top->m_cal_gain_a, 16 * ax, 16);
+                c[7 * ax + 3] = field(top->m_cal_gain_b, 16 * ax, 16);
+                c[7 * ax + 4] = field(top->m_cal_phase, 16 * ax, 16);
+                c[7 * ax + 5] = field(top->m_cal_gear, 8 * ax, 8);
+                c[7 * ax + 6] = field(top->m_cal_updates, 16 * ax, 16);
+            }
+            cal_q.push_back(c);
+        }
+        if (top->m_valid) {
+            if (cal_q.empty()) {
+                std::fprintf(stderr, "error: a result without its calibration state\n");
+                return 3;
+            }
+            const auto cs = cal_q.front();
+            cal_q.pop_front();
+            for (int ax = 0; ax < AXES; ++ax) {
+                const uint64_t v[kNCol] = {
                     field(top->m_pos, 32 * ax, 32),         field(top->m_pos_homed, 32 * ax, 32),
                     field(top->m_vel, 32 * ax, 32),         field(top->m_index_pos, 32 * ax, 32),
                     field(top->m_index_count, 16 * ax, 16), field(top->m_homed, ax, 1),
-                    field(top->m_faults, 3 * ax, 3),        field(top->m_overspeed_count, 16 * ax, 16)};
-                for (int c = 0; c < 8; ++c)
+                    field(top->m_faults, 3 * ax, 3),        field(top->m_overspeed_count, 16 * ax, 16),
+                    cs[7 * ax + 0], cs[7 * ax + 1], cs[7 * ax + 2], cs[7 * ax + 3],
+                    cs[7 * ax + 4], cs[7 * ax + 5], cs[7 * ax + 6]};
+                for (int c = 0; c < kNCol; ++c)
                     if (mask & (1U << c)) put(obuf, v[c], kColumns[c].bytes);
             }
             ++got;

@@ -1,0 +1,66 @@
+"""Board tops (rtl/boards/) simulated through their real pins: the whole-FPGA test
+(tb/top/cocotb_top.py: DAC words and load times bit-exact against the chained golden models,
+every bus read against the register model, interrupt period, zero torque after watchdog, fault
+and disable) runs on tb/boards/board_harness.v, which drives the board top's reset pin (through
+its synchroniser and power-on reset), its bidirectional data pins and, for the HX8K, the ADC
+pair adapter with three-state converter models. Both simulators.
+
+The boards' own clocks are 12 MHz (HX8K) and 48 MHz (ECP5 PLL output); neither period is a
+whole number of ps (cocotb's 1 ps precision), so the tops run at 16 MHz here (CLK_HZ is the
+only way the RTL knows its clock; the ECP5 PLL is bypassed, USE_PLL=0)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+from hapgate.base.block import Block
+from hapgate.flows import boards
+from hapgate.golden.top import TopConfig
+from hapgate.runners import sim
+
+HERE = Path(__file__).parent
+TOP_TESTS = HERE.parent / "top"
+CLK_HZ = 16_000_000
+SAMPLES = {"verilator": 4000, "icarus": 1500}   # 1 MSPS: microseconds of simulated time
+RESET_SYNC_CLOCKS = 4                           # both board tops: 4-stage reset release
+# board name -> (harness BOARD, extra parameters, ADC lead in samples)
+CASES = {"ice40-hx8k": (0, {"SERIAL_MUL": 1}, 1), "ecp5-evn": (1, {"USE_PLL": 0}, 0)}
+
+
+def harness_block(board: str) -> Block:
+    # every board's sources: the harness names both board tops (one per generate branch)
+    srcs = dict.fromkeys(s for b in boards.BOARDS.values() for s in boards.block(b).sources)
+    return Block(name=f"board_harness_{board}", top="board_harness", sources=tuple(srcs),
+                 params=lambda: {}, doc=f"{board} board top in the simulation harness")
+
+
+def harness_params(board: str) -> dict[str, object]:
+    sel, extra, _ = CASES[board]
+    p = TopConfig(clk_hz=CLK_HZ).rtl_params()
+    return {"BOARD": sel, "CLK_HZ": CLK_HZ, **extra, "ASIN_FILE": p["ASIN_FILE"],
+            "SINE_FILE": p["SINE_FILE"]}
+
+
+def env(board: str, samples: int, prefix: str = "") -> dict[str, str]:
+    sel, _, lead = CASES[board]
+    scope = prefix + ("g_hx8k" if sel == 0 else "g_ecp5") + ".u_board.u_top.u_bus"
+    return {"HG_SAMPLES": str(samples), "HG_RESET_CYCLES": "24",
+            "HG_RESET_DELAY": str(RESET_SYNC_CLOCKS), "HG_ADC_LEAD": str(lead),
+            "HG_BUS_SCOPE": scope}
+
+
+@pytest.mark.parametrize("simulator", sim.simulators())
+@pytest.mark.parametrize("board", list(CASES))
+def test_board_top_bit_exact(simulator: str, board: str) -> None:
+    sim.run_cocotb(harness_block(board), simulator, "cocotb_top", TOP_TESTS,
+                   params=harness_params(board), extra_sources=[HERE / "board_harness.v"],
+                   extra_env=env(board, SAMPLES[simulator]))
+
+
+def test_board_netlist_hx8k() -> None:
+    """The HX8K board top's iCE40 netlist beside its RTL, 600 samples (about a minute on
+    Icarus): see tb/boards/gatelevel_board_tops.py, where both boards run (`make gatelevel`)."""
+    from gatelevel_board_tops import run_netlist
+
+    run_netlist("ice40-hx8k")
