@@ -10,6 +10,7 @@
 #   make gatelevel the board tops' post-synthesis netlists beside their RTL (minutes)
 #   make versions the tools in use, with their paths
 #   make mutants  mutation testing: every bug in tb/mutants/mutants.toml must be killed (long)
+#   make formal   SymbiYosys proofs (tb/formal/) and the broken copies each must reject
 #   make regs     regenerate the register header/document from rtl/regs/hapgate.rdl
 SHELL   := bash
 PYTHON  ?= python3
@@ -19,7 +20,7 @@ HG      := $(VENV)/bin/hapgate
 PYTEST  := $(VENV)/bin/pytest
 PYTEST_ARGS ?= -n auto
 
-.PHONY: all venv demo test lint bench versions synth gatelevel regs mutants clean distclean
+.PHONY: all venv demo test lint bench versions synth gatelevel formal regs mutants clean distclean
 
 all: test
 
@@ -60,6 +61,9 @@ synth: $(STAMP)
 
 gatelevel: $(STAMP)
 	$(PYTEST) -p no:xdist tb/boards/gatelevel_board_tops.py
+
+formal: $(STAMP)
+	$(VENV)/bin/python -m hapgate.flows.formal --mutants
 
 # Regenerate the committed register header and document from rtl/regs/hapgate.rdl
 # (tb/bus/test_regmap.py fails while they are stale).

@@ -1,6 +1,8 @@
-"""DAC scheduler (rtl/dac_sched/dac_sched.v): timing in simulation time at two CLK_HZ values and
-a shorter frame, both simulators; bad configurations fail at elaboration; the schedule checker
-itself rejects wrong schedules."""
+"""DAC scheduler (rtl/dac_sched/dac_sched.v): timing in simulation time at every clock we ship
+(the 48 MHz default and the iCE40 board's 12 MHz, neither a whole number of ps: see
+hapgate.golden.dacsched.period_ps for the simulated period and the tolerance it implies), at
+50 and 12.5 MHz (exact periods) and a shorter frame, both simulators; bad configurations fail at
+elaboration; the schedule checker itself rejects wrong schedules."""
 
 from __future__ import annotations
 
@@ -9,13 +11,15 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from hapgate.flows import blocks, flow
+from hapgate.flows import blocks, boards, flow
 from hapgate.golden import commutation as cm
-from hapgate.golden.dacsched import Load, check_schedule
+from hapgate.golden.dacsched import Load, check_schedule, period_ps, spec_tolerance_ps
 from hapgate.runners import sim
 
 HERE = Path(__file__).parent
 CONFIGS = {
+    "c48_default": cm.CommutationConfig(),                     # shipped: the 48 MHz default
+    "c12_board": cm.CommutationConfig(clk_hz=12_000_000),      # shipped: iCE40-HX8K oscillator
     "c50": cm.CommutationConfig(clk_hz=50_000_000),
     "c12m5": cm.CommutationConfig(clk_hz=12_500_000),
     # a faster frame: 1 us skew in an 8 us frame with an 8 us DAC (parameters, not registers)
@@ -83,3 +87,44 @@ def test_load_times_are_the_paper_schedule() -> None:
     assert np.allclose(np.diff(t), 2000.0, rtol=0, atol=1e-9)
     assert abs(t[0] - 8 * 1e9 / 48e6) < 1e-9
     assert cfg.frame_clocks == 768 and cfg.skew_clocks == 96
+
+
+def test_every_shipped_clock_is_simulated() -> None:
+    """The clocks of the default build and of every board are among the simulated configs."""
+    shipped = {cm.CommutationConfig().clk_hz} | {b.clk_hz for b in boards.BOARDS.values()}
+    assert shipped <= {c.clk_hz for c in CONFIGS.values()}, shipped
+
+
+def _sim_loads(cfg: cm.CommutationConfig, starts: list[int], shift: dict[int, int] | None = None
+               ) -> list[Load]:
+    """Loads where the RTL puts them, timed with the simulated period (shift: load -> clocks)."""
+    p = period_ps(cfg)
+    shift = shift or {}
+    out = []
+    for s in starts:
+        for k, c in enumerate(cm.load_clocks(cfg)):
+            i = len(out)
+            out.append(Load(int(s + (c + shift.get(i, 0)) * p), k, 0))
+    return out
+
+
+@pytest.mark.parametrize("clk_hz", [48_000_000, 12_000_000])
+def test_checker_tolerance_at_inexact_periods(clk_hz: int) -> None:
+    """At 48 and 12 MHz the simulated period is 2/3 ps long: the checker accepts the RTL's
+    schedule within the derived tolerance (64 ps per 2 us skew at 48 MHz) and still rejects a
+    load one clock early or late."""
+    cfg = cm.CommutationConfig(clk_hz=clk_hz)
+    p = period_ps(cfg)
+    assert p % 2 == 0 and abs(p - 10**12 / clk_hz) < 1
+    tol = spec_tolerance_ps(cfg, cfg.skew_ns * 1000)
+    assert 0 < tol < p / 100
+    if clk_hz == 48_000_000:
+        assert p == 20834 and tol == 64
+    fp = cfg.frame_clocks * p
+    starts = [0, fp, 2 * fp, 3 * fp]
+    assert check_schedule(_sim_loads(cfg, starts), starts[1:], cfg, t0_ps=0).shape == (3, 6)
+    for shift in (1, -1):
+        with pytest.raises(AssertionError, match="skew"):
+            check_schedule(_sim_loads(cfg, starts, {9: shift}), starts[1:], cfg, t0_ps=0)
+    with pytest.raises(ValueError, match="not a whole number of clocks"):
+        spec_tolerance_ps(cm.CommutationConfig(clk_hz=clk_hz, skew_ns=1001), 1001 * 1000)

@@ -121,14 +121,19 @@ def simlib(target: str) -> Path:
     return {"generic": share / "simcells.v", "ice40": share / "ice40" / "cells_sim.v"}[target]
 
 
-def netlist(block: Block, params: Params, target: str = "generic") -> Path:
+def netlist(block: Block, params: Params, target: str = "generic", flatten: bool = True
+            ) -> Path:
     """The synthesized gate-level netlist of `block` (Yosys `synth`, `write_verilog`), cached by
-    the hash of the sources and parameters, for simulating what synthesis made of the RTL."""
+    the hash of the sources and parameters, for simulating what synthesis made of the RTL.
+    flatten=False keeps the module hierarchy (every module still gate level), so that a
+    testbench can watch a submodule's ports (synth_ice40 -noflatten; generic synth does not
+    flatten either way)."""
     import hashlib
 
     toolenv.apply()
     digest = hashlib.sha1(json.dumps({k: param_text(v) for k, v in sorted(params.items())}
-                                     | {"_target": target}).encode())
+                                     | {"_target": target}
+                                     | ({} if flatten else {"_flatten": False})).encode())
     for src in block.source_paths():
         digest.update(src.read_bytes())
     for v in params.values():
@@ -140,6 +145,8 @@ def netlist(block: Block, params: Params, target: str = "generic") -> Path:
         return out
     synth_cmd = {"generic": f"synth -top {block.top}",
                  "ice40": f"synth_ice40 -top {block.top}"}[target]
+    if not flatten and target == "ice40":
+        synth_cmd += " -noflatten"
     script = yosys_script(block, params, workdir, synth_cmd, "stat.json")
     script += "write_verilog -noattr netlist.tmp.v\n"
     (workdir / "netlist.ys").write_text(script)

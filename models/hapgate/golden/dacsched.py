@@ -9,6 +9,7 @@ they fail on a wrong schedule.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from fractions import Fraction
 
 import cocotb
 import numpy as np
@@ -20,11 +21,38 @@ from .commutation import CommutationConfig, Frames, encode, load_clocks
 
 
 def period_ps(cfg: CommutationConfig) -> int:
-    p = 10**12 // cfg.clk_hz
-    if p * cfg.clk_hz != 10**12 or p % 2:
-        raise ValueError(f"CLK_HZ {cfg.clk_hz}: the period is not an even number of ps (1 ps "
-                         "simulator precision); pick e.g. 50, 25, 16 or 12.5 MHz")
+    """The simulated clock period, ps (the simulators run at 1 ps precision; cocotb's Clock
+    needs an even number of steps). Exact when 10**12 / CLK_HZ is a whole even number of ps
+    (50, 25, 12.5 MHz); otherwise the nearest even number of ps: 20834 ps for the 48 MHz default
+    (exact 20833.33), 83334 ps for the board's 12 MHz (exact 83333.33).
+
+    The RTL is synchronous, so every event it makes falls on a clock edge. `check_schedule`
+    therefore (1) requires every time difference to be a whole number of simulated periods,
+    (2) compares the clock counts with the spec (the documented latencies), and (3) asserts the
+    simulated times against the spec's real times (2 us skew, 16 us frame) with the tolerance
+    this rounding implies and nothing more: N clocks of simulated period p differ from N clocks
+    of the exact period by N * |p - 10**12 / CLK_HZ| (64 ps over a 96-clock skew at 48 MHz,
+    512 ps over a frame), less than one clock, so a schedule one clock off still fails."""
+    if cfg.clk_hz <= 0:
+        raise ValueError(f"CLK_HZ {cfg.clk_hz} must be positive")
+    p = round(10**12 / cfg.clk_hz / 2) * 2
+    if p < 2:
+        raise ValueError(f"CLK_HZ {cfg.clk_hz}: the period is below 2 ps")
     return p
+
+
+def period_error_ps(cfg: CommutationConfig) -> Fraction:
+    """|simulated period - exact period|, ps (0 where the period is exact)."""
+    return abs(Fraction(period_ps(cfg)) - Fraction(10**12, cfg.clk_hz))
+
+
+def spec_tolerance_ps(cfg: CommutationConfig, spec_ps: int) -> Fraction:
+    """The largest difference between a simulated and a real time of `spec_ps` (a whole number
+    of exact clock periods): its clock count times the period error."""
+    n = Fraction(spec_ps) / Fraction(10**12, cfg.clk_hz)
+    if n.denominator != 1:
+        raise ValueError(f"{spec_ps} ps is not a whole number of clocks at {cfg.clk_hz} Hz")
+    return n * period_error_ps(cfg)
 
 
 def now_ps() -> int:
@@ -47,6 +75,7 @@ class DacModel:
     cfg: CommutationConfig
     loads: list[Load] = field(default_factory=list)
     violations: list[str] = field(default_factory=list)
+    powerup: list[Load] = field(default_factory=list)   # a strobe low from time 0, see below
     last_change: int = -(10**15)
     last_rise: int = -(10**15)
     reset_ps: int = 0
@@ -61,7 +90,7 @@ class DacModel:
         while True:
             await First(dut.dac_data.value_change, dut.dac_addr.value_change)
             t = now_ps()
-            if str(dut.dac_wr_n.value) == "0":
+            if t > 0 and str(dut.dac_wr_n.value) == "0":  # (t = 0: the pins' power-up values)
                 self.violations.append(f"{t} ps: data/address changed while dac_wr_n is low")
             if t - self.last_rise < p:
                 self.violations.append(f"{t} ps: hold {t - self.last_rise} ps < one clock")
@@ -69,12 +98,27 @@ class DacModel:
 
     async def _watch_strobe(self) -> None:
         p = period_ps(self.cfg)
-        settle = self.cfg.settle_ns * 1000
+        settle = self.cfg.clk_hz // 1000 * self.cfg.settle_ns // 1_000_000 * p  # in clocks
         dut = self.dut
         last: dict[int, int] = {}
         while True:
             await FallingEdge(dut.dac_wr_n)
             t_f = now_ps()
+            if t_f == 0:
+                # low from time 0: the pin register's power-up value (a gate-level iCE40 netlist:
+                # every flip-flop configures to 0), raised by the first clock edge in reset. The
+                # DAC loads whatever the data pins hold then: that must be zero torque.
+                await RisingEdge(dut.dac_wr_n)
+                try:
+                    a, w = int(dut.dac_addr.value), int(dut.dac_data.value)
+                except ValueError:
+                    self.violations.append(f"{now_ps()} ps: power-up load of an unknown word")
+                    continue
+                self.powerup.append(Load(now_ps(), a, w))
+                if w != int(encode(np.zeros(1, dtype=np.int64), self.cfg)[0]):
+                    self.violations.append(f"{now_ps()} ps: power-up load of word {w} into "
+                                           f"channel {a}: not zero torque")
+                continue
             if t_f - self.last_change < p:
                 self.violations.append(f"{t_f} ps: setup {t_f - self.last_change} ps < one clock")
             await RisingEdge(dut.dac_wr_n)
@@ -164,11 +208,15 @@ def check_schedule(loads: list[Load], latches: list[int], cfg: CommutationConfig
     """Check the recorded loads against the spec and return the words, shape (frames, 6).
 
     Frame i = the loads from latches[i] on. Asserted in simulation time: channel order
-    0..5 in every frame; skew between successive channels exactly skew_ns; frame start to frame
-    start of channel 0 exactly frame_ns; latency from the frame start to channel k exactly the
-    model's load time. With t0_ps (the start of frame 0 after reset), the six loads before the
-    first latch must be zero torque in the same timing."""
+    0..5 in every frame; every load on a clock edge (a whole number of periods after the frame
+    start); latency from the frame start to channel k exactly the model's load clocks; skew
+    between successive channels and frame start to frame start of channel 0 equal to skew_ns and
+    frame_ns, exactly where the simulated period is exact and otherwise within the rounding
+    tolerance of `period_ps` (less than a clock). With t0_ps (the start of frame 0 after reset),
+    the six loads before the first latch must be zero torque in the same timing."""
     p = period_ps(cfg)
+    skew_ps, frame_ps = cfg.skew_ns * 1000, cfg.frame_ns * 1000
+    tol_skew, tol_frame = spec_tolerance_ps(cfg, skew_ps), spec_tolerance_ps(cfg, frame_ps)
     t = np.array([ld.t_ps for ld in loads], dtype=np.int64)
     a = np.array([ld.addr for ld in loads], dtype=np.int64)
     w = np.array([ld.word for ld in loads], dtype=np.int64)
@@ -179,16 +227,19 @@ def check_schedule(loads: list[Load], latches: list[int], cfg: CommutationConfig
     words = []
     prev0 = None
     for ts in starts:
-        sel = (t >= ts) & (t < ts + cfg.frame_ns * 1000)
+        sel = (t >= ts) & (t < ts + cfg.frame_clocks * p)
         assert np.count_nonzero(sel) == 6, f"frame at {ts} ps: {np.count_nonzero(sel)} loads, not 6"
         tf, af = t[sel], a[sel]
         assert np.array_equal(af, np.arange(6)), f"frame at {ts} ps: channel order {af.tolist()}"
+        assert np.all((tf - ts) % p == 0), f"frame at {ts} ps: a load off the clock edges"
         skew = np.diff(tf)
-        assert np.all(skew == cfg.skew_ns * 1000), f"frame at {ts} ps: skew {skew.tolist()} ps"
+        assert np.all(np.abs(skew - skew_ps) <= tol_skew), (
+            f"frame at {ts} ps: skew {skew.tolist()} ps, spec {skew_ps} +- {float(tol_skew):g}")
         assert np.array_equal(tf - ts, want_lat), (
             f"frame at {ts} ps: latency {(tf - ts).tolist()} ps, documented {want_lat.tolist()}")
         if prev0 is not None:
-            assert tf[0] - prev0 == cfg.frame_ns * 1000, f"frame period {tf[0] - prev0} ps"
+            assert abs(int(tf[0] - prev0) - frame_ps) <= tol_frame, (
+                f"frame period {tf[0] - prev0} ps, spec {frame_ps} +- {float(tol_frame):g}")
         prev0 = tf[0]
         words.append(w[sel])
     out = np.array(words, dtype=np.int64).reshape(len(starts), 6)
