@@ -137,6 +137,10 @@ def main(argv: list[str] | None = None) -> int:
 
     scene.add_arguments(sub.add_parser(
         "scene", help="virtual-device scenes: run FILE [--out DIR] | check FILE..."))
+    from . import sweep
+
+    sweep.add_arguments(sub.add_parser(
+        "sweep", help="run a sweep spec on Dask: SPEC [--scheduler tcp://H:P] [--workers N]"))
     bp = sub.add_parser("bench", help="benchmarks: run time beside error (build/reports/)")
     bp.add_argument("--quick", action="store_true", help="smaller runs")
     bp.set_defaults(fn=cmd_bench)
