@@ -157,13 +157,22 @@ def job(p: Mapping[str, Any]) -> dict[str, Any]:
     r = native.run_interp(a, b, idx, InterpConfig(), columns=("pos", "index_pos", "index_count",
                                                                "faults"), clear_at=clear_at)
     rec: dict[str, Any] = {"samples": n * AXES, "harness_s": r.seconds, "gen_s": t_gen}
+    rec.update(evaluate(x, motions, r.outputs))
+    rec["samples_per_s"] = n * AXES / r.seconds if r.seconds > 0 else 0.0
+    return rec
+
+
+def evaluate(x: np.ndarray, motions: list[dict[str, Any]],
+             outputs: list[dict[str, np.ndarray]]) -> dict[str, Any]:
+    """The soak's checks of one shard's outputs (per axis: pos, index_pos, index_count, faults)
+    against the true positions and the segments."""
     pos_err_max = 0.0
     latch_bad = latches = 0
     false_ovs = missed_ovs = over_segs = below_segs = 0
     v_noisy_min = math.inf
     peak_clean = 0.0
     for ax in range(AXES):
-        o, mo = r.axis(ax), motions[ax]
+        o, mo = outputs[ax], motions[ax]
         xa = x[:, ax]
         # the counter starts at the first sample's decoded quadrant in line 0: truth in counts
         # from the first sample's line (a whole-line ambiguity at sample 0 is not a slip)
@@ -193,14 +202,12 @@ def job(p: Mapping[str, Any]) -> dict[str, Any]:
         clean = mo["cls"] == CLASSES.index("clean")
         if clean.any():
             peak_clean = max(peak_clean, float(mo["peak"][clean].max()))
-    rec.update({"pos_err_max_counts": pos_err_max, "slips": int(pos_err_max >= 512) + latch_bad,
+    return {"pos_err_max_counts": pos_err_max, "slips": int(pos_err_max >= 512) + latch_bad,
                 "index_latches": latches, "index_latch_errors": latch_bad,
                 "segments_below": below_segs, "segments_over": over_segs,
                 "false_overspeed": false_ovs, "missed_overspeed": missed_ovs,
                 "peak_clean_rev_s": peak_clean,
-                "v_safe_noisy_min_rev_s": v_noisy_min if math.isfinite(v_noisy_min) else 0.0,
-                "samples_per_s": n * AXES / r.seconds if r.seconds > 0 else 0.0})
-    return rec
+                "v_safe_noisy_min_rev_s": v_noisy_min if math.isfinite(v_noisy_min) else 0.0}
 
 
 def report(rows: list[dict[str, Any]], wall_s: float, workers: int) -> list[list[str]]:

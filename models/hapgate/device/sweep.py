@@ -248,7 +248,7 @@ def _client(scheduler: str | None, workers: int) -> Any:
     if scheduler:
         return Client(scheduler, timeout="20s")
     cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
-                           dashboard_address=None, silence_logs=40)
+                           dashboard_address=":0", silence_logs=40)
     return Client(cluster)
 
 

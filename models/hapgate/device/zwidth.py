@@ -121,6 +121,20 @@ def job(p: Mapping[str, Any]) -> dict[str, Any]:
 
 
 # ---------------------------------------------------------------------------------- theory
+# The loop's latency beyond the sample-and-hold, s: the position snapshot's age at the tick
+# (frame latch every 16 us: 8 us on average), the ISR until the torque write (~14 bus accesses
+# x 2 us: 28 us), the wait for the next commutation frame (8 us on average), the DAC load (2 us)
+# and the amplifier's current loop (first-order lag, 1/(2 pi 2 kHz) = 80 us).
+TAU_LOOP_S = 8e-6 + 28e-6 + 8e-6 + 2e-6 + 1 / (2 * math.pi * 2000.0)
+
+
+def latency_bound(b: float, b_wall: float, T: float, tau: float = TAU_LOOP_S) -> float:
+    """The passivity bound with the loop's latency: a sampled, delayed spring K acts as the
+    negative damping K (T/2 + tau), so b > K (T/2 + tau) + |B|: K_max = (b - |B|)/(T/2 + tau);
+    tau = 0 gives Colgate's 2(b - |B|)/T."""
+    return max(b - abs(b_wall), 0.0) / (T / 2 + tau)
+
+
 def ideal_kmax(m: float, b: float, T: float, k_hi: float = 1e7, iters: int = 60) -> float:
     """Largest K for which the idealised sampled wall (m x'' = -b x' - K x(kT) held over T) is
     stable: discrete closed-loop eigenvalues inside the unit circle (bisection on K; the loop
