@@ -5,6 +5,7 @@
 #   make test     lint + every test (pytest -n auto, Verilator and Icarus)
 #   make lint     ruff, verilator -Wall, Icarus elaboration, Yosys synthesis checks
 #   make bench    benchmarks: tables on stdout, CSV/PNG in build/reports/
+#   make soak     10^9 ADC samples through the interpolator on Dask (scenes/sweeps/soak.toml)
 #   make synth    Yosys resource table per block, then nextpnr place and route of the board tops
 #   make versions the tools in use, with their paths
 #   make regs     regenerate the register header/document from rtl/regs/hapgate.rdl
@@ -16,7 +17,7 @@ HG      := $(VENV)/bin/hapgate
 PYTEST  := $(VENV)/bin/pytest
 PYTEST_ARGS ?= -n auto
 
-.PHONY: all venv demo test lint bench versions synth regs clean distclean
+.PHONY: all venv demo test lint bench soak versions synth regs clean distclean
 
 all: test
 
@@ -46,6 +47,10 @@ demo: $(STAMP)
 
 bench: $(STAMP)
 	$(HG) bench
+
+SOAK_WORKERS ?= 2
+soak: $(STAMP)
+	$(HG) sweep scenes/sweeps/soak.toml --workers $(SOAK_WORKERS)
 
 synth: $(STAMP)
 	$(HG) synth

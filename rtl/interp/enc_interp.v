@@ -13,7 +13,8 @@ module enc_interp #(
     parameter integer AMP_MIN      = 40,        // signal-loss window on sqrt(a^2+b^2), ADC codes
     parameter integer AMP_MAX      = 170,
     parameter integer LOSS_SAMPLES = 16,        // consecutive out-of-window samples -> signal loss
-    parameter integer INVERT       = 0          // 1: count the other way (A and B swapped at capture)
+    parameter integer INVERT       = 0,         // 1: count the other way (A and B swapped at capture)
+    parameter integer COARSE       = 0          // 1: plain quadrature, the fine angle zeroed (4 steps/line)
 ) (
     input  wire        clk,
     input  wire        rst,
@@ -163,7 +164,8 @@ module enc_interp #(
 
     // ---------------------------------------------------------------- stage C: count, index, faults
     wire [FB:0]    lut_ext = {{(FB + 1 - LUT_BITS){1'b0}}, lut_b};
-    wire [FB:0]    fine    = half_b ? QUADRANT - lut_ext : lut_ext;  // mirror: 2**FB - T, not -1
+    wire [FB:0]    fine_i  = half_b ? QUADRANT - lut_ext : lut_ext;  // mirror: 2**FB - T, not -1
+    wire [FB:0]    fine    = (COARSE != 0) ? {(FB + 1){1'b0}} : fine_i;
 
     reg            started, last_up, idx_prev, arm_pend, homed_q;
     reg [1:0]      q_prev;

@@ -15,7 +15,8 @@ module enc_interp3 #(
     parameter integer AMP_MIN      = 40,         // signal-loss amplitude window, ADC codes
     parameter integer AMP_MAX      = 170,
     parameter integer LOSS_SAMPLES = 16,         // consecutive bad samples -> signal loss
-    parameter integer INVERT_MASK  = 0           // bit i set: axis i counts the other way
+    parameter integer INVERT_MASK  = 0,          // bit i set: axis i counts the other way
+    parameter integer COARSE       = 0           // 1: plain quadrature (fine angle zeroed)
 ) (
     input  wire                 clk,
     input  wire                 rst,
@@ -55,7 +56,7 @@ module enc_interp3 #(
             enc_interp #(
                 .LUT_BITS(LUT_BITS), .LUT_FILE(LUT_FILE), .VEL_LOG2W(VEL_LOG2W),
                 .AMP_MIN(AMP_MIN), .AMP_MAX(AMP_MAX), .LOSS_SAMPLES(LOSS_SAMPLES),
-                .INVERT((INVERT_MASK >> i) & 1)
+                .INVERT((INVERT_MASK >> i) & 1), .COARSE(COARSE)
             ) u_axis (
                 .clk(clk), .rst(rst),
                 .s_valid(adc_strobe),

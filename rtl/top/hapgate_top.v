@@ -15,6 +15,7 @@ module hapgate_top #(
     parameter integer AMP_MIN       = 40,         // signal-loss amplitude window, ADC codes
     parameter integer AMP_MAX       = 170,        // (upper bound of that window)
     parameter integer LOSS_SAMPLES  = 16,         // consecutive bad samples -> signal loss
+    parameter integer COARSE        = 0,          // 1: plain quadrature, fine angle zeroed (Z-width)
     parameter integer LINES_LOG2    = 10,         // encoder lines per revolution = 2**LINES_LOG2
     parameter integer POLE_PAIRS    = 2,          // motor electrical cycles per revolution
     parameter integer SKEW_NS       = 2000,       // DAC channel-to-channel skew
@@ -122,7 +123,7 @@ module hapgate_top #(
     enc_interp3 #(
         .CLK_HZ(CLK_HZ), .SAMPLE_HZ(SAMPLE_HZ), .AXES(NAX), .LUT_BITS(LUT_BITS),
         .LUT_FILE(ASIN_FILE), .VEL_LOG2W(VEL_LOG2W), .AMP_MIN(AMP_MIN), .AMP_MAX(AMP_MAX),
-        .LOSS_SAMPLES(LOSS_SAMPLES)
+        .LOSS_SAMPLES(LOSS_SAMPLES), .COARSE(COARSE)
     ) u_interp (
         .clk(clk), .rst(rst), .adc_strobe(adc_strobe), .adc_a(c_adc_a), .adc_b(c_adc_b),
         .enc_index(c_index), .ctl_fault_clear({NAX{fault_clear}}), .ctl_home_arm(c_arm),

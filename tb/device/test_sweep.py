@@ -89,7 +89,8 @@ def test_cache_key_covers_parameters_and_sources() -> None:
     ("[sweep]\njob = 'selftest'\n[grid]\nk = { logspace = [0, 1, 3] }\n", "grid.k"),
     ("[sweep]\njob = 'selftest'\n[random]\nk = { uniform = [0, 1] }\n", "sweep.samples"),
     ("[sweep]\njob = 'selftest'\nfoo = 1\n", "sweep.foo"),
-    ("[sweep]\njob = 'zwidth'\nbase = 'b.toml'\n[fixed]\nencoder = 'quadrature'\n", "encoder"),
+    ("[sweep]\njob = 'zwidth'\nbase = 'b.toml'\n[fixed]\n'run.position' = 'coarse'\n",
+     "run.position"),
     ("[sweep]\njob = 'calib_mc'\n[fixed]\ncalibration = 'on'\n", "calibration"),
     ("[sweep\n", "line 1"),
 ])

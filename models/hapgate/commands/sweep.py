@@ -31,7 +31,25 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                    "(default build/sweeps/<name>/)")
     p.add_argument("--no-cache", action="store_true", help="rerun every job (cache unused)")
     p.add_argument("--limit", type=int, default=0, help="run only the first N jobs (a trial)")
+    p.add_argument("--compare", type=Path, nargs="*", default=[],
+                   help="Z-width: output folders of other Z-width sweeps (their results.csv) "
+                        "to put on the same plot and table")
     p.set_defaults(fn=main)
+
+
+def read_rows(path: Path) -> list[dict[str, object]]:
+    """A results.csv back as records (numbers as float, True/False as bool)."""
+    import csv
+
+    def conv(v: str) -> object:
+        if v in ("True", "False"):
+            return v == "True"
+        try:
+            return float(v)
+        except ValueError:
+            return v
+    with open(path, newline="") as fh:
+        return [{k: conv(v) for k, v in r.items()} for r in csv.DictReader(fh)]
 
 
 def _err(msg: str) -> None:
@@ -44,6 +62,10 @@ def main(args: argparse.Namespace) -> int:
     except sweep.SweepError as exc:
         _err(str(exc))
         return EXIT_BAD_INPUT
+    for d in args.compare:
+        if not (d / "results.csv").is_file():
+            _err(f"--compare {d}: no results.csv there")
+            return EXIT_BAD_INPUT
     if args.workers < 1:
         _err("--workers: at least 1")
         return EXIT_BAD_INPUT
@@ -67,12 +89,15 @@ def main(args: argparse.Namespace) -> int:
     rows = res.rows()
     if spec.kind == "zwidth":
         from ..device import zwidth
+        for d in args.compare:
+            rows = rows + read_rows(d / "results.csv")
         tab = zwidth.kmax_table(rows)
-        print(table(["servo Hz", "B N s/m", "K_max N/m", "first unstable K", "2(b-|B|)/T",
-                     "35 N/cm stable"],
-                    [[str(t["servo_hz"]), f"{t['b_wall']:g}", f"{t['k_max']:.0f}",
-                      f"{t['k_first_unstable']:.0f}",
+        print(table(["position", "servo Hz", "B N s/m", "K_max N/m", "first unstable K",
+                     "2(b-|B|)/T", "(b-|B|)/(T/2+tau)", "35 N/cm stable"],
+                    [[t["position"], str(t["servo_hz"]), f"{t['b_wall']:g}",
+                      f"{t['k_max']:.0f}", f"{t['k_first_unstable']:.0f}",
                       f"{max(2 * (t['b_phys'] - t['b_wall']) * t['servo_hz'], 0):.0f}",
+                      f"{zwidth.latency_bound(t['b_phys'], t['b_wall'], 1 / t['servo_hz']):.0f}",
                       "yes" if t["k_max"] >= 3500 else "no"] for t in tab]))
         (out / "kmax.json").write_text(json.dumps(tab, indent=2, default=str))
         zwidth.plot(rows, out / "zwidth.png")

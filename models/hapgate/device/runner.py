@@ -25,6 +25,7 @@ import numpy as np
 
 from ..base.paths import BUILD, ROOT, TB, ensure
 from ..golden import encsig, interp, kinematics
+from ..golden.interp import InterpConfig
 from ..golden.top import TopConfig, blocks
 from ..runners import cosim, native
 
@@ -82,10 +83,12 @@ def axis_mask(scene: Any) -> int:
     return sum(1 << int(a) for a in scene.run.axes)
 
 
-def build(clk_hz: int, mask: int = 7, trace: bool = False, test_limits: bool = False) -> Path:
+def build(clk_hz: int, mask: int = 7, trace: bool = False, test_limits: bool = False,
+          coarse: bool = False) -> Path:
     """Verilate the top (HG_SIM, AXIS_MASK) with the harness, plant and firmware (cached).
-    test_limits: the firmware built with HG_SCENE_K_MAX_TEST (scene key firmware.test_limits)."""
-    cfg = TopConfig(clk_hz=clk_hz)
+    test_limits: the firmware built with HG_SCENE_K_MAX_TEST (scene key firmware.test_limits);
+    coarse: plain quadrature, the interpolator's fine angle zeroed (run.position)."""
+    cfg = TopConfig(clk_hz=clk_hz, interp=InterpConfig(coarse=coarse))
     block = blocks()[0]
     srcs = [ROOT / "rtl" / s for s in block.sources]
     params = cfg.rtl_params() | {"AXIS_MASK": mask}
@@ -164,6 +167,10 @@ def plant_config(scene: Any, q0: np.ndarray) -> str:
     return "\n".join(lines) + "\n"
 
 
+def _coarse(scene: Any) -> bool:
+    return getattr(scene.run, "position", "interpolated") == "quadrature"
+
+
 def hold_values(scene: Any, q0: np.ndarray) -> dict[str, list[int]]:
     """What the interpolator of a held (not built) axis reports after the homing sweep: the
     golden model run on the same sweep, noise-free (README, "Axes that are not built")."""
@@ -184,7 +191,8 @@ def hold_values(scene: Any, q0: np.ndarray) -> dict[str, list[int]]:
                                  gain_a=e.gain_a, gain_b=e.gain_b, phase_deg=e.phase_deg,
                                  h2=e.h2, h3=e.h3, noise_lsb=0.0)
         a, b = encsig.adc_codes(lines, spec)
-        o = interp.run(a, b, encsig.index_bit(lines), TopConfig().interp, arm_at=[0])
+        o = interp.run(a, b, encsig.index_bit(lines), InterpConfig(coarse=_coarse(scene)),
+                       arm_at=[0])
         if not bool(o.homed[-1]):
             raise DeviceError(f"axis {i}: the homing sweep did not home the held axis")
         out["hold_pos_homed"][i] = int(o.pos_homed[-1])
@@ -262,7 +270,8 @@ def simulate(scene: Any, clk_hz: int | None = None, mask: int | None = None,
     clk = choose_clock(scene) if clk_hz is None else int(clk_hz)
     m = axis_mask(scene) if mask is None else int(mask)
     trace = bool(scene.run.trace)
-    exe = build(clk, m, trace, bool(getattr(scene.firmware, "test_limits", False)))
+    exe = build(clk, m, trace, bool(getattr(scene.firmware, "test_limits", False)),
+                _coarse(scene))
     q0 = start_pose(scene)
     built = [f"interpolator axis {i}" for i in range(3) if m >> i & 1]
     built += ["commutator + DAC scheduler", "bus + register file", "firmware (dsp-fw)",

@@ -73,6 +73,7 @@ class RunCfg:
     #                                   on load: IK of the hand path[0], else DEFAULT_Q0_DEG)
     qd0_deg_s: tuple[float, float, float] = (0.0, 0.0, 0.0)   # initial joint speeds, deg/s
     name: str | None = None          # output folder name (resolved on load: the file's stem)
+    position: str = "interpolated"   # "quadrature": the interpolator's fine angle zeroed (COARSE)
 
 
 @dataclass(frozen=True)
@@ -421,7 +422,8 @@ class _Validator:
             "qd0_deg_s": lambda x, k: self.vec(x, k, 3, lambda w: abs(w) <= QD_MAX_DEG_S,
                                                f"|deg/s| <= {QD_MAX_DEG_S:.0f} (the firmware's "
                                                "qd_max, 100 rad/s)"),
-            "name": name})
+            "name": name,
+            "position": lambda x, k: self.str_(x, k, ("interpolated", "quadrature"))})
         for a, w in enumerate(kw.get("qd0_deg_s", ())):   # type: ignore[arg-type]
             if w != 0 and a not in kw.get("axes", RunCfg.axes):   # type: ignore[operator]
                 raise self.fail(f"run.qd0_deg_s[{a}]", f"axis {a} is not simulated (its joint "

@@ -8,7 +8,7 @@ shared state, nothing written by the job. The client (this process) submits them
 `distributed.scheduler.allowed-failures` times), streams results back with a progress bar, and
 caches each finished record under build/sweeps/cache/<kind>/<key>.json, the key a sha256 of the
 job kind, its parameters, the base scene's digest and the bytes of every source the jobs run
-(rtl/, dsp-fw/, tb/native/, models/hapgate/): an interrupted sweep resumes, a changed source
+(rtl/, dsp-fw/, tb/native/, the model layers): an interrupted sweep resumes, a changed source
 reruns. Results: results.csv, results.npz, summary.json and the kind's plots in --out.
 """
 
@@ -32,7 +32,9 @@ from ..base.paths import BUILD, ROOT, ensure
 from ..base.progress import Progress
 
 Record = dict[str, Any]
-SOURCE_DIRS = ("rtl", "dsp-fw", "tb/native", "models/hapgate")
+# what a job runs (the commands' reporting is not part of a job's result)
+SOURCE_DIRS = ("rtl", "dsp-fw", "tb/native", "models/hapgate/base", "models/hapgate/golden",
+               "models/hapgate/flows", "models/hapgate/runners", "models/hapgate/device")
 SOURCE_EXT = {".v", ".sv", ".vlt", ".c", ".h", ".cpp", ".py", ".hex", ".toml", ".rdl"}
 CACHE = BUILD / "sweeps" / "cache"
 

@@ -45,7 +45,7 @@ LATE_S = 0.04
 A_ABS_M = 5e-6
 DECAY = 0.5
 SCENE_KEYS = ("env.k", "env.b", "run.servo_hz", "run.duration_s", "hand.k", "hand.b",
-              "run.clk_hz")
+              "run.clk_hz", "run.position")
 
 
 def geometry(scene: Any) -> dict[str, Any]:
@@ -87,9 +87,8 @@ def scene_of(p: Mapping[str, Any]) -> Any:
 def check(p: Mapping[str, Any]) -> None:
     if "base" not in p:
         raise ValueError("sweep.base: the Z-width job needs a base scene")
-    if p.get("encoder", "interpolated") != "interpolated":
-        raise ValueError("encoder: only 'interpolated' is implemented (the plain-quadrature "
-                         "gateware option is not built yet)")
+    if p.get("run.position", "interpolated") not in ("interpolated", "quadrature"):
+        raise ValueError("run.position: 'interpolated' or 'quadrature'")
     scene_of(p)
 
 
@@ -112,6 +111,7 @@ def job(p: Mapping[str, Any]) -> dict[str, Any]:
     crossings = int((np.signbit(v[1:]) != np.signbit(v[:-1])).sum()) if v.size > 1 else 0
     T = 1.0 / float(sc.run.servo_hz)
     return {"k": float(sc.env.k), "b_wall": float(sc.env.b), "servo_hz": int(sc.run.servo_hz),
+            "position": str(sc.run.position),
             "stable": bool(stable), "a_early_um": a_early * 1e6, "a_late_um": a_late * 1e6,
             "late_half_periods": crossings, "depth_max_um": float(np.nanmax(depth) * 1e6),
             "fw_error": runner.ERR_NAMES[err] if err < len(runner.ERR_NAMES) else str(err),
@@ -172,11 +172,16 @@ def _expm(x: np.ndarray, terms: int = 30) -> np.ndarray:
     return out
 
 
+def _pos(r: dict[str, Any]) -> str:
+    return str(r.get("position") or "interpolated")
+
+
 def kmax_table(rows: list[dict[str, Any]]) -> list[dict[str, Any]]:
     """K_max per (servo rate, B): the largest K of a stable run below which every K is stable."""
     out = []
-    for (hz, bw) in sorted({(int(r["servo_hz"]), float(r["b_wall"])) for r in rows}):
-        sel = sorted((r for r in rows if int(r["servo_hz"]) == hz and
+    for (pos, hz, bw) in sorted({(_pos(r), int(r["servo_hz"]), float(r["b_wall"]))
+                                 for r in rows}):
+        sel = sorted((r for r in rows if int(r["servo_hz"]) == hz and _pos(r) == pos and
                       float(r["b_wall"]) == bw), key=lambda r: float(r["k"]))
         kmax = 0.0
         for r in sel:
@@ -184,8 +189,9 @@ def kmax_table(rows: list[dict[str, Any]]) -> list[dict[str, Any]]:
                 break
             kmax = float(r["k"])
         first_bad = next((float(r["k"]) for r in sel if not r["stable"]), math.inf)
-        out.append({"servo_hz": hz, "b_wall": bw, "k_max": kmax, "k_first_unstable": first_bad,
-                    "b_phys": float(sel[0]["b_phys_nsm"]), "m_eff": float(sel[0]["m_eff_kg"])})
+        out.append({"position": pos, "servo_hz": hz, "b_wall": bw, "k_max": kmax,
+                    "k_first_unstable": first_bad, "b_phys": float(sel[0]["b_phys_nsm"]),
+                    "m_eff": float(sel[0]["m_eff_kg"])})
     return out
 
 
@@ -194,32 +200,34 @@ def plot(rows: list[dict[str, Any]], path: Any) -> None:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
     fig, ax = plt.subplots(figsize=(7, 5))
-    rates = sorted({int(r["servo_hz"]) for r in rows})
-    marks = {rates[0]: ("o", "tab:blue")} | ({rates[-1]: ("s", "tab:red")}
-                                           if len(rates) > 1 else {})
-    for hz in rates:
-        mk, col = marks.get(hz, ("^", "tab:green"))
-        sel = [r for r in rows if int(r["servo_hz"]) == hz]
+    confs = sorted({(_pos(r), int(r["servo_hz"])) for r in rows})
+    style = {("interpolated", 1000): ("o", "tab:blue"), ("interpolated", 10000): ("s", "tab:red"),
+             ("quadrature", 1000): ("^", "tab:green"), ("quadrature", 10000): ("D", "tab:purple")}
+    for pos, hz in confs:
+        mk, col = style.get((pos, hz), ("x", "tab:gray"))
+        sel = [r for r in rows if int(r["servo_hz"]) == hz and _pos(r) == pos]
         st = [r for r in sel if r["stable"]]
-        un = [r for r in sel if not r["stable"]]
+        lab = f"{pos}, {hz} Hz"
         ax.scatter([r["b_wall"] for r in st], [r["k"] for r in st], marker=mk, color=col,
-                   label=f"{hz} Hz stable")
-        ax.scatter([r["b_wall"] for r in un], [r["k"] for r in un], marker=mk,
-                   facecolors="none", edgecolors=col, label=f"{hz} Hz unstable")
-        tab = [t for t in kmax_table(sel)]
+                   s=18, label=f"{lab}: stable")
+        tab = kmax_table(sel)
         ax.plot([t["b_wall"] for t in tab], [max(t["k_max"], 1.0) for t in tab], color=col,
-                lw=1)
-        bp = float(sel[0]["b_phys_nsm"])
-        bs = np.linspace(0, max(r["b_wall"] for r in rows), 50)
-        kb = 2 * (bp - bs) * hz
-        ax.plot(bs[kb > 0], kb[kb > 0], ls="--", color=col, lw=0.8,
-                label=f"2(b-|B|)/T, {hz} Hz")
+                lw=1.2, label=f"{lab}: K_max")
+    for hz in sorted({c[1] for c in confs}):
+        bp = float(rows[0]["b_phys_nsm"])
+        bs = np.linspace(0, bp, 50)
+        ax.plot(bs, [max(2 * (bp - x) * hz, 1.0) for x in bs], ls="--", color="k", lw=0.6)
+        ax.plot(bs, [max(latency_bound(bp, x, 1.0 / hz), 1.0) for x in bs], ls="-.",
+                color="k", lw=0.6)
     ax.axhline(3500, color="k", ls=":", lw=0.8, label="35 N/cm (PHANToM-class)")
+    ax.plot([], [], ls="--", color="k", lw=0.6, label="2(b-|B|)/T (passivity, ideal)")
+    ax.plot([], [], ls="-.", color="k", lw=0.6, label="(b-|B|)/(T/2+tau) (with latency)")
     ax.set_yscale("log")
     ax.set_xscale("symlog", linthresh=1.0)
     ax.set_xlabel("wall damping B, N s/m")
     ax.set_ylabel("wall stiffness K, N/m")
     ax.set_title("Z-width of the virtual wall (rtl gateware + firmware, axis beta)")
+    ax.set_ylim(50, 1e5)
     ax.legend(fontsize=7, loc="best")
     fig.tight_layout()
     fig.savefig(path, dpi=120)

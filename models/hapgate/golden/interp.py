@@ -38,6 +38,9 @@ Algorithm (one axis, per ADC sample a, b: 8-bit two's complement, A = R sin(phi)
    Control events (clear, arm) apply to the first sample captured at or after the pulse.
 9. Direction invert (cfg.invert, RTL INVERT): A and B are swapped at capture, i.e. the angle
    90deg - phi: the count runs the other way and quadrant 0 (the index quadrant) maps onto itself.
+10. Plain quadrature (cfg.coarse, RTL COARSE): the fine angle f is zeroed, so pos counts whole
+   quadrants (4096 steps per revolution, in the same 2^20 counts/rev units): the paper's
+   interpolator with its interpolation dropped, for comparisons (the Z-width sweep).
 """
 
 from __future__ import annotations
@@ -65,6 +68,7 @@ class InterpConfig:
     loss_samples: int = 16     # consecutive out-of-window samples that raise signal loss
     lines: int = 1024          # encoder lines per revolution (for unit conversions only)
     invert: bool = False       # count the other way: A and B swapped at capture (90deg - phi)
+    coarse: bool = False       # plain quadrature: the fine angle zeroed (RTL COARSE), 4 steps/line
 
     @property
     def fine_bits(self) -> int:
@@ -92,7 +96,7 @@ class InterpConfig:
         return {"LUT_BITS": self.lut_bits, "VEL_LOG2W": self.vel_log2w,
                 "AMP_MIN": self.amp_min, "AMP_MAX": self.amp_max,
                 "LOSS_SAMPLES": self.loss_samples, "LUT_FILE": write_lut(self),
-                "INVERT": int(self.invert)}
+                "INVERT": int(self.invert), **({"COARSE": 1} if self.coarse else {})}
 
 
 BOARD_CLK_HZ = 48_000_000   # a board-like clock (iCE40 UP5K class)
@@ -240,6 +244,8 @@ def run(a: np.ndarray, b: np.ndarray, index: np.ndarray | None = None,
     if cfg.invert:
         a, b = b, a
     q, f = quadrant_and_fine(a, b, table, cfg.lut_bits)
+    if cfg.coarse:                                      # plain quadrature: no fine angle
+        f = np.zeros_like(f)
 
     # 4. quadrant counter: a cumulative sum of steps; overspeed steps follow the last direction.
     # int32 arithmetic wraps exactly like the 32-bit register.

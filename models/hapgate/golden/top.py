@@ -76,7 +76,8 @@ class TopConfig:
                 "WR_CYCLES": c.wr_cycles, **{k: v for k, v in c.rtl_params().items()
                                              if k in ("ADDR_BITS", "MAG_BITS", "FS")},
                 "SINE_FILE": c.rtl_params()["LUT_FILE"], "DAC_BITS": c.dac_bits,
-                "OFFSET_BINARY": int(c.offset_binary), "BUS_ADDR_BITS": 8}
+                "OFFSET_BINARY": int(c.offset_binary), "BUS_ADDR_BITS": 8,
+                **({"COARSE": 1} if i.coarse else {})}
 
 
 def blocks() -> list[Block]:
