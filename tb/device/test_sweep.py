@@ -143,3 +143,13 @@ def test_device_zwidth_at_b0_brackets_the_bound(servo_hz: int) -> None:
                                                                           1.0 / servo_hz),
                          "env.b": bw, "run.servo_hz": servo_hz})
     assert damped["stable"], damped
+
+
+def test_scene_k_beyond_safety_limit_only_with_test_limits() -> None:
+    base = load_scene(SCENES / "zwidth_base.toml")
+    assert base.override({"env.k": 50_000.0}).env.k == 50_000.0
+    off = base.override({"firmware.test_limits": False, "env.k": 3500.0})
+    with pytest.raises(ValueError, match=r"env\.k.*HG_SCENE_K_MAX\)"):
+        off.override({"env.k": 3600.0})
+    with pytest.raises(ValueError, match=r"env\.k.*HG_SCENE_K_MAX_TEST"):
+        base.override({"env.k": 50_001.0})
