@@ -299,7 +299,10 @@ def run(spec: Spec, workers: int = 2, scheduler: str | None = None,
             retried = _retries_seen(client, [f"{spec.kind}-{keys[i]}" for i in todo],
                                     spec.retries)
         finally:
+            cluster = client.cluster if scheduler is None else None
             client.close()
+            if cluster is not None:                 # ours: shut the workers down cleanly
+                cluster.close()
     bar.close()
     return SweepResult(spec, params, [r or {} for r in records], cached,
                        time.perf_counter() - t0, used, scheduler or f"LocalCluster({workers})",
