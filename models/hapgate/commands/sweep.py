@@ -18,6 +18,7 @@ from pathlib import Path
 from ..base.paths import BUILD
 from ..base.report import table
 from ..device import sweep
+from . import sweep_report
 
 EXIT_OK, EXIT_FAIL, EXIT_BAD_INPUT, EXIT_NO_RUN = 0, 1, 2, 3
 
@@ -91,7 +92,7 @@ def main(args: argparse.Namespace) -> int:
         from ..device import zwidth
         for d in args.compare:
             rows = rows + read_rows(d / "results.csv")
-        tab = zwidth.kmax_table(rows)
+        tab = sweep_report.kmax_table(rows)
         print(table(["position", "servo Hz", "B N s/m", "K_max N/m", "first unstable K",
                      "2(b-|B|)/T", "(b-|B|)/(T/2+tau)", "35 N/cm stable"],
                     [[t["position"], str(t["servo_hz"]), f"{t['b_wall']:g}",
@@ -100,18 +101,16 @@ def main(args: argparse.Namespace) -> int:
                       f"{zwidth.latency_bound(t['b_phys'], t['b_wall'], 1 / t['servo_hz']):.0f}",
                       "yes" if t["k_max"] >= 3500 else "no"] for t in tab]))
         (out / "kmax.json").write_text(json.dumps(tab, indent=2, default=str))
-        zwidth.plot(rows, out / "zwidth.png")
+        sweep_report.zwidth_plot(rows, out / "zwidth.png")
         files += [out / "kmax.json", out / "zwidth.png"]
     elif spec.kind == "soak":
-        from ..device import soak
-        print(table(["soak", "value"], soak.report(rows, res.wall_s, res.workers)))
+        print(table(["soak", "value"], sweep_report.soak_table(rows, res.wall_s, res.workers)))
         bad = sum(int(r[k]) for r in rows for k in ("slips", "false_overspeed",
                                                       "missed_overspeed"))
         status = EXIT_FAIL if bad else EXIT_OK
     elif spec.kind == "calib_mc":
         import numpy as np
 
-        from ..device import calib_mc
         for mode in sorted({str(r["calibration"]) for r in rows}):
             v = np.array([float(r["err_rms_elec_deg"]) for r in rows
                           if str(r["calibration"]) == mode])
@@ -122,7 +121,7 @@ def main(args: argparse.Namespace) -> int:
                         [[mode, str(v.size), f"{np.median(v):.3f}",
                           f"{np.percentile(v, 95):.3f}", f"{np.percentile(mx, 95):.3f}",
                           f"{mx.max():.3f}", "n/a (off)" if mode == "off" else "-"]]))
-        calib_mc.plot(rows, out / "histogram.png")
+        sweep_report.calib_plot(rows, out / "histogram.png")
         files.append(out / "histogram.png")
     print(f"{len(rows)} jobs ({sum(res.cached)} from the cache, {res.retried} rerun after a "
           f"lost worker or a retry) in {res.wall_s:.1f} s on {res.workers} workers "

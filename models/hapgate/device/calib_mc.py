@@ -73,19 +73,3 @@ def job(p: Mapping[str, Any]) -> dict[str, Any]:
             "err_rms_elec_deg": float(interp.counts_to_elec_deg(rms, cfg)),
             "err_max_elec_deg": float(interp.counts_to_elec_deg(mx, cfg)),
             "convergence_samples": math.nan}                # no calibration: nothing converges
-
-
-def plot(rows: list[dict[str, Any]], path: Any) -> None:
-    import matplotlib
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-    fig, ax = plt.subplots(figsize=(6, 4))
-    for mode in sorted({str(r["calibration"]) for r in rows}):
-        v = [float(r["err_rms_elec_deg"]) for r in rows if str(r["calibration"]) == mode]
-        ax.hist(v, bins=50, alpha=0.6, label=f"calibration {mode} ({len(v)} sets)")
-    ax.set_xlabel("RMS error after convergence, electrical degrees")
-    ax.set_ylabel("imperfection sets")
-    ax.legend()
-    fig.tight_layout()
-    fig.savefig(path, dpi=120)
-    plt.close(fig)

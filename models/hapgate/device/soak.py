@@ -208,29 +208,3 @@ def evaluate(x: np.ndarray, motions: list[dict[str, Any]],
                 "false_overspeed": false_ovs, "missed_overspeed": missed_ovs,
                 "peak_clean_rev_s": peak_clean,
                 "v_safe_noisy_min_rev_s": v_noisy_min if math.isfinite(v_noisy_min) else 0.0}
-
-
-def report(rows: list[dict[str, Any]], wall_s: float, workers: int) -> list[list[str]]:
-    """The soak's totals as table rows."""
-    tot = sum(int(r["samples"]) for r in rows)
-    harness = sum(float(r["harness_s"]) for r in rows)
-    gen = sum(float(r["gen_s"]) for r in rows)
-    def s(k: str) -> int:
-        return sum(int(r[k]) for r in rows)
-    return [["jobs", str(len(rows))], ["ADC samples (3 axes)", f"{tot:.4g}"],
-            ["wall time, s", f"{wall_s:.1f}"], ["workers", str(workers)],
-            ["samples/s per worker (wall)", f"{tot / wall_s / max(workers, 1):.3g}"
-             if wall_s > 0 else "-"],
-            ["harness samples/s (RTL only)", f"{tot / harness:.3g}" if harness else "-"],
-            ["stimulus generation, s (sum)", f"{gen:.1f}"],
-            ["slips", str(s("slips"))], ["index latches checked", str(s("index_latches"))],
-            ["index latch errors", str(s("index_latch_errors"))],
-            ["max |pos - truth|, counts",
-             f"{max(float(r['pos_err_max_counts']) for r in rows):.1f}"],
-            ["segments below the limit", str(s("segments_below"))],
-            ["false overspeed", str(s("false_overspeed"))],
-            ["segments over 244.2 rev/s", str(s("segments_over"))],
-            ["missed overspeed", str(s("missed_overspeed"))],
-            ["peak clean speed, rev/s", f"{max(float(r['peak_clean_rev_s']) for r in rows):.3f}"],
-            ["lowest noisy v_safe, rev/s",
-             f"{min(float(r['v_safe_noisy_min_rev_s']) or math.inf for r in rows):.1f}"]]
