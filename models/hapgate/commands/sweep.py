@@ -123,11 +123,10 @@ def main(args: argparse.Namespace) -> int:
                           f"{mx.max():.3f}", "n/a (off)" if mode == "off" else "-"]]))
         sweep_report.calib_plot(rows, out / "histogram.png")
         files.append(out / "histogram.png")
-    print(f"{len(rows)} jobs ({sum(res.cached)} from the cache, {res.retried} rerun after a "
+    print(f"{len(res.records)} jobs ({sum(res.cached)} from the cache, {res.retried} rerun after a "
           f"lost worker or a retry) in {res.wall_s:.1f} s on {res.workers} workers "
           f"({res.scheduler}); "
-          f"{len(rows) / res.wall_s if res.wall_s > 0 and not math.isinf(res.wall_s) else 0:.2f}"
-          " jobs/s")
+          f"{len(res.records) / res.wall_s if 0 < res.wall_s < math.inf else 0:.2f} jobs/s")
     print("wrote " + ", ".join(str(f) for f in files))
     return status
 
