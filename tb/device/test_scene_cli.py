@@ -63,7 +63,7 @@ class FakeRunner:
         self.exc, self.arrays = exc, arrays
         self.calls: list[Scene] = []
 
-    def run(self, scene: Scene, progress) -> res.RunResult:  # noqa: ANN001
+    def run(self, scene: Scene, progress, out_dir=None) -> res.RunResult:  # noqa: ANN001
         self.calls.append(scene)
         progress(scene.run.duration_s / 2)
         progress(scene.run.duration_s, scene.run.duration_s)   # (done, total) also accepted

@@ -80,7 +80,7 @@ def run_file(file: Path, out_dir: Path | None = None) -> int:
         return EXIT_NO_RUN
     try:
         with Progress(total=scene.run.duration_s, label=scene.name, unit="s") as bar:
-            r = runner.run(scene, progress=bar)
+            r = runner.run(scene, progress=bar, out_dir=out)
     except SceneError as exc:          # the runner refuses a combination it cannot build
         _err(str(exc))
         return EXIT_BAD_INPUT

@@ -17,7 +17,7 @@ import subprocess
 import sys
 import tempfile
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
@@ -52,11 +52,13 @@ STEADY_AFTER_S, STEADY_SPEED, STEADY_DEPTH = 5e-3, 2e-2, 2e-4
 CODE_FS = 32767              # firmware torque code at full scale
 
 FRAME_DT = np.dtype([("t", "<f8"), ("q", "<f8", 3), ("p", "<f8", 3), ("f_hand", "<f8", 3),
-                     ("tau", "<f8", 3), ("i_ab", "<f8", 6), ("dac", "<i2", 6), ("pad", "<i2"),
+                     ("tau", "<f8", 3), ("i_ab", "<f8", 6), ("energy", "<f8"),
+                     ("dac", "<i2", 6), ("pad", "<i2"),
                      ("pad2", "<u4")], align=True)
 TICK_DT = np.dtype([("t", "<f8"), ("q_fw", "<f8", 3), ("q_true", "<f8", 3), ("p_fw", "<f8", 3),
                     ("f_fw", "<f8", 3), ("tau_fw", "<f8", 3), ("pos_err", "<i4", 3),
-                    ("status", "<u4"), ("err", "u1"), ("err_axis", "u1"), ("drive", "u1"),
+                    ("pos", "<i4", 3), ("status", "<u4"), ("err", "u1"), ("err_axis", "u1"),
+                    ("drive", "u1"),
                     ("pad", "u1")], align=True)
 LOAD_DT = np.dtype([("edge", "<i8"), ("ch", "<i4"), ("code", "<i4")])
 
@@ -93,7 +95,7 @@ def build(clk_hz: int, mask: int = 7, trace: bool = False, test_limits: bool = F
     srcs = [ROOT / "rtl" / s for s in block.sources]
     params = cfg.rtl_params() | {"AXIS_MASK": mask}
     fw_srcs = sorted((FW / "src").glob("*.c")) + sorted((FW / "include").glob("*.h"))
-    vflags = ["-DHG_SIM"] + (["--trace-fst"] if trace else [])
+    vflags = ["-DHG_SIM"] + (["--trace"] if trace else [])   # VCD: FST needs liblz4 headers
     defs = (f"HG_SCENE_K_MAX_TEST={K_MAX_TEST:.1f}",) if test_limits else ()
     return native.verilate_harness(
         "device_harness", block.top, srcs, params, HARNESS,
@@ -187,9 +189,7 @@ def hold_values(scene: Any, q0: np.ndarray) -> dict[str, list[int]]:
         e = _enc(scene, i)
         q = q0[i] - np.deg2rad(SWEEP_DEG) * (1 - s)
         lines = (q - qi[i]) / (2 * np.pi) * encsig.LINES
-        spec = encsig.SignalSpec(amplitude=e.amplitude, offset_a=e.offset_a, offset_b=e.offset_b,
-                                 gain_a=e.gain_a, gain_b=e.gain_b, phase_deg=e.phase_deg,
-                                 h2=e.h2, h3=e.h3, noise_lsb=0.0)
+        spec = replace(e.spec(seed=0), noise_lsb=0.0)
         a, b = encsig.adc_codes(lines, spec)
         o = interp.run(a, b, encsig.index_bit(lines), InterpConfig(coarse=_coarse(scene)),
                        arm_at=[0])
@@ -211,10 +211,15 @@ def run_config(scene: Any, q0: np.ndarray) -> str:
              f"env_b = {float(getattr(env, 'b', 0.0) or 0.0)!r}",
              f"env_ki = {float(getattr(env, 'ki', 0.0) or 0.0)!r}",
              f"q0 = {_vec(q0)}", f"q_index = {_vec(q_index(q0))}",
+             f"qd0 = {_vec(np.deg2rad(getattr(scene.run, 'qd0_deg_s', None) or (0, 0, 0)))}",
              f"sweep_rad = {math.radians(SWEEP_DEG)!r}", f"t_sweep_s = {T_SWEEP_S!r}",
              f"t_settle_s = {T_SETTLE_S!r}",
              f"comm_err = {' '.join(str(int(v)) for v in scene.firmware.comm_offset_error_counts)}",
              f"record = {record_mask(scene)}"]
+    timeout_ms = getattr(scene.firmware, "pc_force_timeout_ms", None)
+    if timeout_ms is not None:
+        ticks = int(round(timeout_ms * scene.run.servo_hz / 1000))
+        lines.append(f"pc_force_timeout_ticks = {ticks}")
     for k, v in hold_values(scene, q0).items():
         lines.append(f"{k} = {' '.join(str(x) for x in v)}")
     for f in scene.faults:
@@ -233,6 +238,8 @@ def record_mask(scene: Any) -> int:
     m = 1 if rec & set(PLANT_RECORDS) else 0
     if "dac" in rec or scene.faults:
         m |= 2      # the DAC loads time the safety reactions
+    if "adc" in rec:
+        m |= 4
     return m
 
 
@@ -250,6 +257,7 @@ class Raw:
     built: list[str] = field(default_factory=list)
     skipped: list[str] = field(default_factory=list)
     trace: Path | None = None
+    adc: np.ndarray | None = None
 
 
 def _progress_reader(proc: subprocess.Popen, duration: float, progress: Any) -> str:
@@ -301,11 +309,14 @@ def simulate(scene: Any, clk_hz: int | None = None, mask: int | None = None,
         frames = np.fromfile(tmp / "frames.bin", dtype=FRAME_DT)
         ticks = np.fromfile(tmp / "ticks.bin", dtype=TICK_DT)
         loads = np.fromfile(tmp / "loads.bin", dtype=LOAD_DT)
+        adc = np.fromfile(tmp / "adc.bin", dtype=np.int8).reshape(-1, 6)
         trace_path = None
-        if trace and (tmp / "trace.fst").exists():
-            trace_path = tmp / "trace.fst"
+        if trace and (tmp / "trace.vcd").exists():
+            if out_dir is None:
+                raise DeviceError("trace = true needs an output directory")
+            trace_path = tmp / "trace.vcd"
     return Raw(summary, frames, ticks, loads, float(summary.get("wall_s", wall)), clk, m,
-               built, skipped, trace_path)
+               built, skipped, trace_path, adc)
 
 
 # ---------------------------------------------------------------------------------- metrics
@@ -414,9 +425,11 @@ def metrics(scene: Any, raw: Raw) -> tuple[dict[str, Any], dict[str, list[float]
             fin = [r for r in ratios if math.isfinite(r)]
             if fin:
                 m["torque_ratio"] = float(min(fin))
-        if scene.hand.kind == "none" and scene.env.kind == "none":
-            v = np.gradient(p, fr["t"], axis=0) if fr.size > 2 else np.zeros_like(p)
-            del v
+        # mechanical energy of the linkage (kinetic + the hand's spring): meaningful as a
+        # conservation check when nothing injects or removes energy (coast.toml)
+        e = fr["energy"]
+        if e.size and e[0] > 0:
+            m["energy_drift_frac"] = float(np.abs(e / e[0] - 1).max())
     return m, per, evs
 
 
@@ -425,7 +438,12 @@ def run(scene: Any, progress: Any = None, out_dir: Path | None = None) -> Any:
     from .result import RunResult
     if scene.run.fidelity != "rtl":
         raise DeviceError(f"fidelity {scene.run.fidelity!r}: only 'rtl' is implemented so far")
-    raw = simulate(scene, progress=progress, out_dir=out_dir)
+    work = None
+    if scene.run.trace:        # the waveform goes beside the scene's other outputs
+        work = ensure((out_dir or BUILD / "scenes" / scene.name) / "harness")
+    raw = simulate(scene, progress=progress, out_dir=work)
+    if raw.trace is not None:
+        raw.built.append(f"waveform trace {raw.trace}")
     m, per, evs = metrics(scene, raw)
     arrays = arrays_of(scene, raw)
     sim_s = float(raw.summary["sim_s"])
@@ -448,7 +466,13 @@ def arrays_of(scene: Any, raw: Raw) -> dict[str, np.ndarray]:
     if "dac" in rec:
         a["dac"] = fr["dac"].astype(np.int16)
         a["dac_t"] = fr["t"].copy()
+    if "adc" in rec and raw.adc is not None:
+        a["adc"] = raw.adc.copy()                       # A0 B0 A1 B1 A2 B2 per 1 us sample
+        a["adc_t"] = np.arange(raw.adc.shape[0]) * 1e-6
     tk = raw.ticks
+    if "pos" in rec:
+        a["pos"] = tk["pos"].copy()                     # snapshot positions per servo tick
+        a["pos_t"] = tk["t"].copy()
     a["tick_t"] = tk["t"].copy()
     a["tick_pos_err_counts"] = tk["pos_err"].copy()
     a["tick_f_cmd"] = tk["f_fw"].copy()

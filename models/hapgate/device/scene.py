@@ -66,7 +66,7 @@ class RunCfg:
     axes: tuple[int, ...] = (0, 1, 2)   # simulated axes (sorted); the others are not built
     servo_hz: int = 1000             # firmware servo rate, Hz, 100..10000, divides 1 MHz
     clk_hz: int = 0                  # FPGA clock, Hz; 0 = lowest bit-identical clock
-    trace: bool = False              # FST waveform of the gateware
+    trace: bool = False              # VCD waveform of the gateware (<out>/harness/trace.vcd)
     record: tuple[str, ...] = ("q", "p", "f_hand", "tau", "dac")   # outputs computed and saved
     seed: int = 1                    # seeds every random source (encoder noise, link garbage)
     q0_deg: tuple[float, float, float] | None = None   # initial joint angles, deg (resolved

@@ -467,8 +467,13 @@ void hg_plant_step(hg_plant* s, int n) {
 }
 
 void hg_plant_adc(hg_plant* s, int8_t a[3], int8_t b[3], uint8_t idx[3]) {
+    hg_plant_adc_mask(s, 7, a, b, idx);
+}
+
+void hg_plant_adc_mask(hg_plant* s, int mask, int8_t a[3], int8_t b[3], uint8_t idx[3]) {
     const Params& P = s->P;
     for (int i = 0; i < 3; ++i) {
+        if (!((mask >> i) & 1)) continue;
         const double x = (s->q[i] - P.q_index[i]) / (2 * kPi) * P.lines;
         double na = 0, nb = 0;
         if (P.noise[i] > 0) {

@@ -28,6 +28,8 @@ void hg_plant_set_q(hg_plant* p, const double q[3], const double qd[3]);
 
 // ADC codes of axis i for the current state (A, B int8; index bit), noise drawn per call.
 void hg_plant_adc(hg_plant* p, int8_t a[3], int8_t b[3], uint8_t idx[3]);
+// The same for the axes in `mask` only (bit i = axis i); the others are left untouched.
+void hg_plant_adc_mask(hg_plant* p, int mask, int8_t a[3], int8_t b[3], uint8_t idx[3]);
 
 // State read-out (SI units): time, joint angles and rates, endpoint, force on the hand, motor
 // torques, phase currents (a, b per motor), kinetic + hand-spring energy.
