@@ -5,6 +5,7 @@
 #   make test     lint + every test (pytest -n auto, Verilator and Icarus)
 #   make lint     ruff, verilator -Wall, Icarus elaboration, Yosys synthesis checks
 #   make bench    benchmarks: tables on stdout, CSV/PNG in build/reports/
+#   make soak     10^9 ADC samples through the interpolator on Dask (scenes/sweeps/soak.toml)
 #   make synth    Yosys resource table per block, then nextpnr place and route of the board tops
 #                 (bitstreams; fails on a fit or timing failure)
 #   make gatelevel the board tops' post-synthesis netlists beside their RTL (minutes)
@@ -20,7 +21,7 @@ HG      := $(VENV)/bin/hapgate
 PYTEST  := $(VENV)/bin/pytest
 PYTEST_ARGS ?= -n auto
 
-.PHONY: all venv demo test lint bench versions synth gatelevel formal regs mutants clean distclean
+.PHONY: all venv demo test lint bench soak versions synth gatelevel formal regs mutants clean distclean
 
 all: test
 
@@ -54,6 +55,10 @@ bench: $(STAMP)
 # Mutation testing (not part of `make test`): MUTANTS_ARGS="--only NAME ..." or "--jobs 2"
 mutants: $(STAMP)
 	$(HG) mutants $(MUTANTS_ARGS)
+
+SOAK_WORKERS ?= 2
+soak: $(STAMP)
+	$(HG) sweep scenes/sweeps/soak.toml --workers $(SOAK_WORKERS)
 
 synth: $(STAMP)
 	$(HG) synth

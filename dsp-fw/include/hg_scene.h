@@ -22,6 +22,14 @@ enum {
 #define HG_SCENE_B_MAX  HG_C(100.0)   /* N s/m */
 #define HG_SCENE_KI_MAX HG_C(1.0e5)   /* N/(m s) */
 #define HG_SCENE_P_MAX  HG_C(0.2)     /* m, |p0| */
+/* The k that hg_scene_check() accepts: HG_SCENE_K_MAX, the safety limit of every build, unless
+ * a simulation build defines HG_SCENE_K_MAX_TEST (a separately named test limit: the Z-width
+ * sweep, models/hapgate/device/zwidth.py, renders walls up to 50 000 N/m). Never on hardware. */
+#ifdef HG_SCENE_K_MAX_TEST
+#define HG_SCENE_K_LIMIT ((hg_real)(HG_SCENE_K_MAX_TEST))
+#else
+#define HG_SCENE_K_LIMIT HG_SCENE_K_MAX
+#endif
 
 typedef struct {
     uint8_t type;    /* HG_SCENE_* */

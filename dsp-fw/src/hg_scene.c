@@ -16,7 +16,7 @@ int hg_scene_check(hg_scene_t *sc)
 {
     if (sc->type >= HG_SCENE_COUNT)
         return -1;
-    if (!in_range(sc->k, HG_SCENE_K_MAX) || !in_range(sc->b, HG_SCENE_B_MAX)
+    if (!in_range(sc->k, HG_SCENE_K_LIMIT) || !in_range(sc->b, HG_SCENE_B_MAX)
         || !in_range(sc->ki, HG_SCENE_KI_MAX)
         || !in_range(dot3(sc->p0, sc->p0), HG_SCENE_P_MAX * HG_SCENE_P_MAX))
         return -1;

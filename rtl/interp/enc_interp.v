@@ -18,7 +18,8 @@ module enc_interp #(
     parameter integer CAL          = 0,         // 1: build the online calibration stage (enc_calib)
     parameter         CAL_LUT_FILE = "asin512.hex", // CAL = 1: 512-entry table (enccal.cal_table)
     parameter integer CAL_LINES_LOG2 = 3,       // CAL = 1: calibration block 2**N lines
-    parameter integer CAL_NLOG     = 14         // CAL = 1: blocks of 2**N samples or more ignored
+    parameter integer CAL_NLOG     = 14,        // CAL = 1: blocks of 2**N samples or more ignored
+    parameter integer COARSE       = 0          // 1: plain quadrature, the fine angle zeroed (4 steps/line)
 ) (
     input  wire        clk,
     input  wire        rst,
@@ -264,7 +265,8 @@ module enc_interp #(
 
     // ---------------------------------------------------------------- stage C: count, index, faults
     wire [FB:0]    lut_ext = {{(FB + 1 - LUT_BITS){1'b0}}, lut_b};
-    wire [FB:0]    fine    = half_b ? QUADRANT - lut_ext : lut_ext;  // mirror: 2**FB - T, not -1
+    wire [FB:0]    fine_i  = half_b ? QUADRANT - lut_ext : lut_ext;  // mirror: 2**FB - T, not -1
+    wire [FB:0]    fine    = (COARSE != 0) ? {(FB + 1){1'b0}} : fine_i;
 
     reg            started, last_up, idx_prev, arm_pend, homed_q;
     reg [1:0]      q_prev;

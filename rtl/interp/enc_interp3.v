@@ -19,7 +19,8 @@ module enc_interp3 #(
     parameter integer CAL          = 0,          // 1: online calibration stage in every axis
     parameter         CAL_LUT_FILE = "asin512.hex", // CAL = 1: 512-entry arcsine table
     parameter integer CAL_LINES_LOG2 = 3,        // CAL = 1: calibration block 2**N lines
-    parameter integer CAL_NLOG     = 14          // CAL = 1: blocks of 2**N samples ignored
+    parameter integer CAL_NLOG     = 14,         // CAL = 1: blocks of 2**N samples ignored
+    parameter integer COARSE       = 0           // 1: plain quadrature (fine angle zeroed)
 ) (
     input  wire                 clk,
     input  wire                 rst,
@@ -73,7 +74,7 @@ module enc_interp3 #(
                 .LUT_BITS(LUT_BITS), .LUT_FILE(LUT_FILE), .VEL_LOG2W(VEL_LOG2W),
                 .AMP_MIN(AMP_MIN), .AMP_MAX(AMP_MAX), .LOSS_SAMPLES(LOSS_SAMPLES),
                 .INVERT((INVERT_MASK >> i) & 1), .CAL(CAL), .CAL_LUT_FILE(CAL_LUT_FILE),
-                .CAL_LINES_LOG2(CAL_LINES_LOG2), .CAL_NLOG(CAL_NLOG)
+                .CAL_LINES_LOG2(CAL_LINES_LOG2), .CAL_NLOG(CAL_NLOG), .COARSE(COARSE)
             ) u_axis (
                 .clk(clk), .rst(rst),
                 .s_valid(adc_strobe),

@@ -19,6 +19,7 @@ module hapgate_top #(
     parameter         CAL_LUT_FILE  = "asin512.hex", // CAL = 1: its arcsine table (enccal.cal_table)
     parameter integer CAL_LINES_LOG2 = 3,         // CAL = 1: calibration block 2**N lines
     parameter integer CAL_NLOG      = 14,         // CAL = 1: blocks of 2**N samples ignored
+    parameter integer COARSE        = 0,          // 1: plain quadrature, fine angle zeroed (Z-width)
     parameter integer LINES_LOG2    = 10,         // encoder lines per revolution = 2**LINES_LOG2
     parameter integer POLE_PAIRS    = 2,          // motor electrical cycles per revolution
     parameter integer SKEW_NS       = 2000,       // DAC channel-to-channel skew
@@ -137,7 +138,7 @@ module hapgate_top #(
         .CLK_HZ(CLK_HZ), .SAMPLE_HZ(SAMPLE_HZ), .AXES(NAX), .LUT_BITS(LUT_BITS),
         .LUT_FILE(ASIN_FILE), .VEL_LOG2W(VEL_LOG2W), .AMP_MIN(AMP_MIN), .AMP_MAX(AMP_MAX),
         .LOSS_SAMPLES(LOSS_SAMPLES), .CAL(CAL), .CAL_LUT_FILE(CAL_LUT_FILE),
-        .CAL_LINES_LOG2(CAL_LINES_LOG2), .CAL_NLOG(CAL_NLOG)
+        .CAL_LINES_LOG2(CAL_LINES_LOG2), .CAL_NLOG(CAL_NLOG), .COARSE(COARSE)
     ) u_interp (
         .clk(clk), .rst(rst), .adc_strobe(adc_strobe), .adc_a(c_adc_a), .adc_b(c_adc_b),
         .enc_index(c_index), .ctl_fault_clear({NAX{fault_clear}}), .ctl_home_arm(c_arm),

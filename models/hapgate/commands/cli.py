@@ -175,6 +175,11 @@ def main(argv: list[str] | None = None) -> int:
     device.add_arguments(dsub.add_parser(
         "serve", help="serve the virtual device's PC link on a pty (prints 'port: /dev/pts/N')"))
     dp.set_defaults(fn=cmd_device)
+
+    from . import sweep
+
+    sweep.add_arguments(sub.add_parser(
+        "sweep", help="run a sweep spec on Dask: SPEC [--scheduler tcp://H:P] [--workers N]"))
     bp = sub.add_parser("bench", help="benchmarks: run time beside error (build/reports/)")
     bp.add_argument("--quick", action="store_true", help="smaller runs")
     bp.set_defaults(fn=cmd_bench)

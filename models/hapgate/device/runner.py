@@ -11,6 +11,7 @@ Why any clock gives the same result, and which clock is the lowest: tb/native/de
 
 from __future__ import annotations
 
+import functools
 import math
 import subprocess
 import sys
@@ -24,6 +25,7 @@ import numpy as np
 
 from ..base.paths import BUILD, ROOT, TB, ensure
 from ..golden import encsig, interp, kinematics
+from ..golden.interp import InterpConfig
 from ..golden.top import TopConfig, blocks
 from ..runners import cosim, native
 
@@ -33,6 +35,7 @@ FW = ROOT / "dsp-fw"
 MIN_CLK_HZ = 6_000_000       # lowest clock of the grid-aligned bus (README): D >= 6 clocks per us
 FULL_CLK_HZ = 48_000_000     # the shipped default
 SAMPLE_HZ = 1_000_000
+K_MAX_TEST = 50_000.0        # N/m: HG_SCENE_K_MAX_TEST of a firmware.test_limits build
 T_SWEEP0_S, T_SWEEP_S, T_SETTLE_S = 100e-6, 6e-3, 3e-3   # homing before scene time 0
 SWEEP_DEG = 0.5              # homing sweep, ending at q0; the index lies half-way
 LOSS_SAMPLES = 16            # interpolator: the 16th bad sample raises signal loss
@@ -82,20 +85,24 @@ def axis_mask(scene: Any) -> int:
     return sum(1 << int(a) for a in scene.run.axes)
 
 
-def build(clk_hz: int, mask: int = 7, trace: bool = False) -> Path:
-    """Verilate the top (HG_SIM, AXIS_MASK) with the harness, plant and firmware (cached)."""
-    cfg = TopConfig(clk_hz=clk_hz)
+def build(clk_hz: int, mask: int = 7, trace: bool = False, test_limits: bool = False,
+          coarse: bool = False) -> Path:
+    """Verilate the top (HG_SIM, AXIS_MASK) with the harness, plant and firmware (cached).
+    test_limits: the firmware built with HG_SCENE_K_MAX_TEST (scene key firmware.test_limits);
+    coarse: plain quadrature, the interpolator's fine angle zeroed (run.position)."""
+    cfg = TopConfig(clk_hz=clk_hz, interp=InterpConfig(coarse=coarse))
     block = blocks()[0]
     srcs = [ROOT / "rtl" / s for s in block.sources]
     params = cfg.rtl_params() | {"AXIS_MASK": mask}
     fw_srcs = sorted((FW / "src").glob("*.c")) + sorted((FW / "include").glob("*.h"))
     vflags = ["-DHG_SIM"] + (["--trace"] if trace else [])   # VCD: FST needs liblz4 headers
+    defs = (f"HG_SCENE_K_MAX_TEST={K_MAX_TEST:.1f}",) if test_limits else ()
     return native.verilate_harness(
         "device_harness", block.top, srcs, params, HARNESS,
         cflags=(f"-std=c++17 -DCLK_HZ={clk_hz} -DAXIS_MASK={mask} -DHG_TRACE={int(trace)} "
-                f"-I{HERE} -I{FW / 'include'}"),
+                f"-I{HERE} -I{FW / 'include'}" + "".join(f" -D{d}" for d in defs)),
         ldflags="fw/libhgfw.a -lm", inputs=[HERE / "plant.h", HERE / "uart_link.h", *fw_srcs],
-        prepare=cosim._fw_lib, vflags=vflags)
+        prepare=functools.partial(cosim._fw_lib, defines=defs), vflags=vflags)
 
 
 # ---------------------------------------------------------------------------------- configs
@@ -162,6 +169,10 @@ def plant_config(scene: Any, q0: np.ndarray) -> str:
     return "\n".join(lines) + "\n"
 
 
+def _coarse(scene: Any) -> bool:
+    return getattr(scene.run, "position", "interpolated") == "quadrature"
+
+
 def hold_values(scene: Any, q0: np.ndarray) -> dict[str, list[int]]:
     """What the interpolator of a held (not built) axis reports after the homing sweep: the
     golden model run on the same sweep, noise-free (README, "Axes that are not built")."""
@@ -180,7 +191,8 @@ def hold_values(scene: Any, q0: np.ndarray) -> dict[str, list[int]]:
         lines = (q - qi[i]) / (2 * np.pi) * encsig.LINES
         spec = replace(e.spec(seed=0), noise_lsb=0.0)
         a, b = encsig.adc_codes(lines, spec)
-        o = interp.run(a, b, encsig.index_bit(lines), TopConfig().interp, arm_at=[0])
+        o = interp.run(a, b, encsig.index_bit(lines), InterpConfig(coarse=_coarse(scene)),
+                       arm_at=[0])
         if not bool(o.homed[-1]):
             raise DeviceError(f"axis {i}: the homing sweep did not home the held axis")
         out["hold_pos_homed"][i] = int(o.pos_homed[-1])
@@ -266,7 +278,8 @@ def simulate(scene: Any, clk_hz: int | None = None, mask: int | None = None,
     clk = choose_clock(scene) if clk_hz is None else int(clk_hz)
     m = axis_mask(scene) if mask is None else int(mask)
     trace = bool(scene.run.trace)
-    exe = build(clk, m, trace)
+    exe = build(clk, m, trace, bool(getattr(scene.firmware, "test_limits", False)),
+                _coarse(scene))
     q0 = start_pose(scene)
     built = [f"interpolator axis {i}" for i in range(3) if m >> i & 1]
     built += ["commutator + DAC scheduler", "bus + register file", "firmware (dsp-fw)",

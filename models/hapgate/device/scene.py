@@ -48,6 +48,7 @@ TICK_HZ = 1_000_000                  # the FPGA's servo-tick time base (1 us)
 SAMPLE_HZ = encsig.SAMPLE_HZ         # ADC strobe, 1 MSPS
 P_MAX_M = 0.2                        # |point| limit, dsp-fw/include/hg_scene.h HG_SCENE_P_MAX
 K_MAX = 3500.0                       # N/m,      HG_SCENE_K_MAX
+K_MAX_TEST = 50_000.0                # N/m,      HG_SCENE_K_MAX_TEST (firmware.test_limits only)
 B_MAX = 100.0                        # N s/m,    HG_SCENE_B_MAX
 KI_MAX = 1.0e5                       # N/(m s),  HG_SCENE_KI_MAX
 QD_MAX_DEG_S = math.degrees(100.0)   # dsp-fw qd_max = 100 rad/s: the fastest physical joint
@@ -72,6 +73,7 @@ class RunCfg:
     #                                   on load: IK of the hand path[0], else DEFAULT_Q0_DEG)
     qd0_deg_s: tuple[float, float, float] = (0.0, 0.0, 0.0)   # initial joint speeds, deg/s
     name: str | None = None          # output folder name (resolved on load: the file's stem)
+    position: str = "interpolated"   # "quadrature": the interpolator's fine angle zeroed (COARSE)
 
 
 @dataclass(frozen=True)
@@ -140,6 +142,7 @@ class FaultCfg:
 class FirmwareCfg:
     comm_offset_error_counts: tuple[int, int, int] = (0, 0, 0)   # 1/1024 electrical cycle
     pc_force_timeout_ms: float | None = None   # None: the firmware's default
+    test_limits: bool = False        # simulation-only firmware build: k up to K_MAX_TEST
 
 
 @dataclass(frozen=True)
@@ -283,11 +286,11 @@ def from_dict(d: Mapping[str, Any], source: str = "<scene>") -> Scene:
     top = v.table(d, "", ("run", "env", "hand", "encoder", "fault", "firmware", "plant",
                           "expect"))
     run = v.run(v.sub(top, "run"), Path(source).stem)
-    env = v.env(v.sub(top, "env"))
+    firmware = v.firmware(v.sub(top, "firmware"), run)
+    env = v.env(v.sub(top, "env"), K_MAX_TEST if firmware.test_limits else K_MAX)
     hand = v.hand(v.sub(top, "hand"))
     encoders = v.encoders(v.sub(top, "encoder"))
     faults = v.faults(top.get("fault", []), run)
-    firmware = v.firmware(v.sub(top, "firmware"), run)
     plant = v.plant(v.sub(top, "plant"))
     expect = v.expect(v.sub(top, "expect"))
     v.consistent(run, faults, expect)
@@ -419,7 +422,8 @@ class _Validator:
             "qd0_deg_s": lambda x, k: self.vec(x, k, 3, lambda w: abs(w) <= QD_MAX_DEG_S,
                                                f"|deg/s| <= {QD_MAX_DEG_S:.0f} (the firmware's "
                                                "qd_max, 100 rad/s)"),
-            "name": name})
+            "name": name,
+            "position": lambda x, k: self.str_(x, k, ("interpolated", "quadrature"))})
         for a, w in enumerate(kw.get("qd0_deg_s", ())):   # type: ignore[arg-type]
             if w != 0 and a not in kw.get("axes", RunCfg.axes):   # type: ignore[operator]
                 raise self.fail(f"run.qd0_deg_s[{a}]", f"axis {a} is not simulated (its joint "
@@ -428,7 +432,7 @@ class _Validator:
                       else "scene")
         return RunCfg(**kw)  # type: ignore[arg-type]
 
-    def env(self, d: dict[str, Any]) -> EnvCfg:
+    def env(self, d: dict[str, Any], k_max: float = K_MAX) -> EnvCfg:
         kind = self.str_(d.get("kind", EnvCfg.kind), "env.kind", ENV_KINDS)
         for k in d:
             if k != "kind" and k in ("point", "normal", "k", "b", "ki") \
@@ -439,8 +443,9 @@ class _Validator:
             "kind": lambda x, k: x,
             "point": lambda x, k: self._point(x, k),
             "normal": lambda x, k: self.vec(x, k, 3, lambda _: True, ""),
-            "k": lambda x, k: self.num(x, k, lambda v: 0 <= v <= K_MAX,
-                                       f"0..{K_MAX:g} N/m (HG_SCENE_K_MAX)"),
+            "k": lambda x, k: self.num(x, k, lambda v: 0 <= v <= k_max,
+                                       f"0..{k_max:g} N/m (HG_SCENE_K_MAX"
+                                       + ("_TEST)" if k_max > K_MAX else ")")),
             "b": lambda x, k: self.num(x, k, lambda v: 0 <= v <= B_MAX,
                                        f"0..{B_MAX:g} N s/m (HG_SCENE_B_MAX)"),
             "ki": lambda x, k: self.num(x, k, lambda v: 0 <= v <= KI_MAX,
@@ -563,7 +568,8 @@ class _Validator:
             return ms
 
         kw = self.fields_of(d, "firmware", {
-            "comm_offset_error_counts": comm, "pc_force_timeout_ms": timeout})
+            "comm_offset_error_counts": comm, "pc_force_timeout_ms": timeout,
+            "test_limits": lambda x, k: self.bool_(x, k)})
         return FirmwareCfg(**kw)  # type: ignore[arg-type]
 
     def plant(self, d: dict[str, Any]) -> PlantCfg:

@@ -38,6 +38,9 @@ Algorithm (one axis, per ADC sample a, b: 8-bit two's complement, A = R sin(phi)
    Control events (clear, arm) apply to the first sample captured at or after the pulse.
 9. Direction invert (cfg.invert, RTL INVERT): A and B are swapped at capture, i.e. the angle
    90deg - phi: the count runs the other way and quadrant 0 (the index quadrant) maps onto itself.
+10. Plain quadrature (cfg.coarse, RTL COARSE): the fine angle f is zeroed, so pos counts whole
+   quadrants (4096 steps per revolution, in the same 2^20 counts/rev units): the paper's
+   interpolator with its interpolation dropped, for comparisons (the Z-width sweep).
 """
 
 from __future__ import annotations
@@ -68,6 +71,7 @@ class InterpConfig:
     cal: bool = False          # build the online calibration stage (RTL CAL; hapgate.golden.enccal)
     cal_lines_log2: int = 3    # calibration block = 2**cal_lines_log2 lines (RTL CAL_LINES_LOG2)
     cal_nlog: int = 14         # calibration blocks of >= 2**cal_nlog samples are ignored
+    coarse: bool = False       # plain quadrature: the fine angle zeroed (RTL COARSE), 4 steps/line
 
     @property
     def fine_bits(self) -> int:
@@ -99,6 +103,8 @@ class InterpConfig:
         if self.cal:
             p.update({"CAL": 1, "CAL_LUT_FILE": write_cal_lut(self),
                       "CAL_LINES_LOG2": self.cal_lines_log2, "CAL_NLOG": self.cal_nlog})
+        if self.coarse:
+            p["COARSE"] = 1
         return p
 
 
@@ -277,6 +283,8 @@ def run(a: np.ndarray, b: np.ndarray, index: np.ndarray | None = None,
                  "cal_ac": c.ac, "cal_bc": c.bc}
     else:
         q, f = quadrant_and_fine(a, b, table, cfg.lut_bits)
+    if cfg.coarse:                                      # plain quadrature: no fine angle
+        f = np.zeros_like(f)
 
     # 4. quadrant counter: a cumulative sum of steps; overspeed steps follow the last direction.
     # int32 arithmetic wraps exactly like the 32-bit register.

@@ -79,7 +79,8 @@ class TopConfig:
                 "OFFSET_BINARY": int(c.offset_binary), "SERIAL_MUL": int(c.serial_mul),
                 "BUS_ADDR_BITS": 8,
                 **({"CAL": 1, "CAL_LUT_FILE": interp.write_cal_lut(i),
-                    "CAL_LINES_LOG2": i.cal_lines_log2, "CAL_NLOG": i.cal_nlog} if i.cal else {})}
+                    "CAL_LINES_LOG2": i.cal_lines_log2, "CAL_NLOG": i.cal_nlog} if i.cal else {}),
+                **({"COARSE": 1} if i.coarse else {})}
 
 
 def blocks() -> list[Block]:

@@ -52,13 +52,15 @@ class BusTiming:
         return [str(self.setup), str(self.strobe), str(self.hold), str(int(self.use_ready))]
 
 
-def _fw_lib(bdir: Path) -> Path:
-    """dsp-fw/src/*.c compiled as C99 with the firmware's own -Werror flags."""
+def _fw_lib(bdir: Path, defines: tuple[str, ...] = ()) -> Path:
+    """dsp-fw/src/*.c compiled as C99 with the firmware's own -Werror flags (and `defines`,
+    e.g. "HG_SCENE_K_MAX_TEST=50000" for a simulation-only test limit)."""
     objs = []
     for src in sorted((FW / "src").glob("*.c")):
         obj = bdir / "fw" / (src.stem + ".o")
         ensure(obj.parent)
-        cmd = ["gcc", "-std=c99", *FW_WARN, "-O2", "-I", str(FW / "include"), "-c", str(src),
+        cmd = ["gcc", "-std=c99", *FW_WARN, "-O2", *(f"-D{d}" for d in defines),
+               "-I", str(FW / "include"), "-c", str(src),
                "-o", str(obj)]
         out = subprocess.run(cmd, capture_output=True, text=True)
         if out.returncode != 0:

@@ -1,0 +1,132 @@
+"""`hapgate sweep SPEC [--scheduler tcp://HOST:PORT] [--workers N] [--out DIR] [--no-cache]`.
+
+Expands the sweep spec (scenes/sweeps/README.md) into jobs, runs them on Dask (a LocalCluster of
+N worker processes, or the scheduler named), prints the kind's table, writes results.csv,
+results.npz, summary.json and plots into DIR (default build/sweeps/<name>/). Exit 0 when every
+job ran (and, for the soak, every check held), 1 when a check failed, 2 for a malformed spec or
+unusable --out (nothing written), 3 when the sweep itself could not run.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import sys
+from pathlib import Path
+
+from ..base.paths import BUILD
+from ..base.report import table
+from ..device import sweep
+from . import sweep_report
+
+EXIT_OK, EXIT_FAIL, EXIT_BAD_INPUT, EXIT_NO_RUN = 0, 1, 2, 3
+
+
+def add_arguments(p: argparse.ArgumentParser) -> None:
+    p.add_argument("spec", type=Path, help="sweep spec (TOML; scenes/sweeps/README.md)")
+    p.add_argument("--scheduler", default=None,
+                   help="tcp://HOST:PORT of a running `dask scheduler` (default: a local cluster)")
+    p.add_argument("--workers", type=int, default=2, help="local worker processes (default 2)")
+    p.add_argument("--out", type=Path, default=None, help="output folder "
+                   "(default build/sweeps/<name>/)")
+    p.add_argument("--no-cache", action="store_true", help="rerun every job (cache unused)")
+    p.add_argument("--limit", type=int, default=0, help="run only the first N jobs (a trial)")
+    p.add_argument("--compare", type=Path, nargs="*", default=[],
+                   help="Z-width: output folders of other Z-width sweeps (their results.csv) "
+                        "to put on the same plot and table")
+    p.set_defaults(fn=main)
+
+
+def read_rows(path: Path) -> list[dict[str, object]]:
+    """A results.csv back as records (numbers as float, True/False as bool)."""
+    import csv
+
+    def conv(v: str) -> object:
+        if v in ("True", "False"):
+            return v == "True"
+        try:
+            return float(v)
+        except ValueError:
+            return v
+    with open(path, newline="") as fh:
+        return [{k: conv(v) for k, v in r.items()} for r in csv.DictReader(fh)]
+
+
+def _err(msg: str) -> None:
+    print(f"error: {msg}", file=sys.stderr)
+
+
+def main(args: argparse.Namespace) -> int:
+    try:
+        spec = sweep.load(args.spec)
+    except sweep.SweepError as exc:
+        _err(str(exc))
+        return EXIT_BAD_INPUT
+    for d in args.compare:
+        if not (d / "results.csv").is_file():
+            _err(f"--compare {d}: no results.csv there")
+            return EXIT_BAD_INPUT
+    if args.workers < 1:
+        _err("--workers: at least 1")
+        return EXIT_BAD_INPUT
+    out = args.out if args.out is not None else BUILD / "sweeps" / spec.name
+    if out.exists() and not out.is_dir():
+        _err(f"--out {out}: exists and is not a folder")
+        return EXIT_BAD_INPUT
+    jobs = spec.jobs()
+    if args.limit > 0:
+        jobs = jobs[:args.limit]
+    print(f"sweep {spec.name}: {len(jobs)} {spec.kind} jobs on "
+          f"{args.scheduler or f'a local cluster of {args.workers} workers'}")
+    try:
+        res = sweep.run(spec, workers=args.workers, scheduler=args.scheduler,
+                        cache=None if args.no_cache else sweep.CACHE, jobs=jobs)
+    except Exception as exc:                         # noqa: BLE001 - reported, exit 3
+        _err(f"the sweep could not run: {type(exc).__name__}: {exc}")
+        return EXIT_NO_RUN
+    files = sweep.write(res, out)
+    status = EXIT_OK
+    rows = res.rows()
+    if spec.kind == "zwidth":
+        from ..device import zwidth
+        for d in args.compare:
+            rows = rows + read_rows(d / "results.csv")
+        tab = sweep_report.kmax_table(rows)
+        print(table(["position", "servo Hz", "B N s/m", "K_max N/m", "first unstable K",
+                     "2(b-|B|)/T", "(b-|B|)/(T/2+tau)", "35 N/cm stable"],
+                    [[t["position"], str(t["servo_hz"]), f"{t['b_wall']:g}",
+                      f"{t['k_max']:.0f}", f"{t['k_first_unstable']:.0f}",
+                      f"{max(2 * (t['b_phys'] - t['b_wall']) * t['servo_hz'], 0):.0f}",
+                      f"{zwidth.latency_bound(t['b_phys'], t['b_wall'], 1 / t['servo_hz']):.0f}",
+                      "yes" if t["k_max"] >= 3500 else "no"] for t in tab]))
+        (out / "kmax.json").write_text(json.dumps(tab, indent=2, default=str))
+        sweep_report.zwidth_plot(rows, out / "zwidth.png")
+        files += [out / "kmax.json", out / "zwidth.png"]
+    elif spec.kind == "soak":
+        print(table(["soak", "value"], sweep_report.soak_table(rows, res.wall_s, res.workers)))
+        bad = sum(int(r[k]) for r in rows for k in ("slips", "false_overspeed",
+                                                      "missed_overspeed"))
+        status = EXIT_FAIL if bad else EXIT_OK
+    elif spec.kind == "calib_mc":
+        import numpy as np
+
+        for mode in sorted({str(r["calibration"]) for r in rows}):
+            v = np.array([float(r["err_rms_elec_deg"]) for r in rows
+                          if str(r["calibration"]) == mode])
+            mx = np.array([float(r["err_max_elec_deg"]) for r in rows
+                           if str(r["calibration"]) == mode])
+            print(table(["calibration", "sets", "RMS err median, el. deg", "RMS err p95",
+                         "max err p95", "max err worst", "convergence"],
+                        [[mode, str(v.size), f"{np.median(v):.3f}",
+                          f"{np.percentile(v, 95):.3f}", f"{np.percentile(mx, 95):.3f}",
+                          f"{mx.max():.3f}", "n/a (off)" if mode == "off" else "-"]]))
+        sweep_report.calib_plot(rows, out / "histogram.png")
+        files.append(out / "histogram.png")
+    print(f"{len(res.records)} jobs ({sum(res.cached)} from the cache, {res.retried} rerun after a "
+          f"lost worker or a retry) in {res.wall_s:.1f} s on {res.workers} workers "
+          f"({res.scheduler}); "
+          f"{len(res.records) / res.wall_s if 0 < res.wall_s < math.inf else 0:.2f} jobs/s")
+    print("wrote " + ", ".join(str(f) for f in files))
+    return status
+

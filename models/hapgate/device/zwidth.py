@@ -1,0 +1,184 @@
+"""Z-width of the virtual wall (Colgate & Brown 1994): which wall stiffness K and damping B the
+device renders stably, with the Verilated gateware and the unchanged firmware in the loop.
+
+One job = one closed-loop run of the virtual device (`runner.simulate`, rtl fidelity) of the base
+scene (scenes/sweeps/zwidth_base.toml) with `env.k`, `env.b`, `run.servo_hz` set: one axis (β;
+α and γ held), the wall's normal along β's direction of motion at the start pose (so the contact
+is the 1-DOF one β renders; the held joints carry no normal motion), a light hand
+(100 N/m, 1 N·s/m spring) whose target lies 2 mm behind the surface presses the handle into the
+wall with ~0.2 N; the handle starts pushed in to 1.5 x its static depth d_eq = k_h·2 mm/(k_h + K)
+and is released there at t = 0 (a step of half the static depth: in a stable wall it stays in
+contact and rings down; in an unstable one the oscillation grows into contact chatter).
+
+Stability criterion (sustained oscillation): with the depth d(t) = (point − p)·n of the true
+endpoint and the static depth d_eq, the released step is A0 = |d(0) − d_eq| = d_eq/2; the late
+oscillation A_late is half the peak-to-peak of d over the last 40 ms (t = 210..250 ms) after
+removing its quadratic trend (a heavily damped wall creeps slowly towards d_eq: that is not an
+oscillation). The contact is UNSTABLE when the firmware latched an error, the run is not finite,
+or A_late > A_ABS_M = 5 µm (16 counts of the interpolated encoder at the 5 cm arm; 1/15 of one
+quadrature step) and A_late > 0.5·A0 (the oscillation did not at least halve in 0.21 s: growing,
+sustained or barely damped — a decay rate under ln 2/0.21 s = 3.3 /s, where the physical damping
+alone gives b/2m = 15 /s). Else STABLE. The unstable modes of this loop are fast (the phase lag
+of the hold and the latency reaches 180° at 10^2..10^3 Hz: several periods in 40 ms).
+
+Theory: the endpoint sees a mass m and physical damping b (the hand's 1 N·s/m plus the joint's
+viscous friction referred to the endpoint, 0.08 N·s/m): passivity of the sampled wall needs
+b > K·T/2 + |B| (Colgate & Schenkel), so K_max(B = 0) ≈ 2b/T. `ideal_kmax` gives the largest
+stable K of the idealised loop (mass-damper, wall sampled and held every T, no quantization,
+filtering or delay), an exact discrete-time eigenvalue computation.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from typing import Any
+
+import numpy as np
+
+from ..golden import kinematics
+from . import runner
+from .scene import load as load_scene
+
+AXIS = 1
+TARGET_DEPTH_M = 2e-3
+D0_FACTOR = 1.5
+LATE_S = 0.04
+A_ABS_M = 5e-6
+DECAY = 0.5
+SCENE_KEYS = ("env.k", "env.b", "run.servo_hz", "run.duration_s", "hand.k", "hand.b",
+              "run.clk_hz", "run.position")
+
+
+def geometry(scene: Any) -> dict[str, Any]:
+    """Start endpoint, the wall's normal (into free space, against β's motion) and the
+    endpoint's mass and physical damping along it."""
+    q0 = runner.start_pose(scene)
+    p0 = kinematics.fk(q0)
+    j1 = kinematics.jacobian(q0[None])[0][:, AXIS]
+    r = float(np.linalg.norm(j1))
+    n = -j1 / r
+    pl = scene.plant
+    m = pl.j_rotor_kg_m2 / r ** 2 + pl.m_link_kg + pl.m_handle_kg
+    b = float(pl.b_visc_nms[AXIS]) / r ** 2 + (scene.hand.b if scene.hand.kind == "spring"
+                                               else 0.0)
+    return {"q0": q0, "p0": p0, "n": n, "r_m": r, "m_kg": m, "b_nsm": b}
+
+
+def scene_of(p: Mapping[str, Any]) -> Any:
+    base = load_scene(str(p["base"]))
+    changes = {k: p[k] for k in SCENE_KEYS if k in p}
+    if "run.servo_hz" in changes:
+        changes["run.servo_hz"] = int(changes["run.servo_hz"])
+    sc = base.override(changes)
+    g = geometry(sc)
+    # the hand's target TARGET_DEPTH_M behind the surface; the handle starts at 1.5 x the
+    # static depth (a step of half the static depth out of equilibrium, still in contact)
+    k_hand, k = float(sc.hand.k), float(sc.env.k)
+    d_eq = k_hand * TARGET_DEPTH_M / (k_hand + k)
+    d0 = float(p.get("d0_factor", D0_FACTOR)) * d_eq
+    point = g["p0"] + d0 * g["n"]
+    target = point - TARGET_DEPTH_M * g["n"]
+    g["d_eq_m"], g["d0_m"] = d_eq, d0
+    return sc.override({"env.point": [float(v) for v in point],
+                        "env.normal": [float(v) for v in g["n"]],
+                        "run.q0_deg": [float(v) for v in np.rad2deg(g["q0"])],
+                        "hand.path": [[0.0, *(float(v) for v in target)]]}), g
+
+
+def check(p: Mapping[str, Any]) -> None:
+    if "base" not in p:
+        raise ValueError("sweep.base: the Z-width job needs a base scene")
+    if p.get("run.position", "interpolated") not in ("interpolated", "quadrature"):
+        raise ValueError("run.position: 'interpolated' or 'quadrature'")
+    scene_of(p)
+
+
+def oscillation(t: np.ndarray, d: np.ndarray) -> float:
+    """Half the peak-to-peak of d in the window after removing its quadratic trend: the
+    oscillation, not a slow (overdamped) creep towards the static depth."""
+    if t.size < 8 or not np.isfinite(d).all():
+        return math.nan
+    x = (t - t.mean()) / max(float(np.ptp(t)), 1e-12)
+    r = d - np.polyval(np.polyfit(x, d, 2), x)
+    return float(np.ptp(r) / 2)
+
+
+def job(p: Mapping[str, Any]) -> dict[str, Any]:
+    check(p)
+    sc, g = scene_of(p)
+    raw = runner.simulate(sc)
+    fr = raw.frames
+    t = fr["t"]
+    depth = (np.asarray(sc.env.point) - fr["p"]) @ np.asarray(sc.env.normal)
+    dur = float(sc.run.duration_s)
+    a_early = abs(g["d0_m"] - g["d_eq_m"])                 # the released step
+    late = t >= dur - LATE_S
+    a_late = oscillation(t[late], depth[late])
+    err = int(raw.summary["fw_err"])
+    finite = bool(np.isfinite(depth).all())
+    stable = (err == 0 and finite and math.isfinite(a_late)
+              and not (a_late > A_ABS_M and a_late > DECAY * a_early))
+    v = np.diff(depth[late])
+    crossings = int((np.signbit(v[1:]) != np.signbit(v[:-1])).sum()) if v.size > 1 else 0
+    T = 1.0 / float(sc.run.servo_hz)
+    return {"k": float(sc.env.k), "b_wall": float(sc.env.b), "servo_hz": int(sc.run.servo_hz),
+            "position": str(sc.run.position),
+            "stable": bool(stable), "a_early_um": a_early * 1e6, "a_late_um": a_late * 1e6,
+            "late_half_periods": crossings, "depth_max_um": float(np.nanmax(depth) * 1e6),
+            "fw_error": runner.ERR_NAMES[err] if err < len(runner.ERR_NAMES) else str(err),
+            "b_phys_nsm": g["b_nsm"], "m_eff_kg": g["m_kg"], "d_eq_um": g["d_eq_m"] * 1e6,
+            "passivity_k": 2 * (g["b_nsm"] - abs(float(sc.env.b))) / T,
+            "sim_s": float(raw.summary["sim_s"]), "harness_s": raw.wall_s}
+
+
+# ---------------------------------------------------------------------------------- theory
+# The loop's latency beyond the sample-and-hold, s: the position snapshot's age at the tick
+# (frame latch every 16 us: 8 us on average), the ISR until the torque write (~14 bus accesses
+# x 2 us: 28 us), the wait for the next commutation frame (8 us on average), the DAC load (2 us)
+# and the amplifier's current loop (first-order lag, 1/(2 pi 2 kHz) = 80 us).
+TAU_LOOP_S = 8e-6 + 28e-6 + 8e-6 + 2e-6 + 1 / (2 * math.pi * 2000.0)
+
+
+def latency_bound(b: float, b_wall: float, T: float, tau: float = TAU_LOOP_S) -> float:
+    """The passivity bound with the loop's latency: a sampled, delayed spring K acts as the
+    negative damping K (T/2 + tau), so b > K (T/2 + tau) + |B|: K_max = (b - |B|)/(T/2 + tau);
+    tau = 0 gives Colgate's 2(b - |B|)/T."""
+    return max(b - abs(b_wall), 0.0) / (T / 2 + tau)
+
+
+def ideal_kmax(m: float, b: float, T: float, k_hi: float = 1e7, iters: int = 60) -> float:
+    """Largest K for which the idealised sampled wall (m x'' = -b x' - K x(kT) held over T) is
+    stable: discrete closed-loop eigenvalues inside the unit circle (bisection on K; the loop
+    over bisection steps is over K, not over samples)."""
+    a = np.array([[0.0, 1.0], [0.0, -b / m]])
+    # exact zero-order-hold discretisation: Phi = e^{aT}, Gamma = int_0^T e^{as} ds (0, 1/m)
+    aug = np.zeros((3, 3))
+    aug[:2, :2] = a * T
+    aug[1, 2] = T / m
+    e = _expm(aug)
+    phi, gam = e[:2, :2], e[:2, 2]
+
+    def stable(k: float) -> bool:
+        cl = phi - np.outer(gam, [k, 0.0])
+        return bool(np.max(np.abs(np.linalg.eigvals(cl))) < 1.0)
+
+    lo, hi = 0.0, k_hi
+    for _ in range(iters):
+        mid = 0.5 * (lo + hi)
+        lo, hi = (mid, hi) if stable(mid) else (lo, mid)
+    return lo
+
+
+def _expm(x: np.ndarray, terms: int = 30) -> np.ndarray:
+    """Matrix exponential by scaling and squaring of a Taylor series (small matrices)."""
+    s = max(0, int(math.ceil(math.log2(max(np.abs(x).sum(), 1e-300)))) + 1)
+    y = x / 2.0 ** s
+    out = np.eye(x.shape[0])
+    term = np.eye(x.shape[0])
+    for i in range(1, terms):
+        term = term @ y / i
+        out = out + term
+    for _ in range(s):
+        out = out @ out
+    return out
