@@ -42,7 +42,7 @@ def run_netlist(board: str) -> None:
     args = {"icarus": [f"-D{define}", "-DNO_ICE40_DEFAULT_ASSIGNMENTS"],
             "verilator": [f"-D{define}", "--output-split", "0", "-MAKEFLAGS",
                           "OPT_FAST=-O0 OPT_SLOW=-O0 OPT_GLOBAL=-O0"]}[simulator]
-    sim.run_cocotb(gl, simulator, "cocotb_top", TOP_TESTS, params=hp,
+    sim.run_cocotb(gl, simulator, "cocotb_top", TOP_TESTS, params=hp, testcase="firmware_like_run",
                    extra_sources=[HERE / "board_harness.v", HERE / "board_gl_harness.v"],
                    build_args=args, extra_env=env(board, GL_SAMPLES, prefix="u_rtl."))
 

@@ -53,7 +53,10 @@ def env(board: str, samples: int, prefix: str = "") -> dict[str, str]:
 @pytest.mark.parametrize("simulator", sim.simulators())
 @pytest.mark.parametrize("board", list(CASES))
 def test_board_top_bit_exact(simulator: str, board: str) -> None:
+    # the board top's check: the firmware-like run through its pins, bit-exact against the
+    # model (the power-up truth check homed_truth runs on the core in tb/top/test_top.py)
     sim.run_cocotb(harness_block(board), simulator, "cocotb_top", TOP_TESTS,
+                   testcase="firmware_like_run",
                    params=harness_params(board), extra_sources=[HERE / "board_harness.v"],
                    extra_env=env(board, SAMPLES[simulator]))
 

@@ -38,7 +38,10 @@ def test_top_netlist_bit_exact(target: str) -> None:
     net = flow.netlist(rtl, params, target, flatten=False)
     gate = Block(name=f"hapgate_top_{target}_netlist_{net.parent.name[-10:]}", top=rtl.top,
                  sources=(str(net), str(flow.simlib(target))), params=dict, doc="netlist")
+    # the netlist's own check: the firmware-like run bit-exact against the model (homed_truth,
+    # the power-up-anywhere truth check, runs on the RTL in test_top.py)
     sim.run_cocotb(gate, "icarus", "cocotb_top", HERE, params={}, build_args=BUILD_ARGS,
+                   testcase="firmware_like_run",
                    extra_env={"HG_SAMPLES": str(SAMPLES),
                               "HG_PARAMS": json.dumps({k: param_text(v)
                                                        for k, v in params.items()})})
