@@ -41,7 +41,7 @@ def _row(label: str, s: Any, clk: int | None = None, mask: int | None = None) ->
 def run(quick: bool = False) -> bool:
     print("== virtual device: real-time factor beside error (scenes/wall.toml) ==", flush=True)
     base = sc.load(ROOT / "scenes" / "wall.toml").override(
-        {"run.duration_s": 0.25 if quick else 0.5, "fault": []})
+        {"run.duration_s": 0.25 if quick else 0.5, "fault": [], "expect": {}})
     rows = [
         _row("wall, 3 axes", base),
         _row("wall, 3 axes, 10 kHz servo", base.override({"run.servo_hz": 10000})),
