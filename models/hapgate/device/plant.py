@@ -10,7 +10,6 @@ from __future__ import annotations
 import ctypes as C
 import hashlib
 import subprocess
-from pathlib import Path
 
 import numpy as np
 
@@ -118,7 +117,3 @@ def config(**kw: object) -> str:
         vals = np.ravel(np.asarray(v, dtype=float))
         lines.append(f"{k} = {' '.join(repr(float(x)) for x in vals)}")
     return "\n".join(lines) + "\n"
-
-
-def lib_path() -> Path:
-    return Path(library()._name)

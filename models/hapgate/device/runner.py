@@ -14,7 +14,6 @@ from __future__ import annotations
 import functools
 import math
 import subprocess
-import sys
 import tempfile
 import time
 from dataclasses import dataclass, field, replace
@@ -332,7 +331,6 @@ def events(scene: Any, raw: Raw) -> list[dict[str, Any]]:
     from which every affected channel stays at zero, and the reaction time between them."""
     out: list[dict[str, Any]] = []
     s = raw.summary
-    d = int(s["d"])
     scene0_us = int(s["scene0_us"])
     clk = raw.clk_hz
     loads = raw.loads
@@ -362,7 +360,6 @@ def events(scene: Any, raw: Raw) -> list[dict[str, Any]]:
         react = (zero_t - cause) * 1e6 if math.isfinite(zero_t) else math.inf
         out.append({"kind": f.kind, "axis": getattr(f, "axis", None), "cause_s": cause,
                     "zero_torque_s": zero_t, "reaction_us": react})
-    del d
     return out
 
 
@@ -479,8 +476,3 @@ def arrays_of(scene: Any, raw: Raw) -> dict[str, np.ndarray]:
     a["tick_f_cmd"] = tk["f_fw"].copy()
     a["tick_tau_cmd"] = tk["tau_fw"].copy()
     return a
-
-
-def _bar(done: float, total: float) -> None:   # minimal fallback progress (stderr)
-    sys.stderr.write(f"\r{done:7.3f} / {total:.3f} s")
-    sys.stderr.flush()

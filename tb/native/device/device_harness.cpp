@@ -309,7 +309,6 @@ struct Bench {
 Bench* B = nullptr;
 
 bool drop_wdog = false;
-struct KeyWrite { uint64_t edge; };
 uint64_t last_key_edge = 0;
 
 void wait_grid() {
