@@ -146,6 +146,11 @@ module dac_sched #(
     // ---------------------------------------------------------------- DAC write strobe
     reg [WW-1:0] wr_left;  // further clocks the strobe stays low
 
+    // The strobe is high from FPGA configuration on, before the first clock and reset: a low
+    // strobe would load the DACs with whatever is on the data pins when it rises. (Yosys keeps
+    // the initial value on iCE40 and ECP5 flip-flops; tb/dac_sched checks it at gate level.)
+    initial dac_wr_n = 1'b1;
+
     always @(posedge clk) begin
         if (s_valid) begin  // datapath: not reset (the strobe is)
             dac_data <= s_data;
