@@ -96,7 +96,8 @@ module dac_sched #(
     // answered (sim_pending = 0, s_valid low), no strobe pending or low, no request and no frame
     // start in this clock; and it ends the 1 + N edges at the latest in the slot's last clock and
     // before the frame's last, so no slot wrap, request, frame start or DAC port change can fall
-    // in the skipped clocks. Never written, sim_skip stays 0 and the module is the synthesized one.
+    // in the skipped clocks (the slot wrap needs no skip term). Never written, sim_skip stays 0
+    // and the module behaves as the synthesized one, which has none of this.
     reg  [FW-1:0] sim_skip /*verilator public_flat_rw*/;  // extra clocks of the next edge
     reg  [CW:0]   sim_pending;                             // requests not yet answered by s_valid
     localparam integer SKEW_ROOM_I  = SKEW_CYCLES - 2;
@@ -122,8 +123,6 @@ module dac_sched #(
         else
             sim_pending <= sim_pending + {{CW{1'b0}}, m_req} - {{CW{1'b0}}, s_valid};
     end
-`else
-    wire [FW-1:0] sim_skip = {FW{1'b0}};
 `endif
 
     always @(posedge clk) begin
@@ -132,10 +131,16 @@ module dac_sched #(
             slot_cnt  <= {SW{1'b0}};
             ch_cnt    <= {CW{1'b0}};
         end else begin
-            frame_cnt <= frame_cnt + 1'b1 + sim_skip;
-            slot_cnt  <= (slot_cnt == SKEW_LAST) ? {SW{1'b0}} : slot_cnt + 1'b1 + sim_skip[SW-1:0];
+            frame_cnt <= frame_cnt + 1'b1;
+            slot_cnt  <= (slot_cnt == SKEW_LAST) ? {SW{1'b0}} : slot_cnt + 1'b1;
             if (slot_cnt == SKEW_LAST && ch_cnt != CH_END)
                 ch_cnt <= ch_cnt + 1'b1;
+`ifdef HG_SIM
+            if (sim_skip != {FW{1'b0}}) begin  // the hook: this edge counts 1 + sim_skip clocks
+                frame_cnt <= frame_cnt + 1'b1 + sim_skip;
+                slot_cnt  <= slot_cnt + 1'b1 + sim_skip[SW-1:0];
+            end
+`endif
         end
     end
 
