@@ -29,7 +29,8 @@ from ..golden.top import TopConfig, blocks
 from ..runners import cosim, native
 
 HERE = TB / "native" / "device"
-HARNESS = [HERE / "device_harness.cpp", HERE / "plant.cpp", HERE / "uart_link.cpp"]
+HARNESS = [HERE / "device_harness.cpp", HERE / "harness_common.cpp", HERE / "plant.cpp",
+           HERE / "uart_link.cpp"]
 FW = ROOT / "dsp-fw"
 MIN_CLK_HZ = 6_000_000       # lowest clock of the grid-aligned bus (README): D >= 6 clocks per us
 FULL_CLK_HZ = 48_000_000     # the shipped default
@@ -101,7 +102,7 @@ def build(clk_hz: int, mask: int = 7, trace: bool = False, test_limits: bool = F
         "device_harness", block.top, srcs, params, HARNESS,
         cflags=(f"-std=c++17 -DCLK_HZ={clk_hz} -DAXIS_MASK={mask} -DHG_TRACE={int(trace)} "
                 f"-I{HERE} -I{FW / 'include'}" + "".join(f" -D{d}" for d in defs)),
-        ldflags="fw/libhgfw.a -lm", inputs=[HERE / "plant.h", HERE / "uart_link.h", *fw_srcs],
+        ldflags="fw/libhgfw.a -lm", inputs=[HERE / "plant.h", HERE / "uart_link.h", HERE / "harness_common.h", *fw_srcs],
         prepare=functools.partial(cosim._fw_lib, defines=defs), vflags=vflags)
 
 

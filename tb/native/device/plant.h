@@ -22,6 +22,11 @@ void hg_plant_free(hg_plant* p);
 void hg_plant_set_dac(hg_plant* p, int ch, int code);
 // Advance by n integrator steps (dt each). Forces on the hand follow the hand model.
 void hg_plant_step(hg_plant* p, int n);
+// Model fidelity's multirate plant (tb/native/device/README.md "Model fidelity"): the amplifier's
+// current loop advanced by 1 us toward the DAC commands, and the mechanics by one step of n_us
+// with the mean current the loop reaches over it if the commands hold (exact between DAC updates).
+void hg_plant_amp_us(hg_plant* p);
+void hg_plant_mech(hg_plant* p, int n_us);
 // Hold (1) or release (0) the joints kinematically: q follows hg_plant_set_q (homing sweep).
 void hg_plant_hold(hg_plant* p, int on);
 void hg_plant_set_q(hg_plant* p, const double q[3], const double qd[3]);
