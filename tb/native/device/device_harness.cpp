@@ -13,6 +13,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
+#include <ctime>
 #include <fstream>
 #include <map>
 #include <memory>
@@ -157,18 +158,8 @@ struct Bench {
     int steps_per_us = 1;
 
     void homing_pose(uint64_t g) {  // raised-cosine sweep of every joint, ending at rest at q0
-        const double t = static_cast<double>(g) * 1e-6 - t_sweep0;
         double q[3], qd[3];
-        double s = 0, ds = 0;
-        if (t <= 0) s = 0;
-        else if (t < cfg->t_sweep_s) {
-            s = 0.5 * (1 - std::cos(kPi * t / cfg->t_sweep_s));
-            ds = 0.5 * kPi / cfg->t_sweep_s * std::sin(kPi * t / cfg->t_sweep_s);
-        } else s = 1;
-        for (int i = 0; i < 3; ++i) {
-            q[i] = cfg->q0[i] - cfg->sweep_rad * (1 - s);
-            qd[i] = cfg->sweep_rad * ds;
-        }
+        hg_dev::homing_pose(*cfg, t_sweep0, static_cast<double>(g) * 1e-6, q, qd);
         hg_plant_set_q(plant, q, qd);
     }
     double t_sweep0 = 100e-6;   // s after reset: the sweep starts
@@ -344,6 +335,7 @@ int main(int argc, char** argv) {
     bench.grid(0);
 
     const auto w0 = std::chrono::steady_clock::now();
+    const std::clock_t c0 = std::clock();
     // ---------------------------------------------------------------- firmware bring-up
     hg_servo_cfg_t fw;
     hg_dev::fw_config(cfg, CLK_HZ, &fw);
@@ -440,20 +432,16 @@ int main(int argc, char** argv) {
         }
     }
     const double wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - w0).count();
+    const double cpu_s = static_cast<double>(std::clock() - c0) / CLOCKS_PER_SEC;
 #if HG_TRACE
     bench.tfp->close();
 #endif
     // ---------------------------------------------------------------- outputs
     hg_dev::write_records(outdir, bench.frames, ticks, bench.loads, bench.adc);
     const double sim_s = static_cast<double>(end_us - static_cast<uint64_t>(bench.scene0_us)) * 1e-6;
-    std::printf("clk_hz=%d axis_mask=%d sim_s=%.9g wall_s=%.6g clocks=%llu frames=%zu ticks=%zu loads=%zu\n",
-                CLK_HZ, AXIS_MASK, sim_s, wall_s, static_cast<unsigned long long>(bench.edge), bench.frames.size(),
-                ticks.size(), bench.loads.size());
-    std::printf("init_err=%u fw_err=%u fw_err_axis=%u enabled_t=%.9g wdog_us=%u last_key_edge=%llu scene0_us=%lld "
-                "skew=%u frame=%u d=%llu\n",
-                init_err, s.err, s.err_axis, enable_t, wdog_us, static_cast<unsigned long long>(last_key_edge),
-                static_cast<long long>(bench.scene0_us), bench.skew, bench.frame, static_cast<unsigned long long>(D));
-    std::printf("frame_bytes=%zu tick_bytes=%zu\n", sizeof(FrameRec), sizeof(TickRec));
+    hg_dev::print_summary({CLK_HZ, AXIS_MASK, sim_s, wall_s, cpu_s, bench.edge, bench.frames.size(), ticks.size(),
+                           bench.loads.size(), init_err, s.err, s.err_axis, enable_t, wdog_us, last_key_edge,
+                           bench.scene0_us, bench.skew, bench.frame, D});
     if (g_profile)
         std::printf("profile_plant_s=%.6g profile_firmware_s=%.6g profile_gateware_s=%.6g\n", g_plant_s,
                     g_isr_s - g_bus_in_isr_s, wall_s - g_plant_s - (g_isr_s - g_bus_in_isr_s));

@@ -60,7 +60,7 @@ bool parse_run(const std::string& text, RunCfg& c, std::string& err, bool model_
         else if (model_keys && key == "clk_hz" && need(1)) c.clk_hz = static_cast<uint32_t>(v[0]);
         else if (model_keys && key == "asin_lut") c.asin_lut = v;
         else if (model_keys && key == "sine_rom") c.sine_rom = v;
-        else if (model_keys && key == "reg" && need(4)) c.regs.insert(c.regs.end(), v.begin(), v.end());
+        else if (model_keys && key == "reg" && need(5)) c.regs.insert(c.regs.end(), v.begin(), v.end());
         else if (model_keys && key == "interp" && need(6)) {
             c.lut_bits = static_cast<int>(v[0]); c.vel_log2w = static_cast<int>(v[1]);
             c.amp_min = static_cast<int>(v[2]); c.amp_max = static_cast<int>(v[3]);
@@ -112,6 +112,32 @@ void write_records(const std::string& outdir, const std::vector<FrameRec>& frame
     dump("ticks.bin", ticks.data(), ticks.size() * sizeof(TickRec));
     dump("loads.bin", loads.data(), loads.size() * sizeof(LoadRec));
     dump("adc.bin", adc.data(), adc.size());
+}
+
+void homing_pose(const RunCfg& cfg, double t_sweep0, double t_abs, double q[3], double qd[3]) {
+    const double t = t_abs - t_sweep0;
+    double s = 0, ds = 0;
+    if (t <= 0) s = 0;
+    else if (t < cfg.t_sweep_s) {
+        s = 0.5 * (1 - std::cos(kPi * t / cfg.t_sweep_s));
+        ds = 0.5 * kPi / cfg.t_sweep_s * std::sin(kPi * t / cfg.t_sweep_s);
+    } else s = 1;
+    for (int i = 0; i < 3; ++i) {
+        q[i] = cfg.q0[i] - cfg.sweep_rad * (1 - s);
+        qd[i] = cfg.sweep_rad * ds;
+    }
+}
+
+void print_summary(const Summary& s) {
+    std::printf("clk_hz=%u axis_mask=%d sim_s=%.9g wall_s=%.6g cpu_s=%.6g clocks=%llu frames=%zu ticks=%zu loads=%zu\n",
+                s.clk_hz, s.axis_mask, s.sim_s, s.wall_s, s.cpu_s, static_cast<unsigned long long>(s.clocks), s.frames,
+                s.ticks, s.loads);
+    std::printf("init_err=%u fw_err=%u fw_err_axis=%u enabled_t=%.9g wdog_us=%u last_key_edge=%llu scene0_us=%lld "
+                "skew=%u frame=%u d=%llu\n",
+                s.init_err, s.fw_err, s.fw_err_axis, s.enabled_t, s.wdog_us,
+                static_cast<unsigned long long>(s.last_key_edge), static_cast<long long>(s.scene0_us), s.skew,
+                s.frame, static_cast<unsigned long long>(s.d));
+    std::printf("frame_bytes=%zu tick_bytes=%zu\n", sizeof(FrameRec), sizeof(TickRec));
 }
 
 void fw_config(const RunCfg& cfg, uint32_t clk_hz, hg_servo_cfg_t* fw) {

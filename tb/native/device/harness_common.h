@@ -40,7 +40,7 @@ struct RunCfg {
     int axis_mask = 7;                      // axes built (the RTL's AXIS_MASK)
     uint32_t clk_hz = 0;                    // the clock the records' edges count
     std::vector<double> asin_lut, sine_rom; // interpolator and commutation tables
-    std::vector<double> regs;               // word, reset value, range min, range max per register
+    std::vector<double> regs;               // word, reset, write mask, range min, max (-1: none) per register
     int vel_log2w = 8, amp_min = 40, amp_max = 170, loss_samples = 16, lut_bits = 7;
     int coarse = 0;
 };
@@ -78,6 +78,20 @@ TickRec tick_record(const hg_servo_t& s, double t, const double q_true[3]);
 void write_records(const std::string& outdir, const std::vector<FrameRec>& frames,
                    const std::vector<TickRec>& ticks, const std::vector<LoadRec>& loads,
                    const std::vector<int8_t>& adc);
+
+// The homing sweep (README "Homing"): every joint's pose t s after reset, a raised cosine that
+// starts at t_sweep0 and ends at rest on q0.
+void homing_pose(const RunCfg& cfg, double t_sweep0, double t, double q[3], double qd[3]);
+
+// The run's summary lines on stdout (key=value, read by runner.simulate); cpu_s: the process's
+// CPU time of the run (std::clock, the machine is shared: the real-time factor on a free core).
+struct Summary {
+    uint32_t clk_hz; int axis_mask; double sim_s, wall_s, cpu_s; uint64_t clocks;
+    size_t frames, ticks, loads;
+    unsigned init_err, fw_err, fw_err_axis; double enabled_t; uint32_t wdog_us;
+    uint64_t last_key_edge; int64_t scene0_us; uint32_t skew, frame; uint64_t d;
+};
+void print_summary(const Summary& s);
 
 // ------------------------------------------------------------------ the firmware
 // Its configuration for this run (rate, clock, encoder zero at the index, commutation offset

@@ -490,6 +490,22 @@ void hg_plant_amp_us(hg_plant* s) {
     }
 }
 
+void hg_plant_amp(hg_plant* s, int n_us) {
+    if (n_us <= 0) return;
+    const double r = n_us == 1 ? 1 - s->alpha_us : std::pow(1 - s->alpha_us, n_us);
+    for (int i = 0; i < 3; ++i) {
+        s->ia[i] = s->icmd_a[i] + (s->ia[i] - s->icmd_a[i]) * r;
+        s->ib[i] = s->icmd_b[i] + (s->ib[i] - s->icmd_b[i]) * r;
+    }
+}
+
+void hg_plant_held_us(hg_plant* s) {
+    hg_plant_amp_us(s);
+    for (int i = 0; i < 3; ++i) s->q[i] += 1e-6 * s->qd[i];
+    s->have_prev = false;
+    s->t += 1e-6;
+}
+
 void hg_plant_mech(hg_plant* s, int n_us) {
     // the mean over the next n_us of the currents the amplifier reaches with today's commands
     // (the 1 us updates that hg_plant_amp_us makes): cmd + (i0 - cmd) * mean_j (1 - alpha)^j
@@ -566,5 +582,11 @@ void hg_plant_jac(const hg_plant* p, const double q[3], double out[9]) { jac(p->
 void hg_plant_encode(const hg_plant* p, int axis, const double* lines, int n, int8_t* a, int8_t* b) {
     for (int k = 0; k < n; ++k) encode_one(p->P, axis, lines[k], 0, 0, &a[k], &b[k]);
 }
+
+void hg_plant_encode1(const hg_plant* p, int axis, double lines, double za, double zb, int8_t* a, int8_t* b) {
+    encode_one(p->P, axis, lines, p->P.noise[axis] * za, p->P.noise[axis] * zb, a, b);
+}
+
+double hg_plant_noise_lsb(const hg_plant* p, int axis) { return p->P.noise[axis]; }
 
 }  // extern "C"
