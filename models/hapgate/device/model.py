@@ -31,7 +31,7 @@ SOURCES = [runner.HERE / "model_harness.cpp", runner.HERE / "harness_common.cpp"
            runner.HERE / "plant.cpp"]
 HEADERS = [runner.HERE / "harness_common.h", runner.HERE / "plant.h"]
 MECH_US = 16              # mechanics step of the multirate plant, us (README "Model fidelity")
-CXX = ["g++", "-std=c++17", "-O2", "-Wall", "-Wextra", "-Werror"]
+CXX = ["g++", "-std=c++17", "-O3", "-fno-math-errno", "-Wall", "-Wextra", "-Werror"]
 # What the model replaces, for the run's "built" list.
 REPLACES = "golden models in place of the gateware (interpolators, register file, commutator, " \
            "DAC scheduler: transaction level)"

@@ -73,7 +73,7 @@ struct Grid {
     std::vector<FrameRec> frames;
     std::vector<int8_t> adc;
     int steps_per_us = 1;
-    const double* qat(int64_t g) const { return &q[static_cast<size_t>(g % kRing) * 3]; }
+    const double* qat(int64_t g) const { return &q[static_cast<size_t>(g & (kRing - 1)) * 3]; }
 };
 Grid G;
 
@@ -107,14 +107,30 @@ std::vector<int64_t> asin_lut;
 
 double lines_of(int i, int64_t n) { return (G.qat(n + 1)[i] - cfg.q_index[i]) / (2 * kPi) * 1024.0; }
 
+double noise_lsb[3] = {0, 0, 0};
+struct CodeCache { double x = NAN; int a = 0, b = 0; };
+CodeCache code_cache[3];
+
 void codes(int i, int64_t n, int* a, int* b) {    // the ADC words of sample n (grid n + 1)
     if (n >= AX[i].dropout_from) { *a = *b = 0; return; }
-    double za = 0, zb = 0;
-    if (hg_plant_noise_lsb(plant, i) > 0) normals(noise_seed, i, n, &za, &zb);
-    int8_t a8, b8;
-    hg_plant_encode1(plant, i, lines_of(i, n), za, zb, &a8, &b8);
-    *a = a8;
-    *b = b8;
+    const double x = lines_of(i, n);
+    CodeCache& c = code_cache[i];
+    if (noise_lsb[i] > 0) {
+        double za, zb;
+        normals(noise_seed, i, n, &za, &zb);
+        int8_t a8, b8;
+        hg_plant_encode1(plant, i, x, za, zb, &a8, &b8);
+        *a = a8;
+        *b = b8;
+        return;
+    }
+    if (x != c.x) {                               // (noise-free: the same angle, the same words)
+        int8_t a8, b8;
+        hg_plant_encode1(plant, i, x, 0.0, 0.0, &a8, &b8);
+        c = {x, a8, b8};
+    }
+    *a = c.a;
+    *b = c.b;
 }
 
 int fine(const Axis& x, int a, int b, int sa, int sb) {
@@ -169,8 +185,8 @@ void exact_sample(int i, int64_t n, int a, int b, bool idx) {
     if (clip) x.faults |= 2;
     if (x.bad_run >= cfg.loss_samples) x.faults |= 4;
     const int32_t ph = x.ever_homed ? static_cast<int32_t>(static_cast<uint32_t>(pos) - static_cast<uint32_t>(x.home)) : pos;
-    x.pos_ring[static_cast<size_t>(n % kRing)] = pos;
-    x.hist[static_cast<size_t>(n % kRing)] = {pos, ph, x.index_pos, static_cast<uint16_t>(x.index_count),
+    x.pos_ring[static_cast<size_t>(n & (kRing - 1))] = pos;
+    x.hist[static_cast<size_t>(n & (kRing - 1))] = {pos, ph, x.index_pos, static_cast<uint16_t>(x.index_count),
                                              static_cast<uint16_t>(x.ovs_count), static_cast<uint8_t>(x.faults),
                                              static_cast<uint8_t>(x.homed)};
     x.n_exact = n;
@@ -204,7 +220,8 @@ int64_t qm_of(int i, int64_t n, int q) {
 int fault_bits(int i, int64_t n) {
     const Axis& x = AX[i];
     if (!x.built) return 0;
-    if (n <= x.n_exact) return n >= 0 ? x.hist[static_cast<size_t>(n % kRing)].faults : 0;
+    if (n <= x.n_exact) return n >= 0 ? x.hist[static_cast<size_t>(n & (kRing - 1))].faults : 0;
+    if (x.fault_ev.empty() && (x.clear_at.empty() || x.clear_at.back() <= x.n_exact)) return x.faults;
     int64_t last_clear = -1;
     for (int64_t c : x.clear_at)
         if (c <= n) last_clear = std::max(last_clear, c);
@@ -216,7 +233,7 @@ int fault_bits(int i, int64_t n) {
 
 int32_t pos_of(int i, int64_t n) {                // POS of sample n
     Axis& x = AX[i];
-    if (n <= x.n_exact) return x.pos_ring[static_cast<size_t>(n % kRing)];
+    if (n <= x.n_exact) return x.pos_ring[static_cast<size_t>(n & (kRing - 1))];
     const bool drop = n >= x.dropout_from;        // the counter stands still, the fine angle of 0, 0
     const int64_t m = drop ? x.dropout_from - 1 : n;
     int sa = x.sa, sb = x.sb, a = 0, b = 0;
@@ -263,7 +280,7 @@ Sample sample_of(int i, int64_t n, bool need_vel = true) {
         s.vel = d >= (1u << (dw - 1)) ? static_cast<int32_t>(d) - (1 << dw) : static_cast<int32_t>(d);
     }
     const int64_t k = std::min(n, x.n_exact);
-    const Axis::Hist& h = x.hist[static_cast<size_t>(k % kRing)];
+    const Axis::Hist& h = x.hist[static_cast<size_t>(k & (kRing - 1))];
     s.index_pos = h.index_pos;
     s.index_count = h.index_count;
     s.ovs = h.ovs;
@@ -456,14 +473,28 @@ void reg_edge(int64_t e, int word = -1, uint32_t data = 0, bool we = false) {
 
 void grid_point(int64_t g);
 
+// A DAC word reaches the amplifier at grid point g (before that grid point's own work, as in
+// device_harness.cpp): the lazy current loop catches up to g first.
+void dac_arrival() {
+    const Grid::Pend& p = G.pend[G.pend_head];
+    if (G.dynamic && cfg.mech_us > 1) {
+        hg_plant_amp(plant, static_cast<int>(p.at - G.amp_g));
+        G.amp_g = p.at;
+    }
+    hg_plant_set_dac(plant, p.ch, p.code);
+    if (++G.pend_head > 4096) {
+        G.pend.erase(G.pend.begin(), G.pend.begin() + static_cast<std::ptrdiff_t>(G.pend_head));
+        G.pend_head = 0;
+    }
+}
+
 // The next grid point with work (a DAC word arriving, a frame record, a mechanics step): every
 // one through the homing sweep and with the 1 us plant, else only those.
 int64_t next_grid() {
     const int64_t g = G.done + 1;
     if (!G.dynamic || cfg.mech_us <= 1) return g;
     int64_t n = G.mech_next;
-    if (G.pend_head < G.pend.size()) n = std::min(n, G.pend[G.pend_head].at);
-    if (cfg.record & 3) n = std::min(n, (g + 15) / 16 * 16);
+    if (cfg.record & 3) n = std::min(n, (g + 15) & ~int64_t(15));
     return std::max(n, g);
 }
 
@@ -479,11 +510,13 @@ void run_to(int64_t E) {
         if (!wd_expired) nr = std::min(nr, wd_expiry);
         const int64_t gn = next_grid();
         const int64_t ng = gn * D;
-        const int64_t nxt = std::min(std::min(nl, np), std::min(nr, ng));
+        const int64_t nd = G.pend_head < G.pend.size() ? G.pend[G.pend_head].at * D : kNever;
+        const int64_t nxt = std::min(std::min(std::min(nl, np), std::min(nr, ng)), nd);
         if (nxt > E) break;
         if (nl == nxt) { latch(next_latch_k); ++next_latch_k; }
         if (np == nxt) present_due(nxt);
         if (nr == nxt) reg_edge(nxt);
+        while (nd == nxt && G.pend_head < G.pend.size() && G.pend[G.pend_head].at * D == nxt) dac_arrival();
         if (ng == nxt) grid_point(gn);
     }
     done_edge = std::max(done_edge, E);
@@ -495,14 +528,6 @@ void grid_point(int64_t g) {
     G.done = g;
     const bool lazy = G.dynamic && cfg.mech_us > 1;
     if (lazy) hg_plant_amp(plant, static_cast<int>(g - G.amp_g));   // commands held since amp_g
-    while (G.pend_head < G.pend.size() && G.pend[G.pend_head].at <= g) {
-        hg_plant_set_dac(plant, G.pend[G.pend_head].ch, G.pend[G.pend_head].code);
-        ++G.pend_head;
-    }
-    if (G.pend_head > 4096) {
-        G.pend.erase(G.pend.begin(), G.pend.begin() + static_cast<std::ptrdiff_t>(G.pend_head));
-        G.pend_head = 0;
-    }
     const bool exact = cfg.mech_us <= 1;        // the plant of the RTL path, every 1 us
     if (!G.dynamic) {
         double q[3], qd[3];
@@ -510,12 +535,40 @@ void grid_point(int64_t g) {
         hg_plant_set_q(plant, q, qd);
     }
     if (exact || !G.dynamic || g >= G.mech_next) {
-        double* dst = &G.q[static_cast<size_t>(g % kRing) * 3];
+        double* dst = &G.q[static_cast<size_t>(g & (kRing - 1)) * 3];
         hg_plant_q(plant, dst);
     }
-    if (g % 16 == 0 && G.dynamic && (cfg.record & 3)) {
-        hg_plant_out o;
-        hg_plant_read(plant, &o);
+    const bool rec = g % 16 == 0 && G.dynamic && (cfg.record & 3);
+    const bool mech = !exact && G.dynamic && g >= G.mech_next;
+    hg_plant_out o;
+    if (rec && !mech) hg_plant_read(plant, &o);
+    if (exact) {
+        hg_plant_step(plant, G.steps_per_us);
+    } else if (!G.dynamic) {
+        hg_plant_held_us(plant);
+        G.amp_g = g + 1;
+    } else {
+        if (mech) {   // one mechanics step to the next multiple of mech_us (and the record)
+            const int k = cfg.mech_us - static_cast<int>(g % cfg.mech_us);
+            double q0[3], q1[3];
+            hg_plant_q(plant, q0);
+            hg_plant_mech_read(plant, k, rec ? &o : nullptr);
+            hg_plant_q(plant, q1);
+            const double inv = 1.0 / k;
+            const double dq[3] = {(q1[0] - q0[0]) * inv, (q1[1] - q0[1]) * inv, (q1[2] - q0[2]) * inv};
+            for (int j = 1; j <= k; ++j) {
+                double* dst = &G.q[static_cast<size_t>((g + j) & (kRing - 1)) * 3];
+                for (int i = 0; i < 3; ++i) dst[i] = j == k ? q1[i] : q0[i] + dq[i] * j;
+            }
+            for (int i = 0; i < 3; ++i) {   // overspeed: a step of >= 1/8 line per sample
+                if (AX[i].built && std::fabs(dq[i]) / (2 * kPi) * 1024.0 >= 0.125) AX[i].fault_ev.push_back({g, 1});
+            }
+            G.mech_next = g + k;
+        }
+        hg_plant_amp(plant, 1);
+        G.amp_g = g + 1;
+    }
+    if (rec) {
         FrameRec r{};
         r.t = (static_cast<double>(g) - static_cast<double>(G.scene0)) * 1e-6;
         if (cfg.record & 1) {
@@ -526,33 +579,6 @@ void grid_point(int64_t g) {
             r.energy = o.energy;
         }
         G.frames.push_back(r);
-    }
-    if (exact) {
-        hg_plant_step(plant, G.steps_per_us);
-    } else if (!G.dynamic) {
-        hg_plant_held_us(plant);
-        G.amp_g = g + 1;
-    } else {
-        if (g >= G.mech_next) {   // one mechanics step to the next multiple of mech_us
-            const int k = cfg.mech_us - static_cast<int>(g % cfg.mech_us);
-            double q0[3], q1[3];
-            hg_plant_q(plant, q0);
-            hg_plant_mech(plant, k);
-            hg_plant_q(plant, q1);
-            {
-                for (int j = 1; j <= k; ++j)
-                    for (int i = 0; i < 3; ++i)
-                        G.q[static_cast<size_t>((g + j) % kRing) * 3 + i] = q0[i] + (q1[i] - q0[i]) * j / k;
-                for (int i = 0; i < 3; ++i) {   // overspeed: a step of >= 1/8 line per sample
-                    if (!AX[i].built) continue;
-                    const double step = std::fabs(q1[i] - q0[i]) / k / (2 * kPi) * 1024.0;
-                    if (step >= 0.125) AX[i].fault_ev.push_back({g, 1});
-                }
-            }
-            G.mech_next = g + k;
-        }
-        hg_plant_amp(plant, 1);
-        G.amp_g = g + 1;
     }
     // the exact interpolator through the homing sweep: sample g - 1 is the ADC word of grid g
     if (!G.dynamic && g >= 1) {
@@ -701,6 +727,7 @@ int main(int argc, char** argv) {
         return 2;
     }
     for (int i = 0; i < 3; ++i) {
+        noise_lsb[i] = hg_plant_noise_lsb(plant, i);
         AX[i].built = (cfg.axis_mask >> i) & 1;
         AX[i].lut_bits = cfg.lut_bits;
         AX[i].fb = cfg.lut_bits + 1;

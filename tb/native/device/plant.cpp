@@ -85,6 +85,8 @@ struct hg_plant {
     double icmd_a[3] = {0, 0, 0}, icmd_b[3] = {0, 0, 0};
     double alpha = 0;                 // current-loop step factor
     double alpha_us = 0;              // the same for 1 us (hg_plant_amp_us)
+    double decay[65] = {0};           // (1 - alpha_us)^n, n = 0..64
+    double mean_decay[65] = {0};      // mean over j = 1..n of (1 - alpha_us)^j
     double J[9], Jprev[9];
     bool have_prev = false, held = false;
     double tau[3] = {0, 0, 0}, f_hand[3] = {0, 0, 0};
@@ -200,7 +202,9 @@ void target(const Params& P, double t, double* pt, double* vt) {
 // tau = kt * 2/3 * (ia sin(te) + ib sin(te - 120) + ic sin(te - 240)), ic = -(ia + ib)
 //     = kt * 2/3 * (ia (sin te - sin(te - 240)) + ib (sin(te - 120) - sin(te - 240)))
 //     = kt * 2/3 * sqrt(3) * (ia cos(te - 120) - ib cos(te))   (sum to product)
-void motor_torque_i(const hg_plant* s, const double* ia, const double* ib, double* tau, double* th) {
+// (tau2: optionally the torques of the amplifier's present currents as well, same angles)
+void motor_torque_i(const hg_plant* s, const double* ia, const double* ib, double* tau, double* th,
+                    double* tau2 = nullptr) {
     const Params& P = s->P;
     constexpr double kS120 = 0.86602540378443864676, kSqrt3 = 1.7320508075688772935;
     for (int m = 0; m < 3; ++m) {
@@ -209,6 +213,7 @@ void motor_torque_i(const hg_plant* s, const double* ia, const double* ib, doubl
         double st, ct;
         sincos(te, &st, &ct);
         tau[m] = P.kt * (2.0 / 3.0) * kSqrt3 * (ia[m] * (kS120 * st - 0.5 * ct) - ib[m] * ct);
+        if (tau2) tau2[m] = P.kt * (2.0 / 3.0) * kSqrt3 * (s->ia[m] * (kS120 * st - 0.5 * ct) - s->ib[m] * ct);
     }
 }
 
@@ -352,6 +357,13 @@ hg_plant* hg_plant_new(const char* config_text, char* err, int errlen) {
     }
     s->alpha = 1.0 - std::exp(-2 * kPi * P.bw_hz * P.dt);
     s->alpha_us = 1.0 - std::exp(-2 * kPi * P.bw_hz * 1e-6);
+    s->decay[0] = 1.0;
+    for (int n = 1; n <= 64; ++n) s->decay[n] = s->decay[n - 1] * (1 - s->alpha_us);
+    for (int n = 1; n <= 64; ++n) {
+        double f = 0;
+        for (int j = 1; j <= n; ++j) f += s->decay[j];
+        s->mean_decay[n] = f / n;
+    }
     jac(P.arm, s->q, s->J);
     return s;
 }
@@ -384,13 +396,44 @@ void hg_plant_set_q(hg_plant* p, const double q[3], const double qd[3]) {
 
 namespace {
 
-// One semi-implicit Euler step of dt with the motor torques of phase currents (ia, ib).
-void mech_step(hg_plant* s, double dt, const double* ia, const double* ib) {
+// The read-out of the present state (hg_plant_read) from its trigonometry and motor torques.
+void fill_out(const hg_plant* s, const Trig& kq, const double* tau, const double* th, hg_plant_out* o) {
+    const Params& P = s->P;
+    o->t = s->t;
+    double J[9];
+    jac_t(P.arm, kq, J);
+    fk_t(P.arm, kq, o->p);
+    for (int i = 0; i < 3; ++i) {
+        o->q[i] = s->q[i];
+        o->qd[i] = s->qd[i];
+        o->f_hand[i] = s->f_hand[i];
+        o->tau[i] = tau[i];
+        o->theta_e[i] = th[i];
+        o->i_ab[2 * i] = s->ia[i];
+        o->i_ab[2 * i + 1] = s->ib[i];
+        o->v[i] = 0;
+        for (int c = 0; c < 3; ++c) o->v[i] += J[3 * i + c] * s->qd[c];
+    }
+    const double m = P.m_link + P.m_handle;
+    double e = 0;
+    for (int i = 0; i < 3; ++i) e += 0.5 * (m * o->v[i] * o->v[i] + P.j_rotor * s->qd[i] * s->qd[i]);
+    if (P.hand == 1) {
+        double pt[3], vt[3];
+        target(P, s->t, pt, vt);
+        for (int i = 0; i < 3; ++i) e += 0.5 * P.hand_k * (pt[i] - o->p[i]) * (pt[i] - o->p[i]);
+    }
+    o->energy = e;
+}
+
+// One semi-implicit Euler step of dt with the motor torques of phase currents (ia, ib); with
+// `out`, the read-out of the state before the step as well (its trigonometry shared).
+void mech_step(hg_plant* s, double dt, const double* ia, const double* ib, hg_plant_out* out = nullptr) {
     const Params& P = s->P;
     const double m = P.m_link + P.m_handle;
-    double th[3];
-    motor_torque_i(s, ia, ib, s->tau, th);
+    double th[3], tau_now[3];
+    motor_torque_i(s, ia, ib, s->tau, th, out ? tau_now : nullptr);
     const Trig kq = trig(s->q);
+    if (out) fill_out(s, kq, tau_now, th, out);
     jac_t(P.arm, kq, s->J);
     double p[3], v[3] = {0, 0, 0}, pt[3], vt[3], fdev[3] = {0, 0, 0};
     if (P.hand == 1) fk_t(P.arm, kq, p);
@@ -492,7 +535,7 @@ void hg_plant_amp_us(hg_plant* s) {
 
 void hg_plant_amp(hg_plant* s, int n_us) {
     if (n_us <= 0) return;
-    const double r = n_us == 1 ? 1 - s->alpha_us : std::pow(1 - s->alpha_us, n_us);
+    const double r = n_us <= 64 ? s->decay[n_us] : std::pow(1 - s->alpha_us, n_us);
     for (int i = 0; i < 3; ++i) {
         s->ia[i] = s->icmd_a[i] + (s->ia[i] - s->icmd_a[i]) * r;
         s->ib[i] = s->icmd_b[i] + (s->ib[i] - s->icmd_b[i]) * r;
@@ -506,22 +549,29 @@ void hg_plant_held_us(hg_plant* s) {
     s->t += 1e-6;
 }
 
-void hg_plant_mech(hg_plant* s, int n_us) {
+void hg_plant_mech_read(hg_plant* s, int n_us, hg_plant_out* out) {
     // the mean over the next n_us of the currents the amplifier reaches with today's commands
     // (the 1 us updates that hg_plant_amp_us makes): cmd + (i0 - cmd) * mean_j (1 - alpha)^j
-    double f = 0, r = 1;
-    for (int j = 1; j <= n_us; ++j) {
-        r *= 1 - s->alpha_us;
-        f += r;
+    double f = 0;
+    if (n_us <= 64) {
+        f = s->mean_decay[n_us];
+    } else {
+        double r = 1;
+        for (int j = 1; j <= n_us; ++j) {
+            r *= 1 - s->alpha_us;
+            f += r;
+        }
+        f /= n_us;
     }
-    f /= n_us;
     double ia[3], ib[3];
     for (int i = 0; i < 3; ++i) {
         ia[i] = s->icmd_a[i] + (s->ia[i] - s->icmd_a[i]) * f;
         ib[i] = s->icmd_b[i] + (s->ib[i] - s->icmd_b[i]) * f;
     }
-    mech_step(s, n_us * 1e-6, ia, ib);
+    mech_step(s, n_us * 1e-6, ia, ib, out);
 }
+
+void hg_plant_mech(hg_plant* s, int n_us) { hg_plant_mech_read(s, n_us, nullptr); }
 
 void hg_plant_adc(hg_plant* s, int8_t a[3], int8_t b[3], uint8_t idx[3]) {
     hg_plant_adc_mask(s, 7, a, b, idx);
@@ -545,31 +595,10 @@ void hg_plant_adc_mask(hg_plant* s, int mask, int8_t a[3], int8_t b[3], uint8_t 
 }
 
 void hg_plant_read(const hg_plant* s, hg_plant_out* o) {
-    const Params& P = s->P;
-    o->t = s->t;
-    double J[9], th[3];
-    jac(P.arm, s->q, J);
-    fk(P.arm, s->q, o->p);
-    motor_torque(s, o->tau, th);
-    for (int i = 0; i < 3; ++i) {
-        o->q[i] = s->q[i];
-        o->qd[i] = s->qd[i];
-        o->f_hand[i] = s->f_hand[i];
-        o->theta_e[i] = th[i];
-        o->i_ab[2 * i] = s->ia[i];
-        o->i_ab[2 * i + 1] = s->ib[i];
-        o->v[i] = 0;
-        for (int c = 0; c < 3; ++c) o->v[i] += J[3 * i + c] * s->qd[c];
-    }
-    const double m = P.m_link + P.m_handle;
-    double e = 0;
-    for (int i = 0; i < 3; ++i) e += 0.5 * (m * o->v[i] * o->v[i] + P.j_rotor * s->qd[i] * s->qd[i]);
-    if (P.hand == 1) {
-        double pt[3], vt[3];
-        target(P, s->t, pt, vt);
-        for (int i = 0; i < 3; ++i) e += 0.5 * P.hand_k * (pt[i] - o->p[i]) * (pt[i] - o->p[i]);
-    }
-    o->energy = e;
+    double th[3], tau[3];
+    const Trig kq = trig(s->q);   // (one evaluation for both)
+    motor_torque(s, tau, th);
+    fill_out(s, kq, tau, th, o);
 }
 
 void hg_plant_q(const hg_plant* p, double q[3]) {

@@ -52,6 +52,8 @@ typedef struct {
     double theta_e[3];  // true electrical angle per motor, rad
 } hg_plant_out;
 void hg_plant_read(const hg_plant* p, hg_plant_out* o);
+// hg_plant_mech with the read-out of the state before the step (shared trigonometry).
+void hg_plant_mech_read(hg_plant* p, int n_us, hg_plant_out* o);
 // Joint angles only (cheap; every grid point).
 void hg_plant_q(const hg_plant* p, double q[3]);
 
