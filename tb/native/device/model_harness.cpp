@@ -73,7 +73,16 @@ struct Grid {
     std::vector<FrameRec> frames;
     std::vector<int8_t> adc;
     int steps_per_us = 1;
-    const double* qat(int64_t g) const { return &q[static_cast<size_t>(g & (kRing - 1)) * 3]; }
+    // the multirate plant's steps: q between two step boundaries is linear (semi-implicit Euler
+    // moves q by dt * qd_new); step m covers the grid points (g0, g0 + k], m = (g - 1) / 16
+    struct Step { int64_t g0; double q0[3], dq[3]; };
+    std::vector<Step> steps = std::vector<Step>(1024);
+    int64_t lazy_from = kNever;             // grid points after this one come from `steps`
+    double qat(int64_t g, int i) const {
+        if (g <= lazy_from) return q[static_cast<size_t>(g & (kRing - 1)) * 3 + static_cast<size_t>(i)];
+        const Step& st = steps[static_cast<size_t>(((g - 1) >> 4) & 1023)];
+        return st.q0[i] + st.dq[i] * static_cast<double>(g - st.g0);
+    }
 };
 Grid G;
 
@@ -105,7 +114,7 @@ struct Axis {
 Axis AX[3];
 std::vector<int64_t> asin_lut;
 
-double lines_of(int i, int64_t n) { return (G.qat(n + 1)[i] - cfg.q_index[i]) / (2 * kPi) * 1024.0; }
+double lines_of(int i, int64_t n) { return (G.qat(n + 1, i) - cfg.q_index[i]) / (2 * kPi) * 1024.0; }
 
 double noise_lsb[3] = {0, 0, 0};
 struct CodeCache { double x = NAN; int a = 0, b = 0; };
@@ -342,6 +351,45 @@ int64_t clamp_torque(int64_t t, int64_t lim) {
     return std::max(-lim, std::min(lim, t));
 }
 
+// Where on a line the decoded quadrant is certain without the ADC words: kBins bins per line;
+// bin b holds the sign-bit quadrant if both channels' noise-free codes are >= 2 + 6 sigma in
+// magnitude, with the same signs, at both ends of the bin (the signals change by < 0.3 LSB
+// across one), so every sample in it decodes to that quadrant with no zero code; else 255.
+constexpr int kBins = 4096;
+std::vector<uint8_t> safe_q[3];
+
+void make_safe_table(int i) {
+    safe_q[i].assign(kBins, 255);
+    const double lim = 2.0 + 6.0 * noise_lsb[i];
+    int prev_q = -1;
+    bool prev_ok = false;
+    for (int b = 0; b <= kBins; ++b) {
+        int8_t a8, b8;
+        hg_plant_encode1(plant, i, static_cast<double>(b) / kBins, 0.0, 0.0, &a8, &b8);
+        const bool ok = std::abs(a8) >= lim && std::abs(b8) >= lim;
+        const int sa = a8 < 0, sb = b8 < 0, q = (sa << 1) | (sa ^ sb);
+        if (b > 0 && ok && prev_ok && q == prev_q) safe_q[i][static_cast<size_t>(b - 1)] = static_cast<uint8_t>(q);
+        prev_q = q;
+        prev_ok = ok;
+    }
+}
+
+// Bits 31..9 of POS_HOMED of sample n (what sine commutation reads) from the true angle alone,
+// when the sample lies in a safe bin: the counter's quadrant count over two (no zero code means
+// a fine angle < 2^(L+1), which never carries into bit 9). False: evaluate the sample.
+bool sine_hi(int i, int64_t n, int32_t* hi) {
+    const Axis& x = AX[i];
+    if (!x.built || n <= x.n_exact || n >= x.dropout_from || cfg.coarse) return false;
+    const double ln = lines_of(i, n);
+    const double fr = ln - std::floor(ln);
+    const uint8_t q = safe_q[i][static_cast<size_t>(std::min(kBins - 1, static_cast<int>(fr * kBins)))];
+    if (q == 255) return false;
+    const int32_t qc = static_cast<int32_t>(static_cast<uint32_t>(x.qc) + static_cast<uint32_t>(qm_of(i, n, q) - x.qm_ref));
+    const int32_t pos_hi = qc >> 1;               // (pos >> 9 with pos = qc << 8 + f, f < 256)
+    *hi = x.ever_homed ? pos_hi - (x.home >> 9) : pos_hi;
+    return true;
+}
+
 struct Frame { int64_t k; int64_t code[6]; int next_ch; };
 std::vector<Frame> frames_open;                   // latched frames whose loads are still due
 int64_t next_latch_k = 0;                 // frame 0: the commutator's reset frame (zero torque)
@@ -355,17 +403,25 @@ void latch(int64_t k) {
     Frame f{k, {0, 0, 0, 0, 0, 0}, 0};
     const bool enable = global_en() && !wd_expired;
     for (int m = 0; m < 3; ++m) {
-        const Sample s = sample_of(m, n, false);   // (the commutator reads no velocity)
-        const int64_t mask = (int64_t(1) << kCB) - 1;
-        const int64_t pos = static_cast<int64_t>(static_cast<uint32_t>(s.pos_homed)) & mask;
         const uint32_t mode = axis_en(m) ? (stored[HG_REG_AXIS(m, HG_AX_MODE)] & 3) : HG_MODE_OFF;
+        const int faults = fault_bits(m, n);
+        const int64_t mask = (int64_t(1) << kCB) - 1;
+        int64_t pos = 0;
+        int32_t hi = 0;
+        const bool fast = mode == HG_MODE_SINE && sine_hi(m, n, &hi);
+        if (!fast) {
+            const Sample s = sample_of(m, n, false);   // (the commutator reads no velocity)
+            pos = static_cast<int64_t>(static_cast<uint32_t>(s.pos_homed)) & mask;
+        }
         const int64_t tq = clamp_torque(static_cast<int16_t>(stored[HG_REG_AXIS(m, HG_AX_TORQUE)] & 0xFFFF),
                                         stored[HG_REG_AXIS(m, HG_AX_TQ_LIMIT)] & 0xFFFF);
         const int64_t off = stored[HG_REG_AXIS(m, HG_AX_OFFSET)] & 1023;
         int64_t u = (pos * kPolePairs) & mask;
         if (mode == HG_MODE_ALIGN) u = 0;
         const int64_t ua = (u + (off << (kCB - kAB))) & mask;
-        const int64_t ka = ua >> (kCB - kAB), kb = (ka - kPhaseB) & 1023;
+        // (sine mode reads only the angle code: bits 18..9 of the position, plus the offset)
+        const int64_t ka = fast ? ((static_cast<int64_t>(hi) & 1023) + off) & 1023 : ua >> (kCB - kAB);
+        const int64_t kb = (ka - kPhaseB) & 1023;
         int ne = 0;
         for (int64_t d : six_edges) ne += ua >= d;
         int64_t va, vb;
@@ -376,7 +432,7 @@ void latch(int64_t k) {
             va = unfold(ka);
             vb = unfold(kb);
         }
-        const bool zero = !enable || s.faults != 0 || mode == HG_MODE_OFF || k == 0 || n < 0;
+        const bool zero = !enable || faults != 0 || mode == HG_MODE_OFF || k == 0 || n < 0;
         f.code[2 * m] = zero ? 0 : scale(va, tq);
         f.code[2 * m + 1] = zero ? 0 : scale(vb, tq);
     }
@@ -555,11 +611,14 @@ void grid_point(int64_t g) {
             hg_plant_mech_read(plant, k, rec ? &o : nullptr);
             hg_plant_q(plant, q1);
             const double inv = 1.0 / k;
-            const double dq[3] = {(q1[0] - q0[0]) * inv, (q1[1] - q0[1]) * inv, (q1[2] - q0[2]) * inv};
-            for (int j = 1; j <= k; ++j) {
-                double* dst = &G.q[static_cast<size_t>((g + j) & (kRing - 1)) * 3];
-                for (int i = 0; i < 3; ++i) dst[i] = j == k ? q1[i] : q0[i] + dq[i] * j;
+            Grid::Step& st = G.steps[static_cast<size_t>((g >> 4) & 1023)];
+            st.g0 = g;
+            for (int i = 0; i < 3; ++i) {
+                st.q0[i] = q0[i];
+                st.dq[i] = (q1[i] - q0[i]) * inv;
             }
+            const double* dq = st.dq;
+            if (G.lazy_from == kNever) G.lazy_from = g;
             for (int i = 0; i < 3; ++i) {   // overspeed: a step of >= 1/8 line per sample
                 if (AX[i].built && std::fabs(dq[i]) / (2 * kPi) * 1024.0 >= 0.125) AX[i].fault_ev.push_back({g, 1});
             }
@@ -728,6 +787,7 @@ int main(int argc, char** argv) {
     }
     for (int i = 0; i < 3; ++i) {
         noise_lsb[i] = hg_plant_noise_lsb(plant, i);
+        make_safe_table(i);
         AX[i].built = (cfg.axis_mask >> i) & 1;
         AX[i].lut_bits = cfg.lut_bits;
         AX[i].fb = cfg.lut_bits + 1;
@@ -829,7 +889,8 @@ int main(int argc, char** argv) {
         const int64_t tick_g = (rose ? irq_edge : e) / D;
         hg_servo_isr();
         const int64_t gs = tick_g - 1;
-        ticks.push_back(tick_record(s, (static_cast<double>(tick_g) - static_cast<double>(G.scene0)) * 1e-6, G.qat(gs)));
+        const double qs[3] = {G.qat(gs, 0), G.qat(gs, 1), G.qat(gs, 2)};
+        ticks.push_back(tick_record(s, (static_cast<double>(tick_g) - static_cast<double>(G.scene0)) * 1e-6, qs));
         if (!enabled) {
             const uint32_t homed = HG_STAT_HOMED(0) | HG_STAT_HOMED(1) | HG_STAT_HOMED(2);
             if (homed_isr < 0 && (s.status & homed) == homed) {
