@@ -13,6 +13,7 @@ from __future__ import annotations
 import hashlib
 import subprocess
 import time
+from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
@@ -26,6 +27,7 @@ from ..golden.sine import quarter_table
 from ..runners import cosim
 from ..runners.sim import _locked
 from . import runner
+from .scene import SceneError
 
 SOURCES = [runner.HERE / "model_harness.cpp", runner.HERE / "harness_common.cpp",
            runner.HERE / "plant.cpp"]
@@ -75,28 +77,37 @@ def _regs(clk_hz: int) -> list[str]:
     return lines
 
 
+def _refuse(scene: Any, key: str, msg: str) -> SceneError:
+    return SceneError(f"{scene.source}: {key}: {msg}")
+
+
 def supported(scene: Any) -> None:
-    """Refuse what the model does not simulate faithfully (DeviceError, naming the key): an
+    """Refuse what the model does not simulate faithfully (SceneError naming the file and key,
+    the command's exit 2, nothing written): a waveform trace, the ADC record, quadrature-only
+    position, an
     encoder whose noise-free signal clips or leaves the signal-loss window anywhere on a line
-    (the model sees clipping only at the samples it evaluates, README), quadrature-only
-    position, the ADC record (use fidelity rtl)."""
+    (the model sees clipping only at the samples it evaluates, README)."""
     cfg = InterpConfig()
+    if scene.run.trace:
+        raise _refuse(scene, "run.trace", "a waveform needs the gateware (fidelity \"rtl\")")
+    if "adc" in scene.run.record:
+        raise _refuse(scene, "run.record", "\"adc\": the model computes the ADC words only "
+                      "where it needs them; use fidelity \"rtl\"")
     if runner._coarse(scene):
-        raise runner.DeviceError("run.position = \"quadrature\": needs fidelity \"rtl\"")
+        raise _refuse(scene, "run.position", "\"quadrature\" needs fidelity \"rtl\"")
     x = np.linspace(0.0, 1.0, 4096, endpoint=False)
     for i in scene.run.axes:
         spec = scene.encoders[int(i)].spec(seed=0)
-        a, b = encsig.adc_codes(x, type(spec)(**{**vars(spec), "noise_lsb": 0.0}))
+        a, b = encsig.adc_codes(x, replace(spec, noise_lsb=0.0))
         a32, b32 = a.astype(np.int32), b.astype(np.int32)
         amp2 = a32 * a32 + b32 * b32
         margin = 6.0 * spec.noise_lsb
         peak = np.maximum(np.abs(a32).max(), np.abs(b32).max()) + margin
         if peak >= 127 or np.sqrt(amp2.min()) - margin < cfg.amp_min or \
                 np.sqrt(amp2.max()) + margin > cfg.amp_max:
-            raise runner.DeviceError(
-                f"encoder.{i}: the signal (with 6 sigma of noise) reaches the ADC's clipping or "
-                "the signal-loss window: the model evaluates only some samples, use fidelity "
-                "\"rtl\"")
+            raise _refuse(scene, f"encoder.{i}", "the signal (with 6 sigma of noise) reaches the "
+                          "ADC's clipping or the signal-loss window: the model evaluates only "
+                          "some samples; use fidelity \"rtl\"")
 
 
 def run_config(scene: Any, q0: np.ndarray, clk_hz: int, mask: int, mech_us: int) -> str:
@@ -118,11 +129,6 @@ def simulate(scene: Any, clk_hz: int | None = None, mask: int | None = None,
              mech_us: int = MECH_US) -> runner.Raw:
     """Run the scene at model fidelity once; the same records as runner.simulate."""
     import tempfile
-    if scene.run.trace:
-        raise runner.DeviceError("run.trace: a waveform needs the gateware (fidelity \"rtl\")")
-    if "adc" in scene.run.record:
-        raise runner.DeviceError("run.record \"adc\": the model computes the ADC words only "
-                                 "where it needs them, use fidelity \"rtl\"")
     supported(scene)
     clk = runner.choose_clock(scene) if clk_hz is None else int(clk_hz)
     m = runner.axis_mask(scene) if mask is None else int(mask)
