@@ -114,8 +114,9 @@ def test_unsupported_combinations_exit_2(tmp_path, capsys):
     src = (SCENES / "short.toml").read_text()
     rec = 'record = ["q", "p", "f_hand", "tau", "dac"]'
     assert rec in src
-    for text, key in ((src.replace("[run]\n", '[run]\nfidelity = "model"\ntrace = true\n'), "run.trace"),
-                      (src.replace(rec, 'fidelity = "model"\nrecord = ["q", "adc"]'), "run.record")):
+    traced = src.replace("[run]\n", '[run]\nfidelity = "model"\ntrace = true\n')
+    adc = src.replace(rec, 'fidelity = "model"\nrecord = ["q", "adc"]')
+    for text, key in ((traced, "run.trace"), (adc, "run.record")):
         bad = tmp_path / "bad.toml"
         bad.write_text(text)
         out = tmp_path / "out"

@@ -136,7 +136,7 @@ def simulate(scene: Any, clk_hz: int | None = None, mask: int | None = None,
     q0 = runner.start_pose(scene)
     built = [REPLACES, "firmware (dsp-fw)",
              f"plant ({', '.join(str(a) for a in scene.run.axes)} free; mechanics every "
-             f"{mech_us} us, amplifier every 1 us)"]
+             f"{mech_us} us, amplifier exact at every DAC word)"]
     skipped = [f"axis {i} (interpolator, signals; joint held)" for i in range(3) if not m >> i & 1]
     skipped += ["gateware (Verilator)", "waveform trace"]
     skipped += [] if runner.record_mask(scene) & 1 else ["plant records"]

@@ -102,7 +102,8 @@ def build(clk_hz: int, mask: int = 7, trace: bool = False, test_limits: bool = F
         "device_harness", block.top, srcs, params, HARNESS,
         cflags=(f"-std=c++17 -DCLK_HZ={clk_hz} -DAXIS_MASK={mask} -DHG_TRACE={int(trace)} "
                 f"-I{HERE} -I{FW / 'include'}" + "".join(f" -D{d}" for d in defs)),
-        ldflags="fw/libhgfw.a -lm", inputs=[HERE / "plant.h", HERE / "uart_link.h", HERE / "harness_common.h", *fw_srcs],
+        ldflags="fw/libhgfw.a -lm",
+        inputs=[HERE / "plant.h", HERE / "uart_link.h", HERE / "harness_common.h", *fw_srcs],
         prepare=functools.partial(cosim._fw_lib, defines=defs), vflags=vflags)
 
 
@@ -450,7 +451,8 @@ def run(scene: Any, progress: Any = None, out_dir: Path | None = None) -> Any:
     sim_s = float(raw.summary["sim_s"])
     return RunResult(scene=scene, sim_s=sim_s, wall_s=raw.wall_s,
                      rtf=sim_s / raw.wall_s if raw.wall_s > 0 else math.inf,
-                     fidelity=str(scene.run.fidelity), clk_hz=raw.clk_hz, axes=tuple(scene.run.axes),
+                     fidelity=str(scene.run.fidelity), clk_hz=raw.clk_hz,
+                     axes=tuple(scene.run.axes),
                      built=raw.built, skipped=raw.skipped, arrays=arrays, events=evs,
                      metrics=m, per_axis=per)
 
