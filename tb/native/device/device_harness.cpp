@@ -373,8 +373,7 @@ int main(int argc, char** argv) {
             bench.dynamic = true;
         }
         if (g_now >= next_progress) {
-            std::fprintf(stderr, "progress %.6f\n", bench.scene_t(g_now));
-            std::fflush(stderr);
+            hg_dev::progress_line(bench.scene_t(g_now));
             next_progress += static_cast<uint64_t>(cfg.progress_s * 1e6);
         }
         for (size_t k = 0; k < faults.size(); ++k) {

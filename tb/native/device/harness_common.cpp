@@ -140,6 +140,11 @@ void print_summary(const Summary& s) {
     std::printf("frame_bytes=%zu tick_bytes=%zu\n", sizeof(FrameRec), sizeof(TickRec));
 }
 
+void progress_line(double t) {
+    std::fprintf(stderr, "progress %.6f\n", t);
+    std::fflush(stderr);
+}
+
 void fw_config(const RunCfg& cfg, uint32_t clk_hz, hg_servo_cfg_t* fw) {
     hg_servo_default_cfg(fw);
     fw->rate_hz = cfg.servo_hz;

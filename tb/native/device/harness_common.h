@@ -92,6 +92,8 @@ struct Summary {
     uint64_t last_key_edge; int64_t scene0_us; uint32_t skew, frame; uint64_t d;
 };
 void print_summary(const Summary& s);
+// A progress line on stderr (runner._progress_reader): scene time t, s.
+void progress_line(double t);
 
 // ------------------------------------------------------------------ the firmware
 // Its configuration for this run (rate, clock, encoder zero at the index, commutation offset

@@ -859,8 +859,7 @@ int main(int argc, char** argv) {
             }
         }
         if (g_now >= next_progress) {
-            std::fprintf(stderr, "progress %.6f\n", (static_cast<double>(g_now) - static_cast<double>(G.scene0)) * 1e-6);
-            std::fflush(stderr);
+            progress_line((static_cast<double>(g_now) - static_cast<double>(G.scene0)) * 1e-6);
             next_progress += static_cast<int64_t>(cfg.progress_s * 1e6);
         }
         for (size_t k = 0; k < faults.size(); ++k) {
