@@ -44,13 +44,13 @@ def test_schedule_timing_rtl(simulator: str, name: str) -> None:
 @pytest.mark.parametrize("simulator", sim.simulators())
 def test_strobe_high_from_power_up(simulator: str) -> None:
     """The commutator (its scheduler's strobe) at the iCE40 board's clock, on the build of the
-    schedule test, and the whole top's DAC pin register (Icarus: a cheap build)."""
+    schedule test, and the whole top's DAC pin register (Icarus, on tb/top's build)."""
     cfg = CONFIGS["c12_board"]
     sim.run_cocotb(blocks.get("commutator"), simulator, "cocotb_dac_sched", HERE,
                    params=cfg.rtl_params(), testcase="power_up")
     if simulator == "icarus":
         sim.run_cocotb(blocks.get("hapgate_top"), "icarus", "cocotb_dac_sched", HERE,
-                       params=top.TopConfig(clk_hz=12_000_000).rtl_params(), testcase="power_up")
+                       params=top.TopConfig(clk_hz=50_000_000).rtl_params(), testcase="power_up")
 
 
 def test_strobe_high_from_power_up_ice40_netlist() -> None:
