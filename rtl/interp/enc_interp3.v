@@ -20,7 +20,9 @@ module enc_interp3 #(
     parameter         CAL_LUT_FILE = "asin512.hex", // CAL = 1: 512-entry arcsine table
     parameter integer CAL_LINES_LOG2 = 3,        // CAL = 1: calibration block 2**N lines
     parameter integer CAL_NLOG     = 14,         // CAL = 1: blocks of 2**N samples ignored
-    parameter integer COARSE       = 0           // 1: plain quadrature (fine angle zeroed)
+    parameter integer COARSE       = 0,          // 1: plain quadrature (fine angle zeroed)
+    parameter integer SQ_RAM       = 0,          // 1: signal-loss squares from block RAM (enc_interp)
+    parameter integer HOLD_C       = 0           // 1: no stage-D copies (needs CLK_HZ >= 2 SAMPLE_HZ)
 ) (
     input  wire                 clk,
     input  wire                 rst,
@@ -74,7 +76,8 @@ module enc_interp3 #(
                 .LUT_BITS(LUT_BITS), .LUT_FILE(LUT_FILE), .VEL_LOG2W(VEL_LOG2W),
                 .AMP_MIN(AMP_MIN), .AMP_MAX(AMP_MAX), .LOSS_SAMPLES(LOSS_SAMPLES),
                 .INVERT((INVERT_MASK >> i) & 1), .CAL(CAL), .CAL_LUT_FILE(CAL_LUT_FILE),
-                .CAL_LINES_LOG2(CAL_LINES_LOG2), .CAL_NLOG(CAL_NLOG), .COARSE(COARSE)
+                .CAL_LINES_LOG2(CAL_LINES_LOG2), .CAL_NLOG(CAL_NLOG), .COARSE(COARSE),
+                .SQ_RAM(SQ_RAM), .HOLD_C(HOLD_C)
             ) u_axis (
                 .clk(clk), .rst(rst),
                 .s_valid(adc_strobe),

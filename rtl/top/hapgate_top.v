@@ -34,6 +34,8 @@ module hapgate_top #(
     parameter integer OFFSET_BINARY = 0,          // DAC coding: 0 two's complement, 1 offset binary
     parameter integer BUS_ADDR_BITS = 8,          // DSP word-address lines decoded
     parameter integer SERIAL_MUL    = 0,          // 1: commutator multiplies in 16 clocks (LUT-only boards)
+    parameter integer SQ_RAM        = 0,          // 1: interpolators' signal-loss squares from block RAM
+    parameter integer HOLD_C        = 0,          // 1: interpolators without stage-D copies
     parameter integer AXIS_MASK     = 7           // interpolators built (bit i = axis i); a
                                                   // cleared bit needs HG_SIM (held joint)
 ) (
@@ -81,6 +83,9 @@ module hapgate_top #(
         end
         if (COUNT_BITS > 26) begin : g_bad_counts
             hapgate_top_LUT_BITS_plus_LINES_LOG2_must_be_at_most_23 u_stop ();
+        end
+        if (HOLD_C != 0 && CLK_HZ < 2 * SAMPLE_HZ) begin : g_bad_hold_c
+            hapgate_top_HOLD_C_needs_CLK_HZ_at_least_2_SAMPLE_HZ u_stop ();
         end
     endgenerate
 
@@ -138,7 +143,8 @@ module hapgate_top #(
         .CLK_HZ(CLK_HZ), .SAMPLE_HZ(SAMPLE_HZ), .AXES(NAX), .LUT_BITS(LUT_BITS),
         .LUT_FILE(ASIN_FILE), .VEL_LOG2W(VEL_LOG2W), .AMP_MIN(AMP_MIN), .AMP_MAX(AMP_MAX),
         .LOSS_SAMPLES(LOSS_SAMPLES), .CAL(CAL), .CAL_LUT_FILE(CAL_LUT_FILE),
-        .CAL_LINES_LOG2(CAL_LINES_LOG2), .CAL_NLOG(CAL_NLOG), .COARSE(COARSE)
+        .CAL_LINES_LOG2(CAL_LINES_LOG2), .CAL_NLOG(CAL_NLOG), .COARSE(COARSE),
+        .SQ_RAM(SQ_RAM), .HOLD_C(HOLD_C)
     ) u_interp (
         .clk(clk), .rst(rst), .adc_strobe(adc_strobe), .adc_a(c_adc_a), .adc_b(c_adc_b),
         .enc_index(c_index), .ctl_fault_clear({NAX{fault_clear}}), .ctl_home_arm(c_arm),
@@ -228,6 +234,7 @@ module hapgate_top #(
 
     hg_bus #(
         .CLK_HZ(CLK_HZ), .SAMPLE_HZ(SAMPLE_HZ), .VEL_LOG2W(VEL_LOG2W),
+        .VEL_BITS(LUT_BITS + VEL_LOG2W + 4),  // the interpolator's stored velocity bits
         .SKEW_CLOCKS(SKEW_CLOCKS), .FRAME_CLOCKS(FRAME_CLOCKS), .ADDR_BITS(BUS_ADDR_BITS)
     ) u_bus (
         .clk(clk), .rst(rst),
