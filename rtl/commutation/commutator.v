@@ -23,7 +23,9 @@ module commutator #(
     parameter         LUT_FILE      = "sine.hex", // sine ROM contents (models/hapgate/sine.py)
     parameter integer DAC_BITS      = 14,         // DAC width; codes saturate to +-(2**(DAC_BITS-1)-1)
     parameter integer OFFSET_BINARY = 0,          // DAC coding: 0 two's complement, 1 offset binary
-    parameter integer SERIAL_MUL    = 0           // 1: shift-add multiplier, 16 clocks (no DSP/LUT array)
+    parameter integer SERIAL_MUL    = 0,          // 1: shift-add multiplier, 16 clocks (no DSP/LUT array)
+    parameter integer LIMITS        = 1           // torque limits: 1 for all motors, 3 one per motor
+                                                  // (the top's TQ_LIMIT registers: one shared clamp)
 ) (
     input  wire                           clk,
     input  wire                           rst,
@@ -33,7 +35,7 @@ module commutator #(
     input  wire [3*(ADDR_BITS+2)-1:0]     ctl_offset,       // index-to-winding offset, 1/2**(ADDR_BITS+2) cycle
     input  wire [5:0]                     ctl_mode,         // 0 SINE, 1 SIX_STEP, 2 ALIGN, 3 OFF
     input  wire                           ctl_enable,       // 0: every channel at zero torque
-    input  wire [15:0]                    ctl_torque_limit, // |torque| clamp; >= 32768: none
+    input  wire [16*LIMITS-1:0]           ctl_torque_limit, // |torque| clamp (motor 0 low); >= 32768: none
     input  wire [2:0]                     axis_fault,       // 1: that motor at zero torque
     output wire                           m_frame,          // the inputs are latched at the end of this clock
     // DAC port
@@ -92,6 +94,9 @@ module commutator #(
         if (SERIAL_MUL != 0 && SERIAL_MUL != 1) begin : g_bad_serial_mul
             commutator_SERIAL_MUL_must_be_0_or_1 u_stop ();
         end
+        if (LIMITS != 1 && LIMITS != 3) begin : g_bad_limits
+            commutator_LIMITS_must_be_1_or_3 u_stop ();
+        end
         if (SERIAL_MUL != 0 && SKEW_CYCLES_I < MUL_EXTRA + 2) begin : g_serial_mul_too_slow
             commutator_SERIAL_MUL_needs_SKEW_of_at_least_18_clocks u_stop ();
         end
@@ -120,7 +125,7 @@ module commutator #(
     reg [3*CB-1:0] u_q;         // electrical angle, fine: (pos * POLE_PAIRS) mod 2**CB
     reg [3*AB-1:0] off_q;
     reg [47:0]     tq_q;
-    reg [15:0]     lim_q;
+    reg [16*LIMITS-1:0] lim_q;
     reg [5:0]      mode_q;
     reg [2:0]    fault_q;
     reg          en_q;
@@ -154,6 +159,15 @@ module commutator #(
     reg [15:0]   tq_m;
     reg [1:0]    mode_m;
     reg          fault_m;
+    wire [15:0]  lim_m;
+    generate
+        if (LIMITS == 3) begin : g_lim3
+            wire [1:0] lm = (req_ch[2:1] == 2'd3) ? 2'd2 : req_ch[2:1];
+            assign lim_m = lim_q[16*lm +: 16];
+        end else begin : g_lim1
+            assign lim_m = lim_q[15:0];
+        end
+    endgenerate
     always @* begin
         case (req_ch[2:1])
             2'd0:    begin
@@ -188,7 +202,7 @@ module commutator #(
                            : (n_edges == 3'd4 || n_edges == 3'd5);
 
     // Torque clamp to +-limit (limit >= 32768: no clamp, -32768 passes)
-    wire        [16:0] lim17 = lim_q[15] ? 17'h08000 : {1'b0, lim_q};
+    wire        [16:0] lim17 = lim_m[15] ? 17'h08000 : {1'b0, lim_m};
     wire signed [16:0] t17   = {tq_m[15], tq_m};
     wire               t_hi  = t17 > $signed(lim17);
     wire               t_lo  = t17 < -$signed(lim17);

@@ -256,34 +256,15 @@ module hapgate_top #(
     wire unused_dbg = &{1'b0, tick, dbg_req, dbg_we, dbg_addr, dbg_wdata, dbg_proto_err};
 
     // ---------------------------------------------------------------- commutation inputs
-    // Per-axis torque clamp to +-TQ_LIMIT (>= 32768: none); an axis that is not enabled is OFF.
-    reg  [47:0]             tq_cl;
+    // Per-axis torque clamp to +-TQ_LIMIT (>= 32768: none), in the commutator after its frame
+    // latch (LIMITS = 3: one clamp shared by the motors); an axis that is not enabled is OFF.
     reg  [5:0]              mode_eff;
     wire [3*COUNT_BITS-1:0] s_pos;
     integer k;
     always @(*) begin
-        for (k = 0; k < 3; k = k + 1) begin
-            tq_cl[16*k +: 16]  = clamp(torque[16*k +: 16], tq_limit[16*k +: 16]);
+        for (k = 0; k < 3; k = k + 1)
             mode_eff[2*k +: 2] = axis_en[k] ? mode[2*k +: 2] : 2'd3;
-        end
     end
-
-    function [15:0] clamp;
-        input [15:0] t;
-        input [15:0] lim;
-        reg   [16:0] l17;
-        reg signed [16:0] t17;
-        begin
-            l17 = lim[15] ? 17'h08000 : {1'b0, lim};
-            t17 = {t[15], t};
-            if (t17 > $signed(l17))
-                clamp = l17[15:0];
-            else if (t17 < -$signed(l17))
-                clamp = ~l17[15:0] + 16'd1;
-            else
-                clamp = t;
-        end
-    endfunction
 
     genvar g;
     generate
@@ -304,10 +285,11 @@ module hapgate_top #(
         .CLK_HZ(CLK_HZ), .SKEW_NS(SKEW_NS), .FRAME_NS(FRAME_NS), .SETTLE_NS(SETTLE_NS),
         .WR_CYCLES(WR_CYCLES), .COUNT_BITS(COUNT_BITS), .POLE_PAIRS(POLE_PAIRS),
         .ADDR_BITS(ADDR_BITS), .MAG_BITS(MAG_BITS), .FS(FS), .LUT_FILE(SINE_FILE),
-        .DAC_BITS(DAC_BITS), .OFFSET_BINARY(OFFSET_BINARY), .SERIAL_MUL(SERIAL_MUL)
+        .DAC_BITS(DAC_BITS), .OFFSET_BINARY(OFFSET_BINARY), .SERIAL_MUL(SERIAL_MUL),
+        .LIMITS(3)
     ) u_comm (
-        .clk(clk), .rst(rst), .s_pos(s_pos), .s_torque(tq_cl), .ctl_offset(offset),
-        .ctl_mode(mode_eff), .ctl_enable(~kill_all), .ctl_torque_limit(16'hFFFF),
+        .clk(clk), .rst(rst), .s_pos(s_pos), .s_torque(torque), .ctl_offset(offset),
+        .ctl_mode(mode_eff), .ctl_enable(~kill_all), .ctl_torque_limit(tq_limit),
         .axis_fault(fault), .m_frame(m_frame),
         .dac_data(c_data), .dac_addr(c_addr), .dac_wr_n(c_wr_n)
     );
