@@ -25,7 +25,9 @@ module hapgate_top #(
     parameter integer SKEW_NS       = 2000,       // DAC channel-to-channel skew
     parameter integer FRAME_NS      = 16000,      // commutation frame
     parameter integer SETTLE_NS     = 16000,      // DAC settling time
-    parameter integer WR_CYCLES     = 1,          // DAC write strobe length, clocks
+    parameter integer WR_CYCLES     = 1,          // DAC write strobe length, clocks (at least
+                                                  // DAC_TWR_NS: the longer of the two is used)
+    parameter integer DAC_TWR_NS    = 50,         // DAC's minimum write pulse (DAC7625 t_WCS)
     parameter integer ADDR_BITS     = 8,          // sine ROM: 2**ADDR_BITS quarter-wave entries
     parameter integer MAG_BITS      = 13,         // sine ROM entry width
     parameter integer FS            = 8191,       // sine ROM full scale
@@ -74,6 +76,9 @@ module hapgate_top #(
     localparam integer CLK_KHZ     = CLK_HZ / 1000;
     localparam integer SKEW_CLOCKS = CLK_KHZ * SKEW_NS / 1_000_000;
     localparam integer FRAME_CLOCKS = CLK_KHZ * FRAME_NS / 1_000_000;
+    // the DAC write strobe: WR_CYCLES clocks, but never shorter than the DAC's t_WCS
+    localparam integer WR_MIN      = (DAC_TWR_NS * CLK_KHZ + 999_999) / 1_000_000;
+    localparam integer WR_EFF      = (WR_CYCLES > WR_MIN) ? WR_CYCLES : WR_MIN;
     localparam integer ZERO_I      = (OFFSET_BINARY != 0) ? (1 << (DAC_BITS - 1)) : 0;
     localparam [DAC_BITS-1:0] ZERO = ZERO_I[DAC_BITS-1:0];       // the zero-torque DAC word
 
@@ -83,6 +88,9 @@ module hapgate_top #(
         end
         if (COUNT_BITS > 26) begin : g_bad_counts
             hapgate_top_LUT_BITS_plus_LINES_LOG2_must_be_at_most_23 u_stop ();
+        end
+        if (DAC_TWR_NS < 0 || DAC_TWR_NS > 1000) begin : g_bad_twr
+            hapgate_top_DAC_TWR_NS_must_be_0_to_1000 u_stop ();
         end
         if (HOLD_C != 0 && CLK_HZ < 2 * SAMPLE_HZ) begin : g_bad_hold_c
             hapgate_top_HOLD_C_needs_CLK_HZ_at_least_2_SAMPLE_HZ u_stop ();
@@ -283,7 +291,7 @@ module hapgate_top #(
 
     commutator #(
         .CLK_HZ(CLK_HZ), .SKEW_NS(SKEW_NS), .FRAME_NS(FRAME_NS), .SETTLE_NS(SETTLE_NS),
-        .WR_CYCLES(WR_CYCLES), .COUNT_BITS(COUNT_BITS), .POLE_PAIRS(POLE_PAIRS),
+        .WR_CYCLES(WR_EFF), .COUNT_BITS(COUNT_BITS), .POLE_PAIRS(POLE_PAIRS),
         .ADDR_BITS(ADDR_BITS), .MAG_BITS(MAG_BITS), .FS(FS), .LUT_FILE(SINE_FILE),
         .DAC_BITS(DAC_BITS), .OFFSET_BINARY(OFFSET_BINARY), .SERIAL_MUL(SERIAL_MUL),
         .LIMITS(3)

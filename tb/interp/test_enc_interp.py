@@ -48,7 +48,8 @@ def test_fit_options_bit_exact() -> None:
     both table reads are used either way round) and HOLD_C = 1 (no stage-D copies: samples with
     idle clocks between them, as the board's strobe has) are bit-exact against the same model."""
     cfg = interp.InterpConfig()
-    _run("icarus", cfg, ["square_table", "gaps_latency_and_pulses"], extra={"SQ_RAM": 1, "HOLD_C": 1})
+    _run("icarus", cfg, ["square_table", "gaps_latency_and_pulses"],
+         extra={"SQ_RAM": 1, "HOLD_C": 1})
     cfg = interp.InterpConfig(invert=True)
     _run("icarus", cfg, "scenario_bit_exact", "dropout_controls", extra={"SQ_RAM": 1})
 
