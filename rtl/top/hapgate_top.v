@@ -38,6 +38,7 @@ module hapgate_top #(
     parameter integer SERIAL_MUL    = 0,          // 1: commutator multiplies in 16 clocks (LUT-only boards)
     parameter integer SQ_RAM        = 0,          // 1: interpolators' signal-loss squares from block RAM
     parameter integer HOLD_C        = 0,          // 1: interpolators without stage-D copies
+    parameter integer LATCH_RAM     = 0,          // 1: commutator's latched torques/limits in block RAM
     parameter integer AXIS_MASK     = 7           // interpolators built (bit i = axis i); a
                                                   // cleared bit needs HG_SIM (held joint)
 ) (
@@ -294,7 +295,7 @@ module hapgate_top #(
         .WR_CYCLES(WR_EFF), .COUNT_BITS(COUNT_BITS), .POLE_PAIRS(POLE_PAIRS),
         .ADDR_BITS(ADDR_BITS), .MAG_BITS(MAG_BITS), .FS(FS), .LUT_FILE(SINE_FILE),
         .DAC_BITS(DAC_BITS), .OFFSET_BINARY(OFFSET_BINARY), .SERIAL_MUL(SERIAL_MUL),
-        .LIMITS(3)
+        .LIMITS(3), .LATCH_RAM(LATCH_RAM)
     ) u_comm (
         .clk(clk), .rst(rst), .s_pos(s_pos), .s_torque(torque), .ctl_offset(offset),
         .ctl_mode(mode_eff), .ctl_enable(~kill_all), .ctl_torque_limit(tq_limit),

@@ -64,7 +64,8 @@ BOARDS = {
               constraints="hx8k_breakout.pcf", constraint_opt="--pcf",
               layout_opt="--asc", layout="design.asc", pack=("yowasp-icepack",),
               bitstream="design.bin", logic="ICESTORM_LC", max_logic=0.75, min_slack=0.20,
-              sources=("boards/adc_pair_mux.v",), extra={"SERIAL_MUL": 1, "SQ_RAM": 1, "HOLD_C": 1},
+              sources=("boards/adc_pair_mux.v",),
+              extra={"SERIAL_MUL": 1, "SQ_RAM": 1, "HOLD_C": 1, "LATCH_RAM": 1},
               doc="iCE40-HX8K breakout (CT256, no DSP blocks), 12 MHz oscillator, ADC pair "
                   "adapter"),
         Board(name="ecp5-evn", top="hapgate_ecp5_evn", clk_hz=48_000_000,
