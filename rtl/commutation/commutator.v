@@ -6,6 +6,9 @@
 // Latency: channel k loads (dac_wr_n rises) k*SKEW + 8 clocks after the frame start (WR_CYCLES=1),
 // + 16 clocks with SERIAL_MUL=1 (one shift-add multiplier, 16 clocks per product: the LUT-only
 // iCE40-HX8K build; the codes are bit-identical, the load times shift by MUL_EXTRA clocks).
+// LIMITS = 3: a torque limit per motor (the top's TQ_LIMIT registers), clamped in the shared
+// per-channel stage C; LATCH_RAM = 1: the latched torques and limits held in block RAM (fewer
+// logic cells on the HX8K; the same codes and times). rtl/boards/README.md, "Fit".
 `timescale 1ns / 1ps
 `default_nettype none
 
