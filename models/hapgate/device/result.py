@@ -34,7 +34,8 @@ METRIC_OF = {"max_force_error_n": "force_error_n",
              "zero_torque_within_us": "zero_torque_us",
              "min_torque_ratio": "torque_ratio", "max_torque_ratio": "torque_ratio",
              "max_energy_drift_frac": "energy_drift_frac", "max_slips": "slips",
-             "fw_error": "fw_error"}
+             "fw_error": "fw_error", "min_link_bad_frames": "link_bad_frames",
+             "pc_force_zero_within_ms": "pc_force_zero_ms"}
 PER_SAMPLE3 = ("q", "p", "f_hand", "tau")   # (N, 3) arrays on the t grid
 
 
