@@ -521,7 +521,7 @@ def run(scene: Any, progress: Any = None, out_dir: Path | None = None) -> Any:
                      rtf=sim_s / raw.wall_s if raw.wall_s > 0 else math.inf,
                      fidelity="rtl", clk_hz=raw.clk_hz, axes=tuple(scene.run.axes),
                      built=raw.built, skipped=raw.skipped, arrays=arrays, events=evs,
-                     metrics=m, per_axis=per)
+                     metrics=m, per_axis=per, cpu_s=float(raw.summary.get("cpu_s", "nan")))
 
 
 def arrays_of(scene: Any, raw: Raw) -> dict[str, np.ndarray]:

@@ -13,6 +13,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
+#include <ctime>
 #include <fstream>
 #include <map>
 #include <memory>
@@ -47,6 +48,14 @@ extern "C" {
 // matter for $display/$finish from other threads; the model has neither. The first eval() goes
 // through the public entry (it runs the initial blocks).
 void Vhapgate_top___024root___eval(Vhapgate_top___024root* vlSelf);
+
+namespace {
+double cpu_now_s() {  // CPU time of this process (user + system), s
+    timespec ts{};
+    clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &ts);
+    return static_cast<double>(ts.tv_sec) + 1e-9 * static_cast<double>(ts.tv_nsec);
+}
+}  // namespace
 
 namespace {
 
@@ -468,6 +477,7 @@ int main(int argc, char** argv) {
     bench.grid(0);
 
     const auto w0 = std::chrono::steady_clock::now();
+    const double cpu0 = cpu_now_s();
     // ---------------------------------------------------------------- firmware bring-up
     hg_servo_cfg_t fw;
     hg_servo_default_cfg(&fw);
@@ -603,6 +613,7 @@ int main(int argc, char** argv) {
         }
     }
     const double wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - w0).count();
+    const double cpu_s = cpu_now_s() - cpu0;   // this process's CPU time: the one-core figure
 #if HG_TRACE
     bench.tfp->close();
 #endif
@@ -618,8 +629,8 @@ int main(int argc, char** argv) {
     bench.loads.close();
     bench.adc.close();
     const double sim_s = static_cast<double>(end_us - static_cast<uint64_t>(bench.scene0_us)) * 1e-6;
-    std::printf("clk_hz=%d axis_mask=%d sim_s=%.9g wall_s=%.6g clocks=%llu frames=%zu ticks=%zu loads=%zu\n",
-                CLK_HZ, AXIS_MASK, sim_s, wall_s, static_cast<unsigned long long>(bench.edge), bench.frames.size(),
+    std::printf("clk_hz=%d axis_mask=%d sim_s=%.9g wall_s=%.6g cpu_s=%.6g clocks=%llu frames=%zu ticks=%zu loads=%zu\n",
+                CLK_HZ, AXIS_MASK, sim_s, wall_s, cpu_s, static_cast<unsigned long long>(bench.edge), bench.frames.size(),
                 ticks.size(), bench.loads.size());
     std::printf("init_err=%u fw_err=%u fw_err_axis=%u enabled_t=%.9g wdog_us=%u last_key_edge=%llu scene0_us=%lld "
                 "skew=%u frame=%u d=%llu\n",
