@@ -375,13 +375,15 @@ module enc_interp #(
             hist[wptr] <= pos_c[DW-1:0];
             old_d      <= hist[wptr];            // read-before-write: pos[n - W]
         end
-        pos_d         <= pos_c;
-        pos_homed_d   <= pos_homed_c;
-        index_pos_d   <= index_pos_c;
-        index_count_d <= index_count_c;
-        ovs_count_d   <= ovs_count_c;
-        homed_d       <= homed_q;
-        flags_d       <= flags;
+        if (vc) begin  // (held between samples: a simulator then skips the copies too)
+            pos_d         <= pos_c;
+            pos_homed_d   <= pos_homed_c;
+            index_pos_d   <= index_pos_c;
+            index_count_d <= index_count_c;
+            ovs_count_d   <= ovs_count_c;
+            homed_d       <= homed_q;
+            flags_d       <= flags;
+        end
     end
 
     always @(posedge clk) begin
