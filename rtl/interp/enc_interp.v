@@ -2,8 +2,9 @@
 // Sin/cos encoder interpolator, one axis: sign-bit quadrant + arcsine LUT on the smaller channel
 // (the paper's method), 32-bit position, index latch and homing, window-difference velocity,
 // sticky faults. Bit-exact model and full description: models/hapgate/interp.py.
-// Latency: 5 clocks from the cycle with s_valid high to the cycle with m_valid high (6 with CAL = 1:
-// the online calibration stage enc_calib.v between capture and angle, models/hapgate/enccal.py).
+// Latency: 5 clocks from the cycle with s_valid high to the cycle with m_valid high, + 1 with CAL = 1
+// (the online calibration stage enc_calib.v between capture and angle, models/hapgate/enccal.py),
+// + ANGLE_REG, + RATIO_BITS + 1 with ANGLE = 1 (the ratio divider ratio_div.v; golden/angle.py).
 `timescale 1ns / 1ps
 `default_nettype none
 
@@ -19,7 +20,12 @@ module enc_interp #(
     parameter         CAL_LUT_FILE = "asin512.hex", // CAL = 1: 512-entry table (enccal.cal_table)
     parameter integer CAL_LINES_LOG2 = 3,       // CAL = 1: calibration block 2**N lines
     parameter integer CAL_NLOG     = 14,        // CAL = 1: blocks of 2**N samples or more ignored
-    parameter integer COARSE       = 0          // 1: plain quadrature, the fine angle zeroed (4 steps/line)
+    parameter integer COARSE       = 0,         // 1: plain quadrature, the fine angle zeroed (4 steps/line)
+    parameter integer ANGLE        = 0,         // fine angle: 0 arcsine of the smaller channel (paper),
+                                                // 1 ratio table atan(smaller / larger), pipelined divider
+    parameter integer RATIO_BITS   = 10,        // ANGLE = 1: ratio table 2**RATIO_BITS entries (6..12)
+    parameter         RATIO_FILE   = "atan.hex", // ANGLE = 1: $readmemh table (golden.angle.ratio_table)
+    parameter integer ANGLE_REG    = 0          // 1: a register after abs/compare/select (latency + 1)
 ) (
     input  wire        clk,
     input  wire        rst,
@@ -92,8 +98,17 @@ module enc_interp #(
         if (CAL != 0 && CAL != 1) begin : g_bad_cal
             enc_interp_CAL_must_be_0_or_1 u_stop ();
         end
-        if (CAL != 0 && LUT_BITS > 8) begin : g_bad_cal_lut
-            enc_interp_CAL_needs_LUT_BITS_at_most_8 u_stop ();
+        if (CAL != 0 && ANGLE == 0 && LUT_BITS > 8) begin : g_bad_cal_lut
+            enc_interp_CAL_with_ANGLE_0_needs_LUT_BITS_at_most_8 u_stop ();
+        end
+        if (ANGLE != 0 && ANGLE != 1) begin : g_bad_angle
+            enc_interp_ANGLE_must_be_0_or_1 u_stop ();
+        end
+        if (ANGLE_REG != 0 && ANGLE_REG != 1) begin : g_bad_angle_reg
+            enc_interp_ANGLE_REG_must_be_0_or_1 u_stop ();
+        end
+        if (ANGLE != 0 && (RATIO_BITS < 6 || RATIO_BITS > 12)) begin : g_bad_ratio_bits
+            enc_interp_RATIO_BITS_must_be_6_to_12 u_stop ();
         end
     endgenerate
 
@@ -219,52 +234,119 @@ module enc_interp #(
     wire          half = (y >= x);                 // local angle >= 45 deg: the smaller is x
     wire [AW-1:0] msm  = half ? x : y;             // the smaller magnitude
 
-    reg                vb;
-    reg [LUT_BITS-1:0] lut_b;
+    wire [AW-1:0] mlg  = half ? y : x;             // the larger magnitude (ANGLE = 1)
+
+    // Delay from the select to the table read: ANGLE_REG register(s), then (ANGLE = 1) the
+    // divider's RATIO_BITS + 1 stages. Control bits (valid, pulses) are reset, data is not.
+    localparam integer QB  = RATIO_BITS + 1;
+    localparam integer XD  = ANGLE_REG + ((ANGLE != 0) ? QB : 0);
+    localparam integer SBW = 6;
+    wire [2:0]     ctl_0 = {v_in, v_in & clr_in, v_in & arm_in};
+    wire [SBW-1:0] sbd_0 = {sa, odd, half, idx_in, clip_in, bad_in};
+    wire [2:0]     ctl_s;                           // at the table read
+    wire [SBW-1:0] sbd_s;
+    wire [AW-1:0]  msm_r, mlg_r;                    // after the optional ANGLE_REG register
     generate
-        if (CAL != 0) begin : g_lut_cal
-            wire [8:0]         addr = (msm > 12'd511) ? 9'd511 : msm[8:0];  // the table clamps
+        if (XD == 0) begin : g_nodelay
+            assign ctl_s = ctl_0;
+            assign sbd_s = sbd_0;
+        end else begin : g_delay
+            reg  [3*XD-1:0]   ctl_d;                      // tap i in bits [3i +: 3]
+            reg  [SBW*XD-1:0] sbd_d;
+            wire [3*XD+2:0]   ctl_sh = {ctl_d, ctl_0};
+            wire [SBW*XD+SBW-1:0] sbd_sh = {sbd_d, sbd_0};
+            always @(posedge clk) begin
+                if (rst) ctl_d <= {(3 * XD){1'b0}};
+                else     ctl_d <= ctl_sh[3*XD-1:0];
+            end
+            always @(posedge clk) sbd_d <= sbd_sh[SBW*XD-1:0];
+            wire unused_sh = &{1'b0, ctl_sh[3*XD+2:3*XD], sbd_sh[SBW*XD+SBW-1:SBW*XD]};
+            assign ctl_s = ctl_d[3*XD-1 -: 3];
+            assign sbd_s = sbd_d[SBW*XD-1 -: SBW];
+        end
+        if (ANGLE_REG != 0) begin : g_areg
+            reg [AW-1:0] msm_q, mlg_q;
+            always @(posedge clk) begin
+                msm_q <= msm;
+                mlg_q <= mlg;
+            end
+            assign msm_r = msm_q;
+            assign mlg_r = mlg_q;
+        end else begin : g_noareg
+            assign msm_r = msm;
+            assign mlg_r = mlg;
+        end
+    endgenerate
+
+    reg              vb;
+    wire [LUT_BITS:0] t_b;                          // table output: 0..2**LUT_BITS
+    generate
+        if (ANGLE != 0) begin : g_ratio
+            // atan(m / M) through floor(m 2**RATIO_BITS / M) (clamped: m = M reads the last entry)
+            localparam integer RN = 1 << RATIO_BITS;
+            wire [QB-1:0]         quo;
+            ratio_div #(.W(AW), .QB(QB)) u_div (
+                .clk(clk), .s_num(msm_r), .s_den(mlg_r), .m_quo(quo)
+            );
+            wire [RATIO_BITS-1:0] addr = quo[QB-1] ? {RATIO_BITS{1'b1}} : quo[RATIO_BITS-1:0];
+            reg [LUT_BITS:0]      rtab [0:RN-1];
+            reg [LUT_BITS:0]      t_q;
+            initial $readmemh(RATIO_FILE, rtab);
+            always @(posedge clk) t_q <= rtab[addr];
+            assign t_b = t_q;
+        end else if (CAL != 0) begin : g_lut_cal
+            wire [8:0]         addr = (msm_r > 12'd511) ? 9'd511 : msm_r[8:0];  // the table clamps
             reg [LUT_BITS-1:0] lut [0:LUT_N-1];
+            reg [LUT_BITS-1:0] lut_b;
             initial $readmemh(CAL_LUT_FILE, lut);
             always @(posedge clk) lut_b <= lut[addr];
+            assign t_b = {1'b0, lut_b};
+            wire unused_mlg = &{1'b0, mlg_r};
         end else begin : g_lut
-            wire [7:0]         addr = msm;                                 // 0..128
+            wire [7:0]         addr = msm_r;                               // 0..128
             reg [LUT_BITS-1:0] lut [0:LUT_N-1];
+            reg [LUT_BITS-1:0] lut_b;
             initial $readmemh(LUT_FILE, lut);
             always @(posedge clk) lut_b <= lut[addr];
+            assign t_b = {1'b0, lut_b};
+            wire unused_mlg = &{1'b0, mlg_r};
         end
     endgenerate
     reg [1:0]          q_b;
     reg                half_b, idx_b, clr_b, arm_b, clip_b, bad_b;
 
     always @(posedge clk) begin
-        q_b    <= {sa, odd};
-        half_b <= half;
-        idx_b  <= idx_in;
-        clip_b <= clip_in;
-        bad_b  <= bad_in;
+        q_b    <= sbd_s[5:4];
+        half_b <= sbd_s[3];
+        idx_b  <= sbd_s[2];
+        clip_b <= sbd_s[1];
+        bad_b  <= sbd_s[0];
     end
 
     always @(posedge clk) begin
         if (rst) begin
-            vb      <= 1'b0;
-            clr_b   <= 1'b0;
-            arm_b   <= 1'b0;
+            vb    <= 1'b0;
+            clr_b <= 1'b0;
+            arm_b <= 1'b0;
+        end else begin
+            vb    <= ctl_s[2];
+            clr_b <= ctl_s[1];
+            arm_b <= ctl_s[0];
+        end
+    end
+
+    always @(posedge clk) begin
+        if (rst) begin
             sa_prev <= 1'b0;
             sb_prev <= 1'b0;
-        end else begin
-            vb    <= v_in;
-            clr_b <= v_in & clr_in;
-            arm_b <= v_in & arm_in;
-            if (v_in) begin
-                sa_prev <= sa;
-                sb_prev <= sb;
-            end
+        end else if (v_in) begin
+            sa_prev <= sa;
+            sb_prev <= sb;
         end
     end
 
     // ---------------------------------------------------------------- stage C: count, index, faults
-    wire [FB:0]    lut_ext = {{(FB + 1 - LUT_BITS){1'b0}}, lut_b};
+    wire [FB:0]    lut_ext = {1'b0, t_b};
     wire [FB:0]    fine_i  = half_b ? QUADRANT - lut_ext : lut_ext;  // mirror: 2**FB - T, not -1
     wire [FB:0]    fine    = (COARSE != 0) ? {(FB + 1){1'b0}} : fine_i;
 

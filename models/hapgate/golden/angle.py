@@ -1,0 +1,69 @@
+"""High-resolution angle stage of the interpolator: the bit-exact integer model of the ratio
+path of rtl/interp/enc_interp.v (ANGLE = 1) and rtl/interp/ratio_div.v.
+
+In the local frame of the sign-bit quadrant (step 2 of hapgate.golden.interp) the two
+magnitudes are y = sin and x = cos of the local angle theta; the paper reads theta from the
+arcsine of the smaller one alone, which assumes the amplitude. The ratio stage divides the
+amplitude out: with h = (y >= x), m = h ? x : y (smaller) and M = h ? y : x (larger),
+
+    k = floor(m * 2^RB / M)             (RB = ratio_bits; k = 2^(RB+1) - 1 when M = 0)
+    k' = min(k, 2^RB - 1)               (m = M: the last entry)
+    T[k'] = round(atan((k' + 1/2) / 2^RB) * 2^L / 45deg)      k' = 0 .. 2^RB - 1, 0 .. 2^L
+    f = h ? 2^(L+1) - T[k'] : T[k']
+
+(L = lut_bits: 2^L codes per 45 deg, 8 * 2^L counts per line; the table is evaluated at the
+middle of each ratio bin, and has L + 1 bits: T = 2^L is 45 deg). The divider is a restoring one,
+one quotient bit per pipeline stage (RB + 1 stages); m <= M always, so only the first bit can be
+the integer bit (m = M). The channels are the raw 8-bit codes or the calibrated 12-bit
+quarter-LSB ones (hapgate.golden.enccal): the ratio does not care about the amplitude, so the
+same table serves both.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from ..base.tables import write_hex
+
+RATIO_BITS = 10     # default ratio table: 1024 entries (a 1024 x (L + 1) ROM: 2..3 SB_RAM40_4K)
+
+
+def ratio_table(lut_bits: int, ratio_bits: int = RATIO_BITS) -> np.ndarray:
+    """T[k] = round(atan((k + 1/2) / 2^RB) * 2^L / (pi / 4)), k = 0 .. 2^RB - 1."""
+    k = np.arange(1 << ratio_bits, dtype=np.float64)
+    t = np.arctan((k + 0.5) / (1 << ratio_bits)) * (1 << lut_bits) / (np.pi / 4)
+    return np.floor(t + 0.5).astype(np.int64)
+
+
+def ratio_name(lut_bits: int, ratio_bits: int = RATIO_BITS) -> str:
+    return f"atan_l{lut_bits}_q{ratio_bits}"
+
+
+def write_ratio_table(lut_bits: int, ratio_bits: int = RATIO_BITS,
+                      directory: Path | None = None) -> Path:
+    return write_hex(ratio_name(lut_bits, ratio_bits), ratio_table(lut_bits, ratio_bits),
+                     lut_bits + 1, directory)
+
+
+def ratio_code(m: np.ndarray, big: np.ndarray, ratio_bits: int = RATIO_BITS) -> np.ndarray:
+    """The divider's quotient floor(m 2^RB / M) (m <= M), all ones (2^(RB+1) - 1) for M = 0."""
+    m = np.asarray(m, dtype=np.int64)
+    big = np.asarray(big, dtype=np.int64)
+    q = (m << ratio_bits) // np.maximum(big, 1)
+    return np.where(big > 0, q, (2 << ratio_bits) - 1)
+
+
+def ratio_fine(small: np.ndarray, big: np.ndarray, half: np.ndarray, table: np.ndarray,
+               lut_bits: int, ratio_bits: int = RATIO_BITS) -> np.ndarray:
+    """Fine angle f in 0 .. 2^(L+1) of the ratio stage (see the module docstring)."""
+    k = np.minimum(ratio_code(small, big, ratio_bits), (1 << ratio_bits) - 1)
+    t = table[k]
+    return np.where(half, (2 << lut_bits) - t, t)
+
+
+def latency(cal: bool = False, ratio: bool = False, angle_reg: bool = False,
+            ratio_bits: int = RATIO_BITS) -> int:
+    """Clocks from the s_valid cycle to the m_valid cycle of enc_interp."""
+    return 5 + int(cal) + int(angle_reg) + ((ratio_bits + 1) if ratio else 0)
