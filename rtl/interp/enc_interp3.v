@@ -20,7 +20,11 @@ module enc_interp3 #(
     parameter         CAL_LUT_FILE = "asin512.hex", // CAL = 1: 512-entry arcsine table
     parameter integer CAL_LINES_LOG2 = 3,        // CAL = 1: calibration block 2**N lines
     parameter integer CAL_NLOG     = 14,         // CAL = 1: blocks of 2**N samples ignored
-    parameter integer COARSE       = 0           // 1: plain quadrature (fine angle zeroed)
+    parameter integer COARSE       = 0,          // 1: plain quadrature (fine angle zeroed)
+    parameter integer ANGLE        = 0,          // 1: ratio angle stage atan(smaller / larger)
+    parameter integer RATIO_BITS   = 10,         // ANGLE = 1: ratio table 2**RATIO_BITS entries
+    parameter         RATIO_FILE   = "atan.hex", // ANGLE = 1: the ratio table
+    parameter integer ANGLE_REG    = 0           // 1: register after the angle select (latency + 1)
 ) (
     input  wire                 clk,
     input  wire                 rst,
@@ -74,7 +78,9 @@ module enc_interp3 #(
                 .LUT_BITS(LUT_BITS), .LUT_FILE(LUT_FILE), .VEL_LOG2W(VEL_LOG2W),
                 .AMP_MIN(AMP_MIN), .AMP_MAX(AMP_MAX), .LOSS_SAMPLES(LOSS_SAMPLES),
                 .INVERT((INVERT_MASK >> i) & 1), .CAL(CAL), .CAL_LUT_FILE(CAL_LUT_FILE),
-                .CAL_LINES_LOG2(CAL_LINES_LOG2), .CAL_NLOG(CAL_NLOG), .COARSE(COARSE)
+                .CAL_LINES_LOG2(CAL_LINES_LOG2), .CAL_NLOG(CAL_NLOG), .COARSE(COARSE),
+                .ANGLE(ANGLE), .RATIO_BITS(RATIO_BITS), .RATIO_FILE(RATIO_FILE),
+                .ANGLE_REG(ANGLE_REG)
             ) u_axis (
                 .clk(clk), .rst(rst),
                 .s_valid(adc_strobe),

@@ -150,13 +150,13 @@ def blocks() -> list[Block]:
               lint_synth=("ice40",),
               doc="one axis with the online calibration stage (CAL = 1, rtl/interp/enc_calib.v)"),
         Block(name="enc_interp_ratio", top="enc_interp", sources=srcs,
-              params=lambda: InterpConfig(cal=True, ratio=True, lut_bits=9,
-                                          angle_reg=True).rtl_params(),
+              params=lambda: InterpConfig(ratio=True, lut_bits=9, angle_reg=True).rtl_params(),
               lint_synth=("ice40",),
-              doc="one axis, calibrated, with the ratio angle stage at 4096 counts per line "
+              doc="one axis with the ratio angle stage at 4096 counts per line "
                   "(ANGLE = 1, rtl/interp/ratio_div.v) and the angle register (ANGLE_REG = 1)"),
         Block(name="enc_interp_areg", top="enc_interp", sources=srcs,
               params=lambda: InterpConfig(angle_reg=True).rtl_params(),
+              lint_synth=(),   # the same code is synthesised in enc_interp_ratio
               doc="one axis, the paper's angle stage with its register stage (ANGLE_REG = 1)"),
         Block(name="enc_interp3", top="enc_interp3",
               sources=srcs + ("interp/sample_strobe.v", "interp/enc_interp3.v"),
