@@ -16,7 +16,7 @@ from cocotb.utils import get_sim_time
 from hapgate.golden import encsig, interp
 from hapgate.runners import native, tbutil
 
-LATENCY = 5        # clocks from the cycle with s_valid high to the cycle with m_valid high
+LATENCY = 5        # clocks from s_valid to m_valid, paper path (+1 ANGLE_REG, +RB+1 ratio)
 PERIOD_NS = 20     # 50 MHz for the unit test; the 3-axis top derives its strobe from CLK_HZ
 
 
@@ -85,8 +85,12 @@ async def stream(dut, sc: encsig.Scenario, gaps: np.ndarray | None = None,
     return {c: np.array(v, dtype=np.int64) for c, v in cols.items()}, np.array(lat)
 
 
-def assert_latency(lat_ns: np.ndarray) -> None:
-    want = LATENCY * PERIOD_NS
+def assert_latency(lat_ns: np.ndarray, cfg: interp.InterpConfig) -> None:
+    """Latency is part of the spec: LATENCY clocks for the paper's path, one more with the angle
+    register (ANGLE_REG), RATIO_BITS + 1 more with the ratio divider (ANGLE = 1)."""
+    extra = int(cfg.angle_reg) + ((cfg.ratio_bits + 1) if cfg.ratio else 0)
+    assert cfg.latency == LATENCY + extra + int(cfg.cal)
+    want = (LATENCY + extra) * PERIOD_NS
     assert np.all(lat_ns == want), f"latency {sorted(set(lat_ns.tolist()))} ns != {want} ns"
 
 
@@ -118,7 +122,7 @@ async def scenario_bit_exact(dut):
     if os.environ.get("HG_DUMP"):  # the benchmark measures the RTL's own positions
         np.save(os.environ["HG_DUMP"], rtl["pos"])
     check(rtl, sc, cfg)
-    assert_latency(lat)
+    assert_latency(lat, cfg)
 
 
 @cocotb.test()
@@ -132,7 +136,7 @@ async def gaps_latency_and_pulses(dut):
     await reset(dut)
     rtl, lat = await stream(dut, sc, gaps=gaps, pulses_between=True)
     check(rtl, sc, cfg)
-    assert_latency(lat)
+    assert_latency(lat, cfg)
 
 
 @cocotb.test()
