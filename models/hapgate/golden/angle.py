@@ -64,6 +64,62 @@ def ratio_fine(small: np.ndarray, big: np.ndarray, half: np.ndarray, table: np.n
 
 
 def latency(cal: bool = False, ratio: bool = False, angle_reg: bool = False,
-            ratio_bits: int = RATIO_BITS) -> int:
+            ratio_bits: int = RATIO_BITS, harm: bool = False) -> int:
     """Clocks from the s_valid cycle to the m_valid cycle of enc_interp."""
-    return 5 + int(cal) + int(angle_reg) + ((ratio_bits + 1) if ratio else 0)
+    return 5 + int(cal) + int(angle_reg) + ((ratio_bits + 1) if ratio else 0) + int(harm)
+
+
+# ----------------------------------------------------------------------------------------------
+# Harmonic correction (RTL HARM = 1, needs ANGLE = 1)
+#
+# The ratio table then has HF = 2 more fraction bits (it is the table of lut_bits + 2), the fine
+# angle f_h = h ? 2^(L+1+HF) - T : T is in 1/4 count, and a table H of 2^HARM_LOG2 signed 8-bit
+# entries (1/4 count) indexed by the top HARM_LOG2 bits of the angle within the line,
+#     j = ((q << (L+1+HF)) + f_h) mod 2^(L+3+HF) >> (L+3+HF - HARM_LOG2),
+# is subtracted before rounding back to counts:
+#     f = (f_h - en H[j] + 2^(HF-1)) >> HF        (arithmetic shift; f may leave 0..2^(L+1))
+# With en = 0, f = round(f_h / 4) (half up): the ratio angle from a 4x finer table, rounded.
+# The table is loaded through the write port (registers); `harmonic_fit` learns it from the
+# positions of a constant-speed run with the correction off (no truth needed).
+
+HARM_FRAC = 2
+HARM_LOG2 = 6
+
+
+def harm_index(q: np.ndarray, fine_h: np.ndarray, lut_bits: int,
+               harm_log2: int = HARM_LOG2) -> np.ndarray:
+    fh = lut_bits + 1 + HARM_FRAC
+    lp = ((np.asarray(q, dtype=np.int64) << fh) + fine_h) & ((1 << (fh + 2)) - 1)
+    return lp >> (fh + 2 - harm_log2)
+
+
+def harm_correct(q: np.ndarray, fine_h: np.ndarray, en: np.ndarray | bool, table: np.ndarray,
+                 lut_bits: int, harm_log2: int = HARM_LOG2) -> np.ndarray:
+    """Fine angle in counts after the harmonic table (fine_h in 1/4 count)."""
+    fine_h = np.asarray(fine_h, dtype=np.int64)
+    tab = np.asarray(table, dtype=np.int64)
+    if tab.size != 1 << harm_log2 or tab.min() < -128 or tab.max() > 127:
+        raise ValueError(f"harmonic table: {1 << harm_log2} signed 8-bit entries")
+    h = tab[harm_index(q, fine_h, lut_bits, harm_log2)]
+    h = np.where(np.broadcast_to(np.asarray(en, dtype=bool), fine_h.shape), h, 0)
+    return (fine_h - h + (1 << (HARM_FRAC - 1))) >> HARM_FRAC
+
+
+def harmonic_fit(pos: np.ndarray, lut_bits: int, harm_log2: int = HARM_LOG2) -> np.ndarray:
+    """Table for the harmonic correction from the positions of a run at constant speed with the
+    correction off: the residual of a straight-line fit of position against sample number,
+    averaged per bin of the angle within the line (binned by the position itself), in 1/4
+    count, rounded, saturated to 8 bits. (A host or the DSP can do this from a logged run;
+    the speed must be constant and the run many lines long so every bin is well averaged.)"""
+    p = np.asarray(pos, dtype=np.float64)
+    t = np.arange(p.size, dtype=np.float64)
+    c1, c0 = np.polyfit(t, p, 1)
+    r = p - (c0 + c1 * t)
+    cpl = 8 << lut_bits
+    j = (np.mod(np.asarray(pos, dtype=np.int64), cpl) << harm_log2) // cpl
+    hn = 1 << harm_log2
+    cnt = np.bincount(j, minlength=hn)
+    if np.any(cnt == 0):
+        raise ValueError("harmonic_fit: the run does not visit every bin of the line")
+    mean = np.bincount(j, weights=r, minlength=hn) / cnt
+    return np.clip(np.floor(mean * (1 << HARM_FRAC) + 0.5), -128, 127).astype(np.int64)

@@ -75,6 +75,8 @@ class InterpConfig:
     ratio: bool = False        # fine angle atan(smaller / larger) (RTL ANGLE = 1; golden.angle)
     ratio_bits: int = 10       # ratio table 2**ratio_bits entries (RTL RATIO_BITS)
     angle_reg: bool = False    # register after the angle select (RTL ANGLE_REG): latency + 1
+    harm: bool = False         # harmonic correction table (RTL HARM; needs ratio): latency + 1
+    harm_log2: int = 6         # harmonic table 2**harm_log2 entries per line (RTL HARM_LOG2)
 
     @property
     def fine_bits(self) -> int:
@@ -109,9 +111,12 @@ class InterpConfig:
         if self.coarse:
             p["COARSE"] = 1
         if self.ratio:
-            from .angle import write_ratio_table
+            from .angle import HARM_FRAC, write_ratio_table
+            tb = self.lut_bits + (HARM_FRAC if self.harm else 0)
             p.update({"ANGLE": 1, "RATIO_BITS": self.ratio_bits,
-                      "RATIO_FILE": write_ratio_table(self.lut_bits, self.ratio_bits)})
+                      "RATIO_FILE": write_ratio_table(tb, self.ratio_bits)})
+        if self.harm:
+            p.update({"HARM": 1, "HARM_LOG2": self.harm_log2})
         if self.angle_reg:
             p["ANGLE_REG"] = 1
         return p
@@ -120,7 +125,7 @@ class InterpConfig:
     def latency(self) -> int:
         """Clocks from the s_valid cycle to the m_valid cycle of enc_interp."""
         from .angle import latency
-        return latency(self.cal, self.ratio, self.angle_reg, self.ratio_bits)
+        return latency(self.cal, self.ratio, self.angle_reg, self.ratio_bits, self.harm)
 
 
 BOARD_CLK_HZ = 48_000_000   # a board-like clock (iCE40 UP5K class)
@@ -150,10 +155,12 @@ def blocks() -> list[Block]:
               lint_synth=("ice40",),
               doc="one axis with the online calibration stage (CAL = 1, rtl/interp/enc_calib.v)"),
         Block(name="enc_interp_ratio", top="enc_interp", sources=srcs,
-              params=lambda: InterpConfig(ratio=True, lut_bits=9, angle_reg=True).rtl_params(),
+              params=lambda: InterpConfig(ratio=True, lut_bits=9, angle_reg=True,
+                                          harm=True).rtl_params(),
               lint_synth=("ice40",),
               doc="one axis with the ratio angle stage at 4096 counts per line "
-                  "(ANGLE = 1, rtl/interp/ratio_div.v) and the angle register (ANGLE_REG = 1)"),
+                  "(ANGLE = 1, rtl/interp/ratio_div.v), the angle register (ANGLE_REG = 1) "
+                  "and the harmonic correction table (HARM = 1)"),
         Block(name="enc_interp_areg", top="enc_interp", sources=srcs,
               params=lambda: InterpConfig(angle_reg=True).rtl_params(),
               lint_synth=(),   # the same code is synthesised in enc_interp_ratio
@@ -281,13 +288,16 @@ def run(a: np.ndarray, b: np.ndarray, index: np.ndarray | None = None,
         cfg: InterpConfig = InterpConfig(), clear_at: list[int] | np.ndarray | None = None,
         arm_at: list[int] | np.ndarray | None = None,
         table: np.ndarray | None = None, cal_en: np.ndarray | bool = False,
-        cal_freeze: np.ndarray | bool = False, cal_mu: np.ndarray | int = 6) -> InterpOut:
+        cal_freeze: np.ndarray | bool = False, cal_mu: np.ndarray | int = 6,
+        harm_table: np.ndarray | None = None, harm_en: np.ndarray | bool = False) -> InterpOut:
     """Bit-exact model of one axis over a whole capture (arrays of equal length).
 
     With cfg.cal the calibration stage (hapgate.golden.enccal) runs between capture and angle:
     cal_en, cal_freeze and cal_mu are its controls per sample (or constant); its corrected
     channels feed the quadrant and the 512-entry table, the faults still see the raw codes, and
-    `extra` carries its state ("cal_state", "cal_gear", "cal_updates")."""
+    `extra` carries its state ("cal_state", "cal_gear", "cal_updates"). With cfg.harm (and
+    cfg.ratio) the harmonic table harm_table (zeros if None) applies where harm_en is set
+    (per sample or constant; hapgate.golden.angle)."""
     a = np.asarray(a)
     b = np.asarray(b)
     n = a.size
@@ -298,9 +308,13 @@ def run(a: np.ndarray, b: np.ndarray, index: np.ndarray | None = None,
     idx = np.zeros(n, dtype=bool) if index is None else np.asarray(index).astype(bool)
     table_arg = table
     rb = cfg.ratio_bits if cfg.ratio else 0
+    if cfg.harm and not cfg.ratio:
+        raise ValueError("the harmonic correction needs the ratio angle stage")
+    from .angle import HARM_FRAC
+    tl = cfg.lut_bits + (HARM_FRAC if cfg.harm else 0)     # the angle table's codes per 45 deg
     if cfg.ratio and table is None:
         from .angle import ratio_table
-        table = ratio_table(cfg.lut_bits, cfg.ratio_bits)
+        table = ratio_table(tl, cfg.ratio_bits)
         table_arg = table
     table = asin_table(cfg) if table is None else table
     fb = cfg.fine_bits
@@ -312,12 +326,18 @@ def run(a: np.ndarray, b: np.ndarray, index: np.ndarray | None = None,
         c = calibrate(a, b, cal_en, cal_freeze, cal_mu, cfg,
                       CalConfig(cfg.cal_lines_log2, cfg.cal_nlog))
         ctab = cal_table(cfg) if table_arg is None else table_arg
-        q, f = quadrant_and_fine(c.ac, c.bc, ctab, cfg.lut_bits, rb)
+        q, f = quadrant_and_fine(c.ac, c.bc, ctab, tl, rb)
         extra = {"cal_state": c.state, "cal_state_after": c.state_after, "cal_gear": c.gear,
                  "cal_updates": c.updates,
                  "cal_ac": c.ac, "cal_bc": c.bc}
     else:
-        q, f = quadrant_and_fine(a, b, table, cfg.lut_bits, rb)
+        q, f = quadrant_and_fine(a, b, table, tl, rb)
+    if cfg.harm:
+        from .angle import harm_correct
+        ht = np.zeros(1 << cfg.harm_log2, dtype=np.int64) if harm_table is None else harm_table
+        extra["fine_h"] = f
+        f = harm_correct(q, f, np.broadcast_to(np.asarray(harm_en, dtype=bool), (n,)), ht,
+                         cfg.lut_bits, cfg.harm_log2).astype(np.int32)
     if cfg.coarse:                                      # plain quadrature: no fine angle
         f = np.zeros_like(f)
 
