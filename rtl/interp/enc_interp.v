@@ -82,10 +82,8 @@ module enc_interp #(
     localparam integer RUNW = $clog2(LOSS_SAMPLES + 1);
     localparam integer AMP2_MIN_I = AMP_MIN * AMP_MIN;
     localparam integer AMP2_MAX_I = AMP_MAX * AMP_MAX;
-    localparam integer QUADRANT_I = 1 << FB;            // fine counts per quadrant
     localparam [16:0]     AMP2_MIN = AMP2_MIN_I[16:0];
     localparam [16:0]     AMP2_MAX = AMP2_MAX_I[16:0];
-    localparam [FB:0]     QUADRANT = QUADRANT_I[FB:0];
     localparam [RUNW-1:0] LOSS_N   = LOSS_SAMPLES[RUNW-1:0];
     localparam [QCW-1:0]  QC_TWO   = {{(QCW - 2){1'b0}}, 2'd2};
 
@@ -302,9 +300,9 @@ module enc_interp #(
         end
     endgenerate
 
-    // HARM = 1: the ratio table carries HF more fraction bits (0..2**(LUT_BITS+HF)), the
-    // correction works in 1/2**HF count and the sum is rounded back to counts
-    localparam integer HF  = (HARM != 0) ? 2 : 0;
+    // ANGLE = 1: the ratio table carries HF = 2 fraction bits (0..2**(LUT_BITS+HF)); the fine
+    // angle is rounded back to counts after the (HARM = 1) harmonic correction in 1/4 count
+    localparam integer HF  = (ANGLE != 0) ? 2 : 0;
     localparam integer TW  = LUT_BITS + 1 + HF;     // table word
     reg              vb;
     wire [TW-1:0]    t_b;                           // table output: 0..2**(LUT_BITS+HF)
@@ -422,7 +420,7 @@ module enc_interp #(
             end
             // fine = (fine_h - H + 2**(HF-1)) >> HF, signed: may leave 0..2**FB by the correction
             wire [31:0] hx   = hen_h ? {{24{h_rd[7]}}, h_rd} : 32'd0;
-            wire [31:0] fsum = {{(31 - FH){1'b0}}, fine_hq} - hx + (32'd1 << (HF - 1));
+            wire [31:0] fsum = {{(31 - FH){1'b0}}, fine_hq} - hx + 32'd2;  // + half a count
             wire [31:0] fcor = {{HF{fsum[31]}}, fsum[31:HF]};
             assign vC    = vh;
             assign clrC  = clr_h;
@@ -435,8 +433,14 @@ module enc_interp #(
             assign m_harm_rdata = rdata_q;
             wire unused_h = &{1'b0, fsum[HF-1:0], cfg_harm_addr, lpos[FH+1-HARM_LOG2:0]};
         end else begin : g_noharm
-            wire [FB:0] lut_ext = {1'b0, t_b};
-            wire [FB:0] fine_i  = half_b ? QUADRANT - lut_ext : lut_ext;  // mirror: 2**FB - T
+            // ANGLE = 0: f = h ? 2**FB - T : T; ANGLE = 1: f = round((h ? 2**(FB+HF) - T : T) / 4)
+            wire [FB+HF:0] lut_ext = {1'b0, t_b};
+            wire [FB+HF:0] quad_e  = {1'b1, {(FB + HF){1'b0}}};
+            wire [FB+HF:0] fine_e  = half_b ? quad_e - lut_ext : lut_ext;  // mirror: 2**FB - T
+            localparam integer RND_I = (HF == 2) ? 2 : 0;   // half a count in 1/4 count
+            localparam [FB+HF:0] RND = RND_I[FB+HF:0];
+            wire [FB+HF:0] fine_r  = fine_e + RND;
+            wire [FB:0]    fine_i  = fine_r[FB+HF:HF];
             assign vC    = vb;
             assign clrC  = clr_b;
             assign armC  = arm_b;
@@ -446,6 +450,9 @@ module enc_interp #(
             assign qC    = q_b;
             assign fineC = (COARSE != 0) ? 32'd0 : {{(31 - FB){1'b0}}, fine_i};
             assign m_harm_rdata = 8'd0;
+            if (HF != 0) begin : g_round
+                wire unused_r = &{1'b0, fine_r[HF-1:0]};
+            end
             wire unused_h = &{1'b0, hen_b, cfg_harm_we, cfg_harm_addr, cfg_harm_data};
         end
     endgenerate

@@ -8,11 +8,14 @@ amplitude out: with h = (y >= x), m = h ? x : y (smaller) and M = h ? y : x (lar
 
     k = floor(m * 2^RB / M)             (RB = ratio_bits; k = 2^(RB+1) - 1 when M = 0)
     k' = min(k, 2^RB - 1)               (m = M: the last entry)
-    T[k'] = round(atan((k' + 1/2) / 2^RB) * 2^L / 45deg)      k' = 0 .. 2^RB - 1, 0 .. 2^L
-    f = h ? 2^(L+1) - T[k'] : T[k']
+    T[k'] = round(atan((k' + 1/2) / 2^RB) * 2^(L+2) / 45deg)  k' = 0 .. 2^RB - 1, 0 .. 2^(L+2)
+    f4 = h ? 2^(L+3) - T[k'] : T[k']    (the fine angle in 1/4 count)
+    f = (f4 - [harmonic correction, below] + 2) >> 2
 
 (L = lut_bits: 2^L codes per 45 deg, 8 * 2^L counts per line; the table is evaluated at the
-middle of each ratio bin, and has L + 1 bits: T = 2^L is 45 deg). The divider is a restoring one,
+middle of each ratio bin in quarter counts, L + 3 bits: T = 2^(L+2) is 45 deg; the quarter
+counts are what the harmonic correction needs, and keep the RMS at the rounded-atan2 floor
+after the final rounding). The divider is a restoring one,
 one quotient bit per pipeline stage (RB + 1 stages); m <= M always, so only the first bit can be
 the integer bit (m = M). The channels are the raw 8-bit codes or the calibrated 12-bit
 quarter-LSB ones (hapgate.golden.enccal): the ratio does not care about the amplitude, so the
@@ -57,7 +60,8 @@ def ratio_code(m: np.ndarray, big: np.ndarray, ratio_bits: int = RATIO_BITS) -> 
 
 def ratio_fine(small: np.ndarray, big: np.ndarray, half: np.ndarray, table: np.ndarray,
                lut_bits: int, ratio_bits: int = RATIO_BITS) -> np.ndarray:
-    """Fine angle f in 0 .. 2^(L+1) of the ratio stage (see the module docstring)."""
+    """Fine angle h ? 2^(lut_bits+1) - T[k'] : T[k'] of the ratio stage (called with the table
+    and lut_bits of the quarter-count table, L + 2: the result is f4; see the docstring)."""
     k = np.minimum(ratio_code(small, big, ratio_bits), (1 << ratio_bits) - 1)
     t = table[k]
     return np.where(half, (2 << lut_bits) - t, t)
@@ -72,13 +76,13 @@ def latency(cal: bool = False, ratio: bool = False, angle_reg: bool = False,
 # ----------------------------------------------------------------------------------------------
 # Harmonic correction (RTL HARM = 1, needs ANGLE = 1)
 #
-# The ratio table then has HF = 2 more fraction bits (it is the table of lut_bits + 2), the fine
+# The ratio table has HF = 2 fraction bits (it is the table of lut_bits + 2), the fine
 # angle f_h = h ? 2^(L+1+HF) - T : T is in 1/4 count, and a table H of 2^HARM_LOG2 signed 8-bit
 # entries (1/4 count) indexed by the top HARM_LOG2 bits of the angle within the line,
 #     j = ((q << (L+1+HF)) + f_h) mod 2^(L+3+HF) >> (L+3+HF - HARM_LOG2),
 # is subtracted before rounding back to counts:
 #     f = (f_h - en H[j] + 2^(HF-1)) >> HF        (arithmetic shift; f may leave 0..2^(L+1))
-# With en = 0, f = round(f_h / 4) (half up): the ratio angle from a 4x finer table, rounded.
+# With en = 0 (or HARM = 0), f = round(f_h / 4) (half up): the plain ratio angle, bit for bit.
 # The table is loaded through the write port (registers); `harmonic_fit` learns it from the
 # positions of a constant-speed run with the correction off (no truth needed).
 

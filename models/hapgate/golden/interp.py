@@ -112,9 +112,9 @@ class InterpConfig:
             p["COARSE"] = 1
         if self.ratio:
             from .angle import HARM_FRAC, write_ratio_table
-            tb = self.lut_bits + (HARM_FRAC if self.harm else 0)
             p.update({"ANGLE": 1, "RATIO_BITS": self.ratio_bits,
-                      "RATIO_FILE": write_ratio_table(tb, self.ratio_bits)})
+                      "RATIO_FILE": write_ratio_table(self.lut_bits + HARM_FRAC,
+                                                      self.ratio_bits)})
         if self.harm:
             p.update({"HARM": 1, "HARM_LOG2": self.harm_log2})
         if self.angle_reg:
@@ -311,7 +311,7 @@ def run(a: np.ndarray, b: np.ndarray, index: np.ndarray | None = None,
     if cfg.harm and not cfg.ratio:
         raise ValueError("the harmonic correction needs the ratio angle stage")
     from .angle import HARM_FRAC
-    tl = cfg.lut_bits + (HARM_FRAC if cfg.harm else 0)     # the angle table's codes per 45 deg
+    tl = cfg.lut_bits + (HARM_FRAC if cfg.ratio else 0)    # the angle table's codes per 45 deg
     if cfg.ratio and table is None:
         from .angle import ratio_table
         table = ratio_table(tl, cfg.ratio_bits)
@@ -332,12 +332,12 @@ def run(a: np.ndarray, b: np.ndarray, index: np.ndarray | None = None,
                  "cal_ac": c.ac, "cal_bc": c.bc}
     else:
         q, f = quadrant_and_fine(a, b, table, tl, rb)
-    if cfg.harm:
+    if cfg.ratio:   # 1/4-count fine angle: the harmonic table (cfg.harm), rounded to counts
         from .angle import harm_correct
         ht = np.zeros(1 << cfg.harm_log2, dtype=np.int64) if harm_table is None else harm_table
         extra["fine_h"] = f
-        f = harm_correct(q, f, np.broadcast_to(np.asarray(harm_en, dtype=bool), (n,)), ht,
-                         cfg.lut_bits, cfg.harm_log2).astype(np.int32)
+        en = np.broadcast_to(np.asarray(harm_en, dtype=bool) & cfg.harm, (n,))
+        f = harm_correct(q, f, en, ht, cfg.lut_bits, cfg.harm_log2).astype(np.int32)
     if cfg.coarse:                                      # plain quadrature: no fine angle
         f = np.zeros_like(f)
 
