@@ -106,11 +106,8 @@ int main(int argc, char** argv) {
         top->clk = 1; top->eval();
         top->clk = 0; top->eval();
     }
-    top->rst = 0;
-    top->eval();
-
     // harmonic table (HARM = 1 builds): AXES x 256 signed bytes, written through the table
-    // port, then every entry read back (two clocks each, no sample in flight)
+    // port, then every entry read back (two clocks each), all while in reset (no sample in flight)
     unsigned harm_bad = 0;
     if (argc == 7) {
         std::vector<uint8_t> tab(256 * AXES);
@@ -140,6 +137,9 @@ int main(int argc, char** argv) {
                 if (field(top->m_harm_rdata, 8 * ax, 8) != tab[256 * ax + e]) ++harm_bad;
         }
     }
+
+    top->rst = 0;
+    top->eval();
 
     // the calibration state of sample k comes m_cal_valid cycles before its m_valid result
     std::deque<std::array<uint64_t, 7 * AXES>> cal_q;
