@@ -78,11 +78,11 @@ def test_ratio_table_entry_by_entry() -> None:
 
 def _sweeps() -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Slow sweeps of one line each at amplitudes 127, 101, 77, 53 (ideal rounding ADC, a, b and
-    truth in lines), 2^17 samples per line: the 8-bit levels reach ~320 of the 1024 bins."""
+    truth in lines), 2^16 samples per line: the 8-bit levels reach ~320 of the 1024 bins."""
     xs, amps = [], []
     for amp in (126.6, 101.3, 77.1, 53.7):
-        xs.append(0.0123 + np.arange(1 << 17) / float(1 << 17))
-        amps.append(np.full(1 << 17, amp))
+        xs.append(0.0123 + np.arange(1 << 16) / float(1 << 16))
+        amps.append(np.full(1 << 16, amp))
     x, amp = np.concatenate(xs), np.concatenate(amps)
     phi = 2 * np.pi * x
     a = np.clip(np.floor(amp * np.sin(phi) + 0.5), -128, 127).astype(np.int8)

@@ -157,7 +157,8 @@ def blocks() -> list[Block]:
         Block(name="enc_interp_ratio", top="enc_interp", sources=srcs,
               params=lambda: InterpConfig(ratio=True, lut_bits=9, angle_reg=True,
                                           harm=True).rtl_params(),
-              lint_synth=("ice40",),
+              # Yosys (ice40, ~11 CPU-s) runs in `make bench` (bench_calib.angle_resources)
+              lint_synth=(),
               doc="one axis with the ratio angle stage at 4096 counts per line "
                   "(ANGLE = 1, rtl/interp/ratio_div.v), the angle register (ANGLE_REG = 1) "
                   "and the harmonic correction table (HARM = 1)"),
