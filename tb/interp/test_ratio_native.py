@@ -127,8 +127,8 @@ def test_ratio_stage_per_sample_against_definition(sweep_run) -> None:
     """On the RTL: every sample of the sweeps gives the document's angle of the channel levels
     that reach the stage (calibration off: 4a, 4b; on: the corrected 12-bit ones), and its
     error against the float angle of those levels stays within 1/2 + 1/8 code + half a bin
-    (printed per code); each single one-count corruption of any entry the sweeps address, alone, breaks the
-    per-sample check."""
+    (printed per code); each single one-count corruption of any entry the sweeps address,
+    alone, breaks the per-sample check."""
     a, b, pos = sweep_run
     lb = CFG.lut_bits
     tab = definition(lb + QF)
