@@ -85,6 +85,7 @@ def soak_table(rows: list[dict[str, Any]], wall_s: float, workers: int) -> list[
     tot = sum(int(r["samples"]) for r in rows)
     harness = sum(float(r["harness_s"]) for r in rows)
     gen = sum(float(r["gen_s"]) for r in rows)
+    cpu = sum(float(r.get("cpu_s") or 0.0) for r in rows)      # (older records lack it)
     def s(k: str) -> int:
         return sum(int(r[k]) for r in rows)
     return [["jobs", str(len(rows))], ["ADC samples (3 axes)", f"{tot:.4g}"],
@@ -93,6 +94,9 @@ def soak_table(rows: list[dict[str, Any]], wall_s: float, workers: int) -> list[
              if wall_s > 0 else "-"],
             ["harness samples/s (RTL only)", f"{tot / harness:.3g}" if harness else "-"],
             ["stimulus generation, s (sum)", f"{gen:.1f}"],
+            ["CPU s per 10^6 x 3 samples (shard cost)",
+             f"{cpu / tot * 3e6:.2f}" if cpu else "-"],
+            ["samples per CPU second", f"{tot / cpu:.3g}" if cpu else "-"],
             ["slips", str(s("slips"))], ["index latches checked", str(s("index_latches"))],
             ["index latch errors", str(s("index_latch_errors"))],
             ["max |pos - truth|, counts",
