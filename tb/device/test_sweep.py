@@ -91,7 +91,9 @@ def test_cache_key_covers_parameters_and_sources() -> None:
     ("[sweep]\njob = 'selftest'\nfoo = 1\n", "sweep.foo"),
     ("[sweep]\njob = 'zwidth'\nbase = 'b.toml'\n[fixed]\n'run.position' = 'coarse'\n",
      "run.position"),
-    ("[sweep]\njob = 'calib_mc'\n[fixed]\ncalibration = 'on'\n", "calibration"),
+    ("[sweep]\njob = 'zwidth'\nbase = 'b.toml'\n[fixed]\nvelocity = 'observer'\n", "velocity"),
+    ("[sweep]\njob = 'calib_mc'\n[fixed]\nengine = 'spice'\n", "fixed.engine"),
+    ("[sweep]\njob = 'calib_mc'\n[fixed]\ntravel_lines = 300\n", "fixed.travel_lines"),
     ("[sweep\n", "line 1"),
 ])
 def test_bad_spec_exit_2_names_file_and_key(tmp_path: Path, text: str, key: str,

@@ -13,7 +13,11 @@ from ..device import calib_mc, zwidth
 
 
 def _pos(r: dict[str, Any]) -> str:
-    return str(r.get("position") or "interpolated")
+    """The configuration's name: the position source, and the velocity when not the FIR
+    (records from before the velocity axis have none: the FIR)."""
+    pos = str(r.get("position") or "interpolated")
+    vel = str(r.get("velocity") or "fir")
+    return pos if vel == "fir" else f"{pos}, {vel}"
 
 
 def kmax_table(rows: list[dict[str, Any]]) -> list[dict[str, Any]]:
@@ -45,6 +49,8 @@ def zwidth_plot(rows: list[dict[str, Any]], path: Any) -> None:
     fig, ax = plt.subplots(figsize=(8, 5.5))
     confs = sorted({(_pos(r), int(r["servo_hz"])) for r in rows})
     style = {("interpolated", 1000): ("o", "tab:blue"), ("interpolated", 10000): ("s", "tab:red"),
+             ("interpolated, observer", 1000): ("v", "tab:orange"),
+             ("interpolated, observer", 10000): ("P", "tab:brown"),
              ("quadrature", 1000): ("^", "tab:green"), ("quadrature", 10000): ("D", "tab:purple")}
     off = {c: 1.0 + 0.06 * (i - (len(confs) - 1) / 2) for i, c in enumerate(confs)}
     for conf in confs:
