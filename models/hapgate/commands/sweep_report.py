@@ -192,7 +192,8 @@ def calib_plot(rows: list[dict[str, Any]], path: Any) -> None:
     conv = _f(rows, "convergence_lines", "converged")
     ax = axs[1, 0]
     if conv.size:
-        ax.hist(conv, bins=np.arange(0, max(conv.max(), 64) + 16, 16), color="tab:green")
+        w = calib_mc.WINDOW_LINES            # distances are whole windows: bars centred on them
+        ax.hist(conv, bins=np.arange(-w / 2, max(conv.max(), 4 * w) + w, w), color="tab:green")
     counts = {st: sum(r["status"] == st for r in rows) for st in calib_mc.STATUSES}
     ax.set_title(", ".join(f"{k}: {v}" for k, v in counts.items()), fontsize=8)
     ax.set_xlabel(f"convergence distance, lines of travel ({calib_mc.WINDOW_LINES}-line windows)")
