@@ -57,3 +57,54 @@ def run(quick: bool = False) -> bool:
     print("(force error: max |J^-T tau - wall law| in the wall's steady state; position error: "
           "max |firmware snapshot - true angle|, counts of 2^20/rev)")
     return True
+
+
+# ---------------------------------------------------------------------------------- model fidelity
+MODEL_HEADERS = ["scene", "fidelity", "mechanics step", "axes built", "servo Hz", "simulated s",
+                 "wall s", "CPU s", "real-time x (CPU)", "real-time x (wall)", "force err mN",
+                 "pos err counts", "DAC diff vs rtl, LSB"]
+
+
+def _model_row(label: str, s: Any, mech_us: int = 0, rtl: Any = None) -> list[object]:
+    from ..device import model
+    raw = model.simulate(s, mech_us=mech_us or model.MECH_US)
+    m, _, _ = runner.metrics(s, raw)
+    sim, wall = float(raw.summary["sim_s"]), float(raw.summary["wall_s"])
+    cpu = float(raw.summary["cpu_s"])
+    diff = "-"
+    if rtl is not None and rtl.frames.size == raw.frames.size:
+        diff = str(int(abs(rtl.frames["dac"].astype(int) - raw.frames["dac"].astype(int)).max()))
+    return [label, "model", f"{mech_us or model.MECH_US} us",
+            "".join(str(a) for a in range(3) if raw.mask >> a & 1), int(s.run.servo_hz),
+            f"{sim:.3f}", f"{wall:.3f}", f"{cpu:.3f}", f"{sim / cpu:.1f}" if cpu > 0 else "inf",
+            f"{sim / wall:.1f}", f"{m.get('force_error_n', float('nan')) * 1e3:.1f}",
+            f"{m.get('position_error_counts', float('nan')):.0f}", diff]
+
+
+def model_rows(quick: bool = False) -> list[list[object]]:
+    """The model-fidelity rows (the lead's `run` may print them beside the rtl rows): the wall
+    scene with three axes and with one, and the 1 us plant against the gateware on the same
+    scene (its DAC codes bit-identical: 0)."""
+    base = sc.load(ROOT / "scenes" / "wall.toml").override(
+        {"run.duration_s": 0.25 if quick else 0.5, "fault": [], "expect": {},
+         "run.fidelity": "model"})
+    short = base.override({"run.duration_s": 0.05})
+    rtl_short = runner.simulate(short.override({"run.fidelity": "rtl"}))
+    return [
+        _model_row("wall, 3 axes", base),
+        _model_row("wall, axis 1 only", base.override({"run.axes": [1]})),
+        _model_row("wall, 3 axes, 0.05 s", short, rtl=rtl_short),
+        _model_row("wall, 3 axes, 0.05 s, 1 us plant", short, 1, rtl=rtl_short),
+    ]
+
+
+def run_model(quick: bool = False) -> bool:
+    print("== virtual device, model fidelity: real-time factor (CPU and wall) beside error "
+          "(scenes/wall.toml) ==", flush=True)
+    rows = model_rows(quick)
+    print(table(MODEL_HEADERS, rows))
+    print(f"csv: {write_csv('bench_device_model.csv', MODEL_HEADERS, rows)}")
+    print("(CPU s: the harness process's CPU time of the run, homing included; the machine is "
+          "shared, so the wall figure depends on its load. DAC diff: max per-frame code "
+          "difference against the rtl run of the same scene)")
+    return True

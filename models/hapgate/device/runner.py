@@ -29,7 +29,8 @@ from ..golden.top import TopConfig, blocks
 from ..runners import cosim, native
 
 HERE = TB / "native" / "device"
-HARNESS = [HERE / "device_harness.cpp", HERE / "plant.cpp", HERE / "uart_link.cpp"]
+HARNESS = [HERE / "device_harness.cpp", HERE / "harness_common.cpp", HERE / "plant.cpp",
+           HERE / "uart_link.cpp"]
 FW = ROOT / "dsp-fw"
 MIN_CLK_HZ = 6_000_000       # lowest clock of the grid-aligned bus (README): D >= 6 clocks per us
 FULL_CLK_HZ = 48_000_000     # the shipped default
@@ -101,7 +102,8 @@ def build(clk_hz: int, mask: int = 7, trace: bool = False, test_limits: bool = F
         "device_harness", block.top, srcs, params, HARNESS,
         cflags=(f"-std=c++17 -DCLK_HZ={clk_hz} -DAXIS_MASK={mask} -DHG_TRACE={int(trace)} "
                 f"-I{HERE} -I{FW / 'include'}" + "".join(f" -D{d}" for d in defs)),
-        ldflags="fw/libhgfw.a -lm", inputs=[HERE / "plant.h", HERE / "uart_link.h", *fw_srcs],
+        ldflags="fw/libhgfw.a -lm",
+        inputs=[HERE / "plant.h", HERE / "uart_link.h", HERE / "harness_common.h", *fw_srcs],
         prepare=functools.partial(cosim._fw_lib, defines=defs), vflags=vflags)
 
 
@@ -274,7 +276,11 @@ def _progress_reader(proc: subprocess.Popen, duration: float, progress: Any) -> 
 
 def simulate(scene: Any, clk_hz: int | None = None, mask: int | None = None,
              progress: Any = None, out_dir: Path | None = None) -> Raw:
-    """Build what the scene needs (or the given clock/mask) and run it once."""
+    """Build what the scene needs (or the given clock/mask) and run it once; at model fidelity
+    the golden models' harness (hapgate.device.model)."""
+    if scene.run.fidelity == "model":
+        from . import model
+        return model.simulate(scene, clk_hz, mask, progress, out_dir)
     clk = choose_clock(scene) if clk_hz is None else int(clk_hz)
     m = axis_mask(scene) if mask is None else int(mask)
     trace = bool(scene.run.trace)
@@ -434,8 +440,6 @@ def metrics(scene: Any, raw: Raw) -> tuple[dict[str, Any], dict[str, list[float]
 def run(scene: Any, progress: Any = None, out_dir: Path | None = None) -> Any:
     """Run a validated scene; returns a hapgate.device.result.RunResult."""
     from .result import RunResult
-    if scene.run.fidelity != "rtl":
-        raise DeviceError(f"fidelity {scene.run.fidelity!r}: only 'rtl' is implemented so far")
     work = None
     if scene.run.trace:        # the waveform goes beside the scene's other outputs
         work = ensure((out_dir or BUILD / "scenes" / scene.name) / "harness")
@@ -447,7 +451,8 @@ def run(scene: Any, progress: Any = None, out_dir: Path | None = None) -> Any:
     sim_s = float(raw.summary["sim_s"])
     return RunResult(scene=scene, sim_s=sim_s, wall_s=raw.wall_s,
                      rtf=sim_s / raw.wall_s if raw.wall_s > 0 else math.inf,
-                     fidelity="rtl", clk_hz=raw.clk_hz, axes=tuple(scene.run.axes),
+                     fidelity=str(scene.run.fidelity), clk_hz=raw.clk_hz,
+                     axes=tuple(scene.run.axes),
                      built=raw.built, skipped=raw.skipped, arrays=arrays, events=evs,
                      metrics=m, per_axis=per)
 
