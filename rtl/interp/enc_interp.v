@@ -22,6 +22,10 @@ module enc_interp #(
     parameter integer CAL_LINES_LOG2 = 3,       // CAL = 1: calibration block 2**N lines
     parameter integer CAL_NLOG     = 14,        // CAL = 1: blocks of 2**N samples or more ignored
     parameter integer COARSE       = 0,         // 1: plain quadrature, the fine angle zeroed (4 steps/line)
+    // fit options (bit-identical results; rtl/boards/README.md "Fit"):
+    parameter integer SQ_RAM       = 0,         // 1: the signal-loss squares a*a, b*b from a block-RAM table
+    parameter integer HOLD_C       = 0,         // 1: stage E takes stage C's held registers (no stage-D
+                                                //    copies); needs s_valid never high two clocks in a row
     parameter integer ANGLE        = 0,         // fine angle: 0 arcsine of the smaller channel (paper),
                                                 // 1 ratio table atan(smaller / larger), pipelined divider
     parameter integer RATIO_BITS   = 10,        // ANGLE = 1: ratio table 2**RATIO_BITS entries (6..12)
@@ -126,6 +130,9 @@ module enc_interp #(
         if (HARM != 0 && (HARM_LOG2 < 4 || HARM_LOG2 > 8)) begin : g_bad_harm_log2
             enc_interp_HARM_LOG2_must_be_4_to_8 u_stop ();
         end
+        if ((SQ_RAM != 0 && SQ_RAM != 1) || (HOLD_C != 0 && HOLD_C != 1)) begin : g_bad_fit
+            enc_interp_SQ_RAM_and_HOLD_C_must_be_0_or_1 u_stop ();
+        end
     endgenerate
 
     // ---------------------------------------------------------------- stage A: capture
@@ -218,8 +225,32 @@ module enc_interp #(
             assign clip_in = clip_k;
             assign bad_in  = bad_k;
         end else begin : g_nocal
-            wire signed [15:0] a_sq = $signed(a_a) * $signed(a_a);
-            wire signed [15:0] b_sq = $signed(b_a) * $signed(b_a);
+            wire [15:0] a_sq, b_sq;
+            if (SQ_RAM != 0) begin : g_sq_ram
+                // a block-RAM table of squares, read with the capture (address = the code
+                // captured into a_a / b_a): the same squares in the same clock as the product
+                reg [14:0] sq_tab [0:255];
+                reg [14:0] a_sq_q, b_sq_q;
+                integer    t;
+                reg [7:0]  m;
+                initial begin
+                    for (t = 0; t < 256; t = t + 1) begin
+                        m         = (t < 128) ? t[7:0] : 8'd0 - t[7:0];  // |code|, two's complement
+                        sq_tab[t] = {7'd0, m} * {7'd0, m};            // <= 128 * 128: 15 bits
+                    end
+                end
+                always @(posedge clk) begin
+                    if (s_valid) begin
+                        a_sq_q <= sq_tab[(INVERT != 0) ? s_b : s_a];
+                        b_sq_q <= sq_tab[(INVERT != 0) ? s_a : s_b];
+                    end
+                end
+                assign a_sq = {1'b0, a_sq_q};
+                assign b_sq = {1'b0, b_sq_q};
+            end else begin : g_sq_mul
+                assign a_sq = $signed(a_a) * $signed(a_a);
+                assign b_sq = $signed(b_a) * $signed(b_a);
+            end
             wire        [16:0] amp2 = {1'b0, a_sq} + {1'b0, b_sq};
             assign v_in    = va;
             assign m_cal_valid = va;
@@ -566,16 +597,36 @@ module enc_interp #(
             hist[wptr] <= pos_c[DW-1:0];
             old_d      <= hist[wptr];            // read-before-write: pos[n - W]
         end
-        if (vc) begin  // (held between samples: a simulator then skips the copies too)
-            pos_d         <= pos_c;
-            pos_homed_d   <= pos_homed_c;
-            index_pos_d   <= index_pos_c;
-            index_count_d <= index_count_c;
-            ovs_count_d   <= ovs_count_c;
-            homed_d       <= homed_q;
-            flags_d       <= flags;
-        end
     end
+
+    generate
+        if (HOLD_C != 0) begin : g_hold_c
+            // Stage C's registers change only with vb and hold to the next sample: with no
+            // sample in the clock after this one (s_valid never high two clocks in a row) they
+            // still hold at vd the value the copies would hold.
+            always @(*) begin
+                pos_d         = pos_c;
+                pos_homed_d   = pos_homed_c;
+                index_pos_d   = index_pos_c;
+                index_count_d = index_count_c;
+                ovs_count_d   = ovs_count_c;
+                homed_d       = homed_q;
+                flags_d       = flags;
+            end
+        end else begin : g_copy_d
+            always @(posedge clk) begin
+                if (vc) begin  // (held between samples: a simulator then skips the copies too)
+                    pos_d         <= pos_c;
+                    pos_homed_d   <= pos_homed_c;
+                    index_pos_d   <= index_pos_c;
+                    index_count_d <= index_count_c;
+                    ovs_count_d   <= ovs_count_c;
+                    homed_d       <= homed_q;
+                    flags_d       <= flags;
+                end
+            end
+        end
+    endgenerate
 
     always @(posedge clk) begin
         if (rst) begin

@@ -21,6 +21,8 @@ module enc_interp3 #(
     parameter integer CAL_LINES_LOG2 = 3,        // CAL = 1: calibration block 2**N lines
     parameter integer CAL_NLOG     = 14,         // CAL = 1: blocks of 2**N samples ignored
     parameter integer COARSE       = 0,          // 1: plain quadrature (fine angle zeroed)
+    parameter integer SQ_RAM       = 0,          // 1: signal-loss squares from block RAM (enc_interp)
+    parameter integer HOLD_C       = 0,          // 1: no stage-D copies (needs CLK_HZ >= 2 SAMPLE_HZ)
     parameter integer ANGLE        = 0,          // 1: ratio angle stage atan(smaller / larger)
     parameter integer RATIO_BITS   = 10,         // ANGLE = 1: ratio table 2**RATIO_BITS entries
     parameter         RATIO_FILE   = "atan.hex", // ANGLE = 1: the ratio table
@@ -86,6 +88,7 @@ module enc_interp3 #(
                 .AMP_MIN(AMP_MIN), .AMP_MAX(AMP_MAX), .LOSS_SAMPLES(LOSS_SAMPLES),
                 .INVERT((INVERT_MASK >> i) & 1), .CAL(CAL), .CAL_LUT_FILE(CAL_LUT_FILE),
                 .CAL_LINES_LOG2(CAL_LINES_LOG2), .CAL_NLOG(CAL_NLOG), .COARSE(COARSE),
+                .SQ_RAM(SQ_RAM), .HOLD_C(HOLD_C),
                 .ANGLE(ANGLE), .RATIO_BITS(RATIO_BITS), .RATIO_FILE(RATIO_FILE),
                 .ANGLE_REG(ANGLE_REG), .HARM(HARM), .HARM_LOG2(HARM_LOG2)
             ) u_axis (

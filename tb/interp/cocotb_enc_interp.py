@@ -153,3 +153,19 @@ async def reset_mid_stream(dut):
     await reset(dut)
     rtl, _ = await stream(dut, sc)
     check(rtl, sc, cfg)
+
+
+@cocotb.test()
+async def square_table(dut):
+    """SQ_RAM = 1: every entry of the signal-loss square table is the square of its code read as
+    two's complement (computed here, not taken from the RTL), so no code can shift the
+    amplitude window."""
+    p = tbutil.params()
+    assert p.get("SQ_RAM") == 1, "square_table needs a build with SQ_RAM = 1"
+    await reset(dut)
+    tab = dut.g_nocal.g_sq_ram.sq_tab
+    codes = np.arange(256, dtype=np.int64)
+    want = np.where(codes < 128, codes, codes - 256) ** 2
+    got = np.array([int(tab[int(c)].value) for c in codes], dtype=np.int64)
+    bad = np.flatnonzero(got != want)
+    assert bad.size == 0, f"square table wrong at codes {bad[:8].tolist()}: {got[bad[:8]].tolist()}"

@@ -19,9 +19,10 @@ SAMPLES = {"verilator": 6000, "icarus": 2500}   # per scenario (Icarus is the sl
 
 
 def _run(simulator: str, cfg: interp.InterpConfig, testcase: str | list[str],
-         scenario: str = "", gaps_samples: int = 3000) -> None:
+         scenario: str = "", gaps_samples: int = 3000,
+         extra: dict[str, int] | None = None) -> None:
     sim.run_cocotb(blocks.get("enc_interp"), simulator, "cocotb_enc_interp", HERE,
-                   params=cfg.rtl_params(), testcase=testcase,
+                   params=cfg.rtl_params() | (extra or {}), testcase=testcase,
                    extra_env={"HG_MODEL": json.dumps(asdict(cfg)), "HG_SCENARIO": scenario,
                               "HG_SAMPLES": str(SAMPLES[simulator]),
                               "HG_GAPS_SAMPLES": str(gaps_samples)})
@@ -41,6 +42,18 @@ def test_gaps_latency_pulses_reset(simulator: str) -> None:
 @pytest.mark.parametrize("simulator", sim.simulators())
 def test_direction_invert(simulator: str) -> None:
     _run(simulator, interp.InterpConfig(invert=True), "scenario_bit_exact", "dropout_controls")
+
+
+def test_fit_options_bit_exact() -> None:
+    """The HX8K board's fit options (rtl/boards/README.md, "Fit"), Icarus: SQ_RAM = 1 (squares
+    from a block-RAM table: the table entry by entry, and back-to-back samples with A/B swapped so
+    both table reads are used either way round) and HOLD_C = 1 (no stage-D copies: samples with
+    idle clocks between them, as the board's strobe has) are bit-exact against the same model."""
+    cfg = interp.InterpConfig()
+    _run("icarus", cfg, ["square_table", "gaps_latency_and_pulses"],
+         extra={"SQ_RAM": 1, "HOLD_C": 1})
+    cfg = interp.InterpConfig(invert=True)
+    _run("icarus", cfg, "scenario_bit_exact", "dropout_controls", extra={"SQ_RAM": 1})
 
 
 @pytest.mark.parametrize("simulator", sim.simulators())
