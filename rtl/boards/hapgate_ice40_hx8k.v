@@ -10,6 +10,9 @@
 module hapgate_ice40_hx8k #(
     parameter integer CLK_HZ     = 12_000_000, // the board oscillator
     parameter integer SERIAL_MUL = 1,          // shift-add commutation multiplier (fit: no DSPs)
+    parameter integer SQ_RAM     = 1,          // signal-loss squares from block RAM (fit)
+    parameter integer HOLD_C     = 1,          // interpolators without stage-D copies (fit)
+    parameter integer LATCH_RAM  = 1,          // frame-latched torques/limits in block RAM (fit)
     parameter         ASIN_FILE  = "asin.hex", // arcsine table (hapgate.interp.write_lut)
     parameter         SINE_FILE  = "sine.hex"  // sine ROM (hapgate.sine.write_rom)
 ) (
@@ -60,7 +63,8 @@ module hapgate_ice40_hx8k #(
     );
 
     hapgate_top #(
-        .CLK_HZ(CLK_HZ), .ASIN_FILE(ASIN_FILE), .SINE_FILE(SINE_FILE), .SERIAL_MUL(SERIAL_MUL)
+        .CLK_HZ(CLK_HZ), .ASIN_FILE(ASIN_FILE), .SINE_FILE(SINE_FILE), .SERIAL_MUL(SERIAL_MUL),
+        .SQ_RAM(SQ_RAM), .HOLD_C(HOLD_C), .LATCH_RAM(LATCH_RAM)
     ) u_top (
         .clk(clk), .rst(rst),
         .adc_strobe(adc_strobe), .adc_a(adc_a), .adc_b(adc_b), .enc_index(index),

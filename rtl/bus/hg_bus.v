@@ -9,6 +9,7 @@ module hg_bus #(
     parameter integer CLK_HZ       = 48_000_000, // FPGA clock: a multiple of 1 MHz
     parameter integer SAMPLE_HZ    = 1_000_000,  // encoder sample rate (velocity unit conversion)
     parameter integer VEL_LOG2W    = 8,          // velocity window 2**VEL_LOG2W samples
+    parameter integer VEL_BITS     = 32,         // in_vel: sign extension of its low VEL_BITS bits
     parameter integer SKEW_CLOCKS  = 96,         // DAC channel skew in clocks (read-only info)
     parameter integer FRAME_CLOCKS = 768,        // DAC frame in clocks (read-only info)
     parameter integer ADDR_BITS    = 8           // word-address lines decoded
@@ -70,7 +71,7 @@ module hg_bus #(
     );
 
     hg_regfile #(
-        .CLK_HZ(CLK_HZ), .SAMPLE_HZ(SAMPLE_HZ), .VEL_LOG2W(VEL_LOG2W),
+        .CLK_HZ(CLK_HZ), .SAMPLE_HZ(SAMPLE_HZ), .VEL_LOG2W(VEL_LOG2W), .VEL_BITS(VEL_BITS),
         .SKEW_CLOCKS(SKEW_CLOCKS), .FRAME_CLOCKS(FRAME_CLOCKS), .ADDR_BITS(ADDR_BITS)
     ) u_regs (
         .clk(clk), .rst(rst),

@@ -10,6 +10,8 @@ module hg_regfile #(
     parameter integer CLK_HZ       = 48_000_000, // FPGA clock: a multiple of 1 MHz
     parameter integer SAMPLE_HZ    = 1_000_000,  // encoder sample rate (velocity unit conversion)
     parameter integer VEL_LOG2W    = 8,          // velocity window 2**VEL_LOG2W samples
+    parameter integer VEL_BITS     = 32,         // in_vel is the sign extension of its low
+                                                 // VEL_BITS bits (the interpolator's: 19)
     parameter integer SKEW_CLOCKS  = 96,         // DAC channel skew in clocks (read-only info)
     parameter integer FRAME_CLOCKS = 768,        // DAC frame in clocks (read-only info)
     parameter integer ADDR_BITS    = 8           // decoded word-address bits (7..30; the map spans 64)
@@ -75,7 +77,6 @@ module hg_regfile #(
     localparam [31:0] ID_VALUE = 32'h4847_0101;      // magic "HG", map version 1.1
     localparam [31:0] WD_KEY   = 32'h5AFE_C0DE;
     localparam [31:0] UNMAPPED = 32'hDEAD_BEEF;
-    localparam [31:0] SAMPLE_C = SAMPLE_HZ;
     localparam integer CLK_KHZ_I = CLK_HZ / 1000;
     localparam [31:0] CLK_KHZ  = CLK_KHZ_I;
     localparam [15:0] SKEW_C   = SKEW_CLOCKS[15:0];
@@ -105,6 +106,9 @@ module hg_regfile #(
         if (VEL_LOG2W < 1 || VEL_LOG2W > 16 || SAMPLE_HZ < 1 || SAMPLE_HZ > CLK_HZ)
         begin : g_bad_vel
             hg_regfile_needs_1_le_VEL_LOG2W_le_16_and_SAMPLE_HZ_le_CLK_HZ u_stop ();
+        end
+        if (VEL_BITS < 2 || VEL_BITS > 32) begin : g_bad_vel_bits
+            hg_regfile_VEL_BITS_must_be_2_to_32 u_stop ();
         end
     endgenerate
 
@@ -236,7 +240,18 @@ module hg_regfile #(
     assign irq = irq_tick_q;
 
     // the snapshot: all axes, all words, in one clock
-    reg [95:0] sn_pos, sn_homed, sn_vel, sn_idx;   // axis 0 in the low bits
+    reg [95:0] sn_pos, sn_homed, sn_idx;           // axis 0 in the low bits
+    reg [3*VEL_BITS-1:0] sn_vel;                   // (the bits above VEL_BITS are its sign)
+    wire [3*VEL_BITS-1:0] in_vel_n;
+    genvar gv;
+    generate
+        for (gv = 0; gv < 3; gv = gv + 1) begin : g_vel_n
+            assign in_vel_n[VEL_BITS*gv +: VEL_BITS] = in_vel[32*gv +: VEL_BITS];
+            if (VEL_BITS < 32) begin : g_unused_hi
+                wire unused_vel_sign = &{1'b0, in_vel[32*gv + VEL_BITS +: 32 - VEL_BITS]};
+            end
+        end
+    endgenerate
     reg [47:0] sn_icnt, sn_ovs;
     reg [8:0]  sn_faults;
     reg [2:0]  sn_homed_f;
@@ -245,7 +260,7 @@ module hg_regfile #(
         if (rst) begin
             sn_pos     <= 96'd0;
             sn_homed   <= 96'd0;
-            sn_vel     <= 96'd0;
+            sn_vel     <= {(3*VEL_BITS){1'b0}};
             sn_idx     <= 96'd0;
             sn_icnt    <= 48'd0;
             sn_ovs     <= 48'd0;
@@ -254,7 +269,7 @@ module hg_regfile #(
         end else if (snap_now) begin
             sn_pos     <= in_pos;
             sn_homed   <= in_pos_homed;
-            sn_vel     <= in_vel;
+            sn_vel     <= in_vel_n;
             sn_idx     <= in_index_pos;
             sn_icnt    <= in_index_count;
             sn_ovs     <= in_overspeed_count;
@@ -319,12 +334,55 @@ module hg_regfile #(
     wire [ADDR_BITS-1:0] ra = s_raddr;
     wire [1:0]  ax_d = ra[5:4] - 2'd1;
     wire [1:0]  ax_r = (ax_d == 2'd3) ? 2'd0 : ax_d;  // (address block 0 is the globals)
-    wire [31:0] vel_sel = sn_vel[32*ax_r +: 32];
-    // counts per second = floor(v * SAMPLE_HZ / 2**VEL_LOG2W)
-    wire signed [63:0] vel_prod = $signed({{32{vel_sel[31]}}, vel_sel}) * $signed({32'd0, SAMPLE_C});
-    wire [63:0] vel_shift = vel_prod >>> VEL_LOG2W;
-    wire [31:0] vel_cps = vel_shift[31:0];
-    wire [31:0] unused_vel_hi = vel_shift[63:32];  // |v| < 2**31 / SAMPLE_HZ * 2**VEL_LOG2W
+    wire [VEL_BITS-1:0] vel_sel = sn_vel[VEL_BITS*ax_r +: VEL_BITS];
+    // counts per second = floor(v * SAMPLE_HZ / 2**VEL_LOG2W), bits [VEL_LOG2W +: 32] of the
+    // product (|v| < 2**31 / SAMPLE_HZ * 2**VEL_LOG2W). The constant product as shift-adds of
+    // the canonical signed digits of SAMPLE_HZ (1 MHz: 2^20 + 2^14 - 2^16 + 2^9 + 2^6), in the
+    // low PRW bits only (two's complement: the low bits of a sum need only the low bits).
+    localparam integer PRW = VEL_LOG2W + 32;
+    localparam integer NCD = 33;                        // digits of a 32-bit constant
+    wire [PRW-1:0] vel_x = {{(PRW - VEL_BITS){vel_sel[VEL_BITS-1]}}, vel_sel};
+    genvar gd;
+    generate
+        for (gd = 0; gd < NCD; gd = gd + 1) begin : g_csd
+            wire [PRW-1:0] prev, acc;                   // sum of the terms below / to digit gd
+            if (gd == 0) begin : g_first
+                assign prev = {PRW{1'b0}};
+            end else begin : g_next
+                assign prev = g_csd[gd - 1].acc;
+            end
+            if (gd >= PRW || csd_digit(SAMPLE_HZ, gd) == 0) begin : g_0
+                assign acc = prev;
+            end else if (gd == 0) begin : g_lsb
+                assign acc = (csd_digit(SAMPLE_HZ, 0) > 0) ? vel_x : ~vel_x + 1'b1;
+                wire unused_prev = &{1'b0, prev};   // (zero)
+            end else if (csd_digit(SAMPLE_HZ, gd) > 0) begin : g_add
+                assign acc = {prev[PRW-1:gd] + vel_x[PRW-1-gd:0], prev[gd-1:0]};
+            end else begin : g_sub
+                assign acc = {prev[PRW-1:gd] - vel_x[PRW-1-gd:0], prev[gd-1:0]};
+            end
+        end
+    endgenerate
+    wire [PRW-1:0] vel_prod = g_csd[NCD - 1].acc;
+    wire [31:0] vel_cps = vel_prod[PRW-1:VEL_LOG2W];
+    wire [VEL_LOG2W-1:0] unused_vel_lo = vel_prod[VEL_LOG2W-1:0];
+    wire unused_vel_x = &{1'b0, vel_x};  // (the top bits of the shifted terms fall off)
+
+    // digit di (-1, 0, +1) of the canonical signed-digit form of cv > 0 (no two adjacent nonzero)
+    function integer csd_digit;
+        input integer cv;
+        input integer di;
+        integer x, j, d;
+        begin
+            x = cv;
+            d = 0;
+            for (j = 0; j <= di; j = j + 1) begin
+                d = (x % 2 == 0) ? 0 : 2 - (x % 4);
+                x = (x - d) / 2;
+            end
+            csd_digit = d;
+        end
+    endfunction
 
     always @(*) begin
         s_rdata = UNMAPPED;

@@ -6,6 +6,9 @@
 // Latency: channel k loads (dac_wr_n rises) k*SKEW + 8 clocks after the frame start (WR_CYCLES=1),
 // + 16 clocks with SERIAL_MUL=1 (one shift-add multiplier, 16 clocks per product: the LUT-only
 // iCE40-HX8K build; the codes are bit-identical, the load times shift by MUL_EXTRA clocks).
+// LIMITS = 3: a torque limit per motor (the top's TQ_LIMIT registers), clamped in the shared
+// per-channel stage C; LATCH_RAM = 1: the latched torques and limits held in block RAM (fewer
+// logic cells on the HX8K; the same codes and times). rtl/boards/README.md, "Fit".
 `timescale 1ns / 1ps
 `default_nettype none
 
@@ -23,7 +26,11 @@ module commutator #(
     parameter         LUT_FILE      = "sine.hex", // sine ROM contents (models/hapgate/sine.py)
     parameter integer DAC_BITS      = 14,         // DAC width; codes saturate to +-(2**(DAC_BITS-1)-1)
     parameter integer OFFSET_BINARY = 0,          // DAC coding: 0 two's complement, 1 offset binary
-    parameter integer SERIAL_MUL    = 0           // 1: shift-add multiplier, 16 clocks (no DSP/LUT array)
+    parameter integer SERIAL_MUL    = 0,          // 1: shift-add multiplier, 16 clocks (no DSP/LUT array)
+    parameter integer LIMITS        = 1,          // torque limits: 1 for all motors, 3 one per motor
+                                                  // (the top's TQ_LIMIT registers: one shared clamp)
+    parameter integer LATCH_RAM     = 0           // 1: the frame-latched torques and limits in block
+                                                  // RAM (one per motor; LUT-only boards: fewer cells)
 ) (
     input  wire                           clk,
     input  wire                           rst,
@@ -33,7 +40,7 @@ module commutator #(
     input  wire [3*(ADDR_BITS+2)-1:0]     ctl_offset,       // index-to-winding offset, 1/2**(ADDR_BITS+2) cycle
     input  wire [5:0]                     ctl_mode,         // 0 SINE, 1 SIX_STEP, 2 ALIGN, 3 OFF
     input  wire                           ctl_enable,       // 0: every channel at zero torque
-    input  wire [15:0]                    ctl_torque_limit, // |torque| clamp; >= 32768: none
+    input  wire [16*LIMITS-1:0]           ctl_torque_limit, // |torque| clamp (motor 0 low); >= 32768: none
     input  wire [2:0]                     axis_fault,       // 1: that motor at zero torque
     output wire                           m_frame,          // the inputs are latched at the end of this clock
     // DAC port
@@ -92,6 +99,12 @@ module commutator #(
         if (SERIAL_MUL != 0 && SERIAL_MUL != 1) begin : g_bad_serial_mul
             commutator_SERIAL_MUL_must_be_0_or_1 u_stop ();
         end
+        if (LATCH_RAM != 0 && LATCH_RAM != 1) begin : g_bad_latch_ram
+            commutator_LATCH_RAM_must_be_0_or_1 u_stop ();
+        end
+        if (LIMITS != 1 && LIMITS != 3) begin : g_bad_limits
+            commutator_LIMITS_must_be_1_or_3 u_stop ();
+        end
         if (SERIAL_MUL != 0 && SKEW_CYCLES_I < MUL_EXTRA + 2) begin : g_serial_mul_too_slow
             commutator_SERIAL_MUL_needs_SKEW_of_at_least_18_clocks u_stop ();
         end
@@ -119,8 +132,8 @@ module commutator #(
     // reset writes zero to every channel); data registers are not.
     reg [3*CB-1:0] u_q;         // electrical angle, fine: (pos * POLE_PAIRS) mod 2**CB
     reg [3*AB-1:0] off_q;
-    reg [47:0]     tq_q;
-    reg [15:0]     lim_q;
+    wire [47:0]    tq_q;           // torques and limits as latched: first read at stage C
+    wire [16*LIMITS-1:0] lim_q;
     reg [5:0]      mode_q;
     reg [2:0]    fault_q;
     reg          en_q;
@@ -131,10 +144,56 @@ module commutator #(
             for (m = 0; m < 3; m = m + 1)
                 u_q[m*CB +: CB] <= s_pos[m*CB +: CB] * PP;
             off_q <= ctl_offset;
-            tq_q  <= s_torque;
-            lim_q <= ctl_torque_limit;
         end
     end
+
+    genvar gm;
+    generate
+        if (LATCH_RAM != 0) begin : g_latch_ram
+            // A block RAM per motor, written at the frame start and read every clock: the
+            // latched word is on its output from the second clock of the frame on, and the first
+            // reader (channel 0's stage C) comes three clocks after the frame start. The write
+            // address alternates between two words (so synthesis keeps a memory: a constant
+            // address would be folded back into flip-flops); the read takes the last written.
+            reg wp;
+            always @(posedge clk) begin
+                if (rst)
+                    wp <= 1'b0;
+                else if (m_frame)
+                    wp <= ~wp;
+            end
+            for (gm = 0; gm < 3; gm = gm + 1) begin : g_m
+                localparam integer LW = (LIMITS == 3 || gm == 0) ? 32 : 16;
+                wire [LW-1:0] wd;
+                if (LW == 32) begin : g_tl
+                    assign wd = {ctl_torque_limit[16*gm +: 16], s_torque[16*gm +: 16]};
+                end else begin : g_t
+                    assign wd = s_torque[16*gm +: 16];
+                end
+                (* ram_style = "block" *) reg [LW-1:0] mem [0:1];
+                reg [LW-1:0] rd;
+                always @(posedge clk) begin
+                    if (m_frame) mem[wp] <= wd;
+                    rd <= mem[~wp];
+                end
+                assign tq_q[16*gm +: 16] = rd[15:0];
+                if (LW == 32) begin : g_lim
+                    assign lim_q[16*gm +: 16] = rd[31:16];
+                end
+            end
+        end else begin : g_latch_ff
+            reg [47:0]          tq_r;
+            reg [16*LIMITS-1:0] lim_r;
+            always @(posedge clk) begin
+                if (m_frame) begin
+                    tq_r  <= s_torque;
+                    lim_r <= ctl_torque_limit;
+                end
+            end
+            assign tq_q  = tq_r;
+            assign lim_q = lim_r;
+        end
+    endgenerate
 
     always @(posedge clk) begin
         if (rst) begin
@@ -148,24 +207,23 @@ module commutator #(
         end
     end
 
-    // ---------------------------------------------------------------- stage A: angle, level, clamp
+    // ---------------------------------------------------------------- stage A: angle, level
     reg [CB-1:0] u_m;
     reg [AB-1:0] off_m;
-    reg [15:0]   tq_m;
     reg [1:0]    mode_m;
     reg          fault_m;
     always @* begin
         case (req_ch[2:1])
             2'd0:    begin
-                u_m = u_q[0*CB +: CB]; off_m = off_q[0*AB +: AB]; tq_m = tq_q[0*16 +: 16];
+                u_m = u_q[0*CB +: CB]; off_m = off_q[0*AB +: AB];
                 mode_m = mode_q[0*2 +: 2]; fault_m = fault_q[0];
             end
             2'd1:    begin
-                u_m = u_q[1*CB +: CB]; off_m = off_q[1*AB +: AB]; tq_m = tq_q[1*16 +: 16];
+                u_m = u_q[1*CB +: CB]; off_m = off_q[1*AB +: AB];
                 mode_m = mode_q[1*2 +: 2]; fault_m = fault_q[1];
             end
             default: begin
-                u_m = u_q[2*CB +: CB]; off_m = off_q[2*AB +: AB]; tq_m = tq_q[2*16 +: 16];
+                u_m = u_q[2*CB +: CB]; off_m = off_q[2*AB +: AB];
                 mode_m = mode_q[2*2 +: 2]; fault_m = fault_q[2];
             end
         endcase
@@ -187,25 +245,16 @@ module commutator #(
     wire lvl_neg = phase_b ? (n_edges == 3'd0 || n_edges == 3'd1 || n_edges == 3'd6)
                            : (n_edges == 3'd4 || n_edges == 3'd5);
 
-    // Torque clamp to +-limit (limit >= 32768: no clamp, -32768 passes)
-    wire        [16:0] lim17 = lim_q[15] ? 17'h08000 : {1'b0, lim_q};
-    wire signed [16:0] t17   = {tq_m[15], tq_m};
-    wire               t_hi  = t17 > $signed(lim17);
-    wire               t_lo  = t17 < -$signed(lim17);
-    wire        [15:0] t_cl  = t_hi ? lim17[15:0] : (t_lo ? (~lim17[15:0] + 16'd1) : tq_m);
-
     wire zero_m = !en_q || fault_m || (mode_m == MODE_OFF);
 
     reg          va;
     reg [AB-1:0] ang_a;
     reg [2:0]    ch_a;
-    reg [15:0]   tq_a;
     reg          six_a, pos_a, neg_a, zero_a;
 
     always @(posedge clk) begin
         ang_a  <= code_ch;
         ch_a   <= req_ch;
-        tq_a   <= t_cl;
         six_a  <= (mode_m == MODE_SIX);
         pos_a  <= lvl_pos;
         neg_a  <= lvl_neg;
@@ -222,19 +271,39 @@ module commutator #(
     );
 
     reg [2:0]  ch_b, ch_c;
-    reg [15:0] tq_b, tq_c;
     reg        six_b, pos_b, neg_b, zero_b, six_c, pos_c, neg_c, zero_c;
     always @(posedge clk) begin
-        {ch_b, tq_b, six_b, pos_b, neg_b, zero_b} <= {ch_a, tq_a, six_a, pos_a, neg_a, zero_a};
-        {ch_c, tq_c, six_c, pos_c, neg_c, zero_c} <= {ch_b, tq_b, six_b, pos_b, neg_b, zero_b};
+        {ch_b, six_b, pos_b, neg_b, zero_b} <= {ch_a, six_a, pos_a, neg_a, zero_a};
+        {ch_c, six_c, pos_c, neg_c, zero_c} <= {ch_b, six_b, pos_b, neg_b, zero_b};
     end
+
+    // Torque clamp to +-limit (limit >= 32768: no clamp, -32768 passes), for stage C's channel:
+    // the torques and limits are latched at the frame start and every channel's pipeline ends
+    // inside the frame (dac_sched checks it), so they are the ones of the channel's request.
+    wire [1:0]  m_c = (ch_c[2:1] == 2'd3) ? 2'd2 : ch_c[2:1];
+    wire [15:0] tq_m = tq_q[16*m_c +: 16];
+    wire [15:0] lim_m;
+    generate
+        if (LIMITS == 3) begin : g_lim3
+            assign lim_m = lim_q[16*m_c +: 16];
+        end else begin : g_lim1
+            assign lim_m = lim_q[15:0];
+        end
+    endgenerate
+    wire        [16:0] lim17 = lim_m[15] ? 17'h08000 : {1'b0, lim_m};
+    wire signed [16:0] t17   = {tq_m[15], tq_m};
+    wire               t_hi  = t17 > $signed(lim17);
+    wire               t_lo  = t17 < -$signed(lim17);
+    wire        [15:0] t_cl  = t_hi ? lim17[15:0] : (t_lo ? (~lim17[15:0] + 16'd1) : tq_m);
+
+    wire [15:0]        tq_c = t_cl;
 
     // ---------------------------------------------------------------- stage M: multiply
     wire signed [VB-1:0] six_value = pos_c ? FS_P : (neg_c ? FS_N : {VB{1'b0}});
     wire signed [VB-1:0] mul_a     = six_c ? six_value : lut_value;
 
     reg                  vm;
-    reg signed [PB-1:0]  prod;
+    wire signed [PB-1:0] prod;     // the product, from the clock after mul_done to the next one
     reg [2:0]            ch_m;
     reg                  zero_mq;
     wire                 mul_done;
@@ -242,11 +311,13 @@ module commutator #(
     generate
         if (SERIAL_MUL == 0) begin : g_mul_array
             // one clock, one multiplier (a DSP block where the device has one)
+            reg signed [PB-1:0] prod_q;
             always @(posedge clk) begin
-                prod    <= mul_a * $signed(tq_c);
+                prod_q  <= mul_a * $signed(tq_c);
                 ch_m    <= ch_c;
                 zero_mq <= zero_c;
             end
+            assign prod     = prod_q;
             assign mul_done = lut_valid;
         end else begin : g_mul_serial
             // Shift-add over the 16 torque bits, LSB first; bit 15 has weight -2**15 (two's
@@ -269,8 +340,10 @@ module commutator #(
                     mcand  <= mcand <<< 1;
                     mplier <= mplier >> 1;
                 end
-                if (last) prod <= acc + addend;  // the product, 16 clocks after lut_valid
             end
+            // acc holds the product from the clock after the last step until the next product
+            // starts (>= SKEW clocks later), through stage R's clock
+            assign prod = acc;
             always @(posedge clk) begin
                 if (rst) begin
                     step <= 5'd16;

@@ -25,7 +25,9 @@ module hapgate_top #(
     parameter integer SKEW_NS       = 2000,       // DAC channel-to-channel skew
     parameter integer FRAME_NS      = 16000,      // commutation frame
     parameter integer SETTLE_NS     = 16000,      // DAC settling time
-    parameter integer WR_CYCLES     = 1,          // DAC write strobe length, clocks
+    parameter integer WR_CYCLES     = 1,          // DAC write strobe length, clocks (at least
+                                                  // DAC_TWR_NS: the longer of the two is used)
+    parameter integer DAC_TWR_NS    = 50,         // DAC's minimum write pulse (DAC7625 t_WCS)
     parameter integer ADDR_BITS     = 8,          // sine ROM: 2**ADDR_BITS quarter-wave entries
     parameter integer MAG_BITS      = 13,         // sine ROM entry width
     parameter integer FS            = 8191,       // sine ROM full scale
@@ -34,6 +36,9 @@ module hapgate_top #(
     parameter integer OFFSET_BINARY = 0,          // DAC coding: 0 two's complement, 1 offset binary
     parameter integer BUS_ADDR_BITS = 8,          // DSP word-address lines decoded
     parameter integer SERIAL_MUL    = 0,          // 1: commutator multiplies in 16 clocks (LUT-only boards)
+    parameter integer SQ_RAM        = 0,          // 1: interpolators' signal-loss squares from block RAM
+    parameter integer HOLD_C        = 0,          // 1: interpolators without stage-D copies
+    parameter integer LATCH_RAM     = 0,          // 1: commutator's latched torques/limits in block RAM
     parameter integer AXIS_MASK     = 7           // interpolators built (bit i = axis i); a
                                                   // cleared bit needs HG_SIM (held joint)
 ) (
@@ -72,6 +77,9 @@ module hapgate_top #(
     localparam integer CLK_KHZ     = CLK_HZ / 1000;
     localparam integer SKEW_CLOCKS = CLK_KHZ * SKEW_NS / 1_000_000;
     localparam integer FRAME_CLOCKS = CLK_KHZ * FRAME_NS / 1_000_000;
+    // the DAC write strobe: WR_CYCLES clocks, but never shorter than the DAC's t_WCS
+    localparam integer WR_MIN      = (DAC_TWR_NS * CLK_KHZ + 999_999) / 1_000_000;
+    localparam integer WR_EFF      = (WR_CYCLES > WR_MIN) ? WR_CYCLES : WR_MIN;
     localparam integer ZERO_I      = (OFFSET_BINARY != 0) ? (1 << (DAC_BITS - 1)) : 0;
     localparam [DAC_BITS-1:0] ZERO = ZERO_I[DAC_BITS-1:0];       // the zero-torque DAC word
 
@@ -81,6 +89,12 @@ module hapgate_top #(
         end
         if (COUNT_BITS > 26) begin : g_bad_counts
             hapgate_top_LUT_BITS_plus_LINES_LOG2_must_be_at_most_23 u_stop ();
+        end
+        if (DAC_TWR_NS < 0 || DAC_TWR_NS > 1000) begin : g_bad_twr
+            hapgate_top_DAC_TWR_NS_must_be_0_to_1000 u_stop ();
+        end
+        if (HOLD_C != 0 && CLK_HZ < 2 * SAMPLE_HZ) begin : g_bad_hold_c
+            hapgate_top_HOLD_C_needs_CLK_HZ_at_least_2_SAMPLE_HZ u_stop ();
         end
     endgenerate
 
@@ -134,11 +148,13 @@ module hapgate_top #(
 `endif
     endgenerate
 
+    wire [8*NAX-1:0] harm_rdata;
     enc_interp3 #(
         .CLK_HZ(CLK_HZ), .SAMPLE_HZ(SAMPLE_HZ), .AXES(NAX), .LUT_BITS(LUT_BITS),
         .LUT_FILE(ASIN_FILE), .VEL_LOG2W(VEL_LOG2W), .AMP_MIN(AMP_MIN), .AMP_MAX(AMP_MAX),
         .LOSS_SAMPLES(LOSS_SAMPLES), .CAL(CAL), .CAL_LUT_FILE(CAL_LUT_FILE),
-        .CAL_LINES_LOG2(CAL_LINES_LOG2), .CAL_NLOG(CAL_NLOG), .COARSE(COARSE)
+        .CAL_LINES_LOG2(CAL_LINES_LOG2), .CAL_NLOG(CAL_NLOG), .COARSE(COARSE),
+        .SQ_RAM(SQ_RAM), .HOLD_C(HOLD_C)
     ) u_interp (
         .clk(clk), .rst(rst), .adc_strobe(adc_strobe), .adc_a(c_adc_a), .adc_b(c_adc_b),
         .enc_index(c_index), .ctl_fault_clear({NAX{fault_clear}}), .ctl_home_arm(c_arm),
@@ -149,9 +165,12 @@ module hapgate_top #(
         .ctl_cal_en(c_cal_en), .ctl_cal_freeze(c_cal_freeze), .cfg_cal_mu(c_cal_mu),
         .m_cal_valid(cal_valid), .m_cal_ofs_a(c_cal_ofs_a), .m_cal_ofs_b(c_cal_ofs_b),
         .m_cal_gain_a(c_cal_gain_a), .m_cal_gain_b(c_cal_gain_b), .m_cal_phase(c_cal_phase),
-        .m_cal_gear(c_cal_gear), .m_cal_updates(c_cal_updates)
+        .m_cal_gear(c_cal_gear), .m_cal_updates(c_cal_updates),
+        // harmonic correction (enc_interp HARM = 1) not built in the top: tied off
+        .ctl_harm_en({NAX{1'b0}}), .cfg_harm_we({NAX{1'b0}}), .cfg_harm_addr(8'd0),
+        .cfg_harm_data(8'd0), .m_harm_rdata(harm_rdata)
     );
-    wire unused_cal_valid = cal_valid;  // (the registers read the live state)
+    wire unused_cal_valid = &{1'b0, cal_valid, harm_rdata};  // (the registers read the live state)
     wire [95:0] cal_ofs_w, cal_gain_w, cal_stat_w;
 
     genvar ax;
@@ -228,6 +247,7 @@ module hapgate_top #(
 
     hg_bus #(
         .CLK_HZ(CLK_HZ), .SAMPLE_HZ(SAMPLE_HZ), .VEL_LOG2W(VEL_LOG2W),
+        .VEL_BITS(LUT_BITS + VEL_LOG2W + 4),  // the interpolator's stored velocity bits
         .SKEW_CLOCKS(SKEW_CLOCKS), .FRAME_CLOCKS(FRAME_CLOCKS), .ADDR_BITS(BUS_ADDR_BITS)
     ) u_bus (
         .clk(clk), .rst(rst),
@@ -249,34 +269,15 @@ module hapgate_top #(
     wire unused_dbg = &{1'b0, tick, dbg_req, dbg_we, dbg_addr, dbg_wdata, dbg_proto_err};
 
     // ---------------------------------------------------------------- commutation inputs
-    // Per-axis torque clamp to +-TQ_LIMIT (>= 32768: none); an axis that is not enabled is OFF.
-    reg  [47:0]             tq_cl;
+    // Per-axis torque clamp to +-TQ_LIMIT (>= 32768: none), in the commutator after its frame
+    // latch (LIMITS = 3: one clamp shared by the motors); an axis that is not enabled is OFF.
     reg  [5:0]              mode_eff;
     wire [3*COUNT_BITS-1:0] s_pos;
     integer k;
     always @(*) begin
-        for (k = 0; k < 3; k = k + 1) begin
-            tq_cl[16*k +: 16]  = clamp(torque[16*k +: 16], tq_limit[16*k +: 16]);
+        for (k = 0; k < 3; k = k + 1)
             mode_eff[2*k +: 2] = axis_en[k] ? mode[2*k +: 2] : 2'd3;
-        end
     end
-
-    function [15:0] clamp;
-        input [15:0] t;
-        input [15:0] lim;
-        reg   [16:0] l17;
-        reg signed [16:0] t17;
-        begin
-            l17 = lim[15] ? 17'h08000 : {1'b0, lim};
-            t17 = {t[15], t};
-            if (t17 > $signed(l17))
-                clamp = l17[15:0];
-            else if (t17 < -$signed(l17))
-                clamp = ~l17[15:0] + 16'd1;
-            else
-                clamp = t;
-        end
-    endfunction
 
     genvar g;
     generate
@@ -295,12 +296,13 @@ module hapgate_top #(
 
     commutator #(
         .CLK_HZ(CLK_HZ), .SKEW_NS(SKEW_NS), .FRAME_NS(FRAME_NS), .SETTLE_NS(SETTLE_NS),
-        .WR_CYCLES(WR_CYCLES), .COUNT_BITS(COUNT_BITS), .POLE_PAIRS(POLE_PAIRS),
+        .WR_CYCLES(WR_EFF), .COUNT_BITS(COUNT_BITS), .POLE_PAIRS(POLE_PAIRS),
         .ADDR_BITS(ADDR_BITS), .MAG_BITS(MAG_BITS), .FS(FS), .LUT_FILE(SINE_FILE),
-        .DAC_BITS(DAC_BITS), .OFFSET_BINARY(OFFSET_BINARY), .SERIAL_MUL(SERIAL_MUL)
+        .DAC_BITS(DAC_BITS), .OFFSET_BINARY(OFFSET_BINARY), .SERIAL_MUL(SERIAL_MUL),
+        .LIMITS(3), .LATCH_RAM(LATCH_RAM)
     ) u_comm (
-        .clk(clk), .rst(rst), .s_pos(s_pos), .s_torque(tq_cl), .ctl_offset(offset),
-        .ctl_mode(mode_eff), .ctl_enable(~kill_all), .ctl_torque_limit(16'hFFFF),
+        .clk(clk), .rst(rst), .s_pos(s_pos), .s_torque(torque), .ctl_offset(offset),
+        .ctl_mode(mode_eff), .ctl_enable(~kill_all), .ctl_torque_limit(tq_limit),
         .axis_fault(fault), .m_frame(m_frame),
         .dac_data(c_data), .dac_addr(c_addr), .dac_wr_n(c_wr_n)
     );

@@ -186,7 +186,8 @@ async def random_accesses(dut) -> None:
     interpolator outputs changing underneath, ticks and watchdog running; every read checked
     against the model, every tick and watchdog expiry at the model's clock edge."""
     master, mon, inputs = await setup(dut)
-    model = RegModel(RM, inputs=inputs, input_edges=inputs.edges)
+    model = RegModel(RM, inputs=inputs, input_edges=inputs.edges,
+                     sample_hz=int(P["SAMPLE_HZ"]))  # type: ignore[arg-type]
     rng = random.Random(SEED)
     mapped = [r.word for r in RM.registers]
     tick_min = RM.by_name()["TICK_DIV"].fields[0].range_min or 1

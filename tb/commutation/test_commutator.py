@@ -122,3 +122,14 @@ def test_phase_error_shows_up_in_ripple() -> None:
     good = cm.torque_curve(c[:, 0], c[:, 1], sw, cfg)
     bad = cm.torque_curve(c[:, 0], b_bad, sw, cfg)
     assert float(good["ripple"]) <= 0.003 < float(bad["ripple"])
+
+
+def test_commutator_latch_ram() -> None:
+    """LATCH_RAM = 1 (the HX8K build: the frame-latched torques and limits in block RAM, read at
+    stage C) with the shift-add multiplier, Icarus: random inputs changed mid-frame, every code
+    bit-exact against the same model, and the safety paths."""
+    cfg = CONFIGS["c12m5_serial"]
+    sim.run_cocotb(blocks.get("commutator"), "icarus", "cocotb_commutator", HERE,
+                   params=cfg.rtl_params() | {"LATCH_RAM": 1},
+                   testcase=["random_bit_exact", "safety_paths"],
+                   extra_env={"HG_MODEL": json.dumps(cfg.to_json()), "HG_FRAMES": "100"})

@@ -82,6 +82,37 @@ def test_cache_key_covers_parameters_and_sources() -> None:
     assert k != sweep.job_key("selftest", p, "src-b")
 
 
+def test_kind_sources_narrow_the_key(tmp_path: Path) -> None:
+    """The soak's and the Monte-Carlo's cache keys cover the interpolator's sources and not the
+    firmware's or another kind's module; the full set covers everything; every listed path
+    exists in the checkout (a rename cannot silently drop a dependency)."""
+    root = sweep.ROOT
+    for paths in sweep.KIND_SOURCES.values():
+        for d in paths:
+            assert (root / d).exists(), d
+    for d in ("rtl/interp", "dsp-fw/src", "models/hapgate/device"):
+        (tmp_path / d).mkdir(parents=True)
+    (tmp_path / "models/hapgate/device/soak.py").write_text("x = 1\n")
+    (tmp_path / "models/hapgate/device/zwidth.py").write_text("x = 1\n")
+    (tmp_path / "rtl/interp/a.v").write_text("module a; endmodule\n")
+    (tmp_path / "dsp-fw/src/f.c").write_text("int f;\n")
+
+    def digests() -> tuple[str, str, str]:
+        return (sweep.sources_digest(tmp_path, "soak"), sweep.sources_digest(tmp_path),
+                sweep.sources_digest(tmp_path, "calib_mc"))
+    soak0, all0, mc0 = digests()
+    (tmp_path / "dsp-fw/src/f.c").write_text("int g;\n")
+    (tmp_path / "models/hapgate/device/zwidth.py").write_text("x = 2\n")
+    soak1, all1, mc1 = digests()
+    assert soak1 == soak0 and mc1 == mc0 and all1 != all0
+    (tmp_path / "models/hapgate/device/soak.py").write_text("x = 2\n")
+    soak2, _, mc2 = digests()
+    assert soak2 != soak1 and mc2 == mc1
+    (tmp_path / "rtl/interp/a.v").write_text("module b; endmodule\n")
+    soak3, _, mc3 = digests()
+    assert soak3 != soak2 and mc3 != mc2
+
+
 @pytest.mark.parametrize("text, key", [
     ("[sweep]\njob = 'nope'\n", "sweep.job"),
     ("[sweep]\njob = 'selftest'\nbase = 'missing.toml'\n", "sweep.base"),
@@ -91,7 +122,9 @@ def test_cache_key_covers_parameters_and_sources() -> None:
     ("[sweep]\njob = 'selftest'\nfoo = 1\n", "sweep.foo"),
     ("[sweep]\njob = 'zwidth'\nbase = 'b.toml'\n[fixed]\n'run.position' = 'coarse'\n",
      "run.position"),
-    ("[sweep]\njob = 'calib_mc'\n[fixed]\ncalibration = 'on'\n", "calibration"),
+    ("[sweep]\njob = 'zwidth'\nbase = 'b.toml'\n[fixed]\nvelocity = 'observer'\n", "velocity"),
+    ("[sweep]\njob = 'calib_mc'\n[fixed]\nengine = 'spice'\n", "fixed.engine"),
+    ("[sweep]\njob = 'calib_mc'\n[fixed]\ntravel_lines = 300\n", "fixed.travel_lines"),
     ("[sweep\n", "line 1"),
 ])
 def test_bad_spec_exit_2_names_file_and_key(tmp_path: Path, text: str, key: str,

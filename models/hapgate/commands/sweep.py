@@ -10,6 +10,7 @@ unusable --out (nothing written), 3 when the sweep itself could not run.
 from __future__ import annotations
 
 import argparse
+import csv
 import json
 import math
 import sys
@@ -40,8 +41,6 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 def read_rows(path: Path) -> list[dict[str, object]]:
     """A results.csv back as records (numbers as float, True/False as bool)."""
-    import csv
-
     def conv(v: str) -> object:
         if v in ("True", "False"):
             return v == "True"
@@ -109,20 +108,16 @@ def main(args: argparse.Namespace) -> int:
                                                       "missed_overspeed"))
         status = EXIT_FAIL if bad else EXIT_OK
     elif spec.kind == "calib_mc":
-        import numpy as np
-
-        for mode in sorted({str(r["calibration"]) for r in rows}):
-            v = np.array([float(r["err_rms_elec_deg"]) for r in rows
-                          if str(r["calibration"]) == mode])
-            mx = np.array([float(r["err_max_elec_deg"]) for r in rows
-                           if str(r["calibration"]) == mode])
-            print(table(["calibration", "sets", "RMS err median, el. deg", "RMS err p95",
-                         "max err p95", "max err worst", "convergence"],
-                        [[mode, str(v.size), f"{np.median(v):.3f}",
-                          f"{np.percentile(v, 95):.3f}", f"{np.percentile(mx, 95):.3f}",
-                          f"{mx.max():.3f}", "n/a (off)" if mode == "off" else "-"]]))
+        tabs = sweep_report.calib_tables(rows)
+        for head, body in tabs.values():
+            print(table(head, body))
+        with open(out / "percentiles.csv", "w", newline="") as fh:
+            w = csv.writer(fh)
+            for head, body in tabs.values():
+                w.writerow(head)
+                w.writerows(body)
         sweep_report.calib_plot(rows, out / "histogram.png")
-        files.append(out / "histogram.png")
+        files += [out / "percentiles.csv", out / "histogram.png"]
     print(f"{len(res.records)} jobs ({sum(res.cached)} from the cache, {res.retried} rerun after a "
           f"lost worker or a retry) in {res.wall_s:.1f} s on {res.workers} workers "
           f"({res.scheduler}); "

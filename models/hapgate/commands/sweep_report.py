@@ -9,11 +9,15 @@ from typing import Any
 
 import numpy as np
 
-from ..device import zwidth
+from ..device import calib_mc, zwidth
 
 
 def _pos(r: dict[str, Any]) -> str:
-    return str(r.get("position") or "interpolated")
+    """The configuration's name: the position source, and the velocity when not the FIR
+    (records from before the velocity axis have none: the FIR)."""
+    pos = str(r.get("position") or "interpolated")
+    vel = str(r.get("velocity") or "fir")
+    return pos if vel == "fir" else f"{pos}, {vel}"
 
 
 def kmax_table(rows: list[dict[str, Any]]) -> list[dict[str, Any]]:
@@ -45,6 +49,8 @@ def zwidth_plot(rows: list[dict[str, Any]], path: Any) -> None:
     fig, ax = plt.subplots(figsize=(8, 5.5))
     confs = sorted({(_pos(r), int(r["servo_hz"])) for r in rows})
     style = {("interpolated", 1000): ("o", "tab:blue"), ("interpolated", 10000): ("s", "tab:red"),
+             ("interpolated, observer", 1000): ("v", "tab:orange"),
+             ("interpolated, observer", 10000): ("P", "tab:brown"),
              ("quadrature", 1000): ("^", "tab:green"), ("quadrature", 10000): ("D", "tab:purple")}
     off = {c: 1.0 + 0.06 * (i - (len(confs) - 1) / 2) for i, c in enumerate(confs)}
     for conf in confs:
@@ -85,6 +91,7 @@ def soak_table(rows: list[dict[str, Any]], wall_s: float, workers: int) -> list[
     tot = sum(int(r["samples"]) for r in rows)
     harness = sum(float(r["harness_s"]) for r in rows)
     gen = sum(float(r["gen_s"]) for r in rows)
+    cpu = sum(float(r.get("cpu_s") or 0.0) for r in rows)      # (older records lack it)
     def s(k: str) -> int:
         return sum(int(r[k]) for r in rows)
     return [["jobs", str(len(rows))], ["ADC samples (3 axes)", f"{tot:.4g}"],
@@ -93,6 +100,9 @@ def soak_table(rows: list[dict[str, Any]], wall_s: float, workers: int) -> list[
              if wall_s > 0 else "-"],
             ["harness samples/s (RTL only)", f"{tot / harness:.3g}" if harness else "-"],
             ["stimulus generation, s (sum)", f"{gen:.1f}"],
+            ["CPU s per 10^6 x 3 samples (shard cost)",
+             f"{cpu / tot * 3e6:.2f}" if cpu else "-"],
+            ["samples per CPU second", f"{tot / cpu:.3g}" if cpu else "-"],
             ["slips", str(s("slips"))], ["index latches checked", str(s("index_latches"))],
             ["index latch errors", str(s("index_latch_errors"))],
             ["max |pos - truth|, counts",
@@ -106,17 +116,100 @@ def soak_table(rows: list[dict[str, Any]], wall_s: float, workers: int) -> list[
              f"{min(float(r['v_safe_noisy_min_rev_s']) or math.inf for r in rows):.1f}"]]
 
 
+PCTS = (5, 50, 95, 99)
+
+
+def _f(rows: list[dict[str, Any]], key: str, status: str | None = None) -> np.ndarray:
+    return np.array([float(r[key]) for r in rows if status is None or r["status"] == status])
+
+
+def calib_tables(rows: list[dict[str, Any]]) -> dict[str, tuple[list[str], list[list[str]]]]:
+    """The Monte-Carlo's tables (header, rows): percentiles of the error after convergence (off,
+    on) and of the convergence distance; the sets per status; the error by harmonic level
+    (what the calibration does not correct)."""
+    n = len(rows)
+    head = ["quantity", "sets", *[f"p{q}" for q in PCTS], "max"]
+    pct: list[list[str]] = []
+    for key, label in (("rms_off_deg", "RMS error, calibration off, deg el."),
+                       ("rms_on_deg", "RMS error, calibration on, deg el."),
+                       ("max_off_deg", "max error, calibration off, deg el."),
+                       ("max_on_deg", "max error, calibration on, deg el.")):
+        v = _f(rows, key)
+        pct.append([label, str(v.size), *[f"{np.percentile(v, q):.3f}" for q in PCTS],
+                    f"{v.max():.3f}"])
+    conv = _f(rows, "convergence_lines", "converged")
+    if conv.size:
+        pct.append(["convergence distance (converged sets), lines", str(conv.size),
+                    *[f"{np.percentile(conv, q):.0f}" for q in PCTS], f"{conv.max():.0f}"])
+    st_rows = []
+    for st in calib_mc.STATUSES:
+        sel = [r for r in rows if r["status"] == st]
+        on = _f(sel, "rms_on_deg")
+        clip = _f(sel, "clip_frac")
+        st_rows.append([st, str(len(sel)), f"{100 * len(sel) / max(n, 1):.2f} %",
+                        f"{np.median(on):.3f}" if on.size else "-",
+                        f"{np.median(_f(sel, 'rms_off_deg')):.3f}" if on.size else "-",
+                        f"{100 * float(np.mean(clip > 0)):.0f} %" if clip.size else "-"])
+    budget = [r for r in rows if float(r["rms_on_deg"]) <= 0.30 and float(r["max_on_deg"]) <= 1.3]
+    harm: list[list[str]] = []
+    hmax = np.array([max(float(r["h2"]), float(r["h3"])) for r in rows])
+    for lo, hi in ((0.0, 0.005), (0.005, 0.01), (0.01, 0.015), (0.015, 0.0201)):
+        sel = [r for r, h in zip(rows, hmax) if lo <= h < hi]
+        if not sel:
+            continue
+        on = _f(sel, "rms_on_deg")
+        ok = sum(float(r["rms_on_deg"]) <= 0.30 and float(r["max_on_deg"]) <= 1.3 for r in sel)
+        harm.append([f"{100 * lo:.1f}..{100 * min(hi, 0.02):.1f} %", str(len(sel)),
+                     f"{np.median(_f(sel, 'rms_off_deg')):.3f}", f"{np.median(on):.3f}",
+                     f"{np.percentile(on, 95):.3f}", f"{100 * ok / len(sel):.1f} %"])
+    return {"percentiles": (head, pct),
+            "status": (["status", "sets", "share", "RMS on, median", "RMS off, median",
+                        "sets that clip"], st_rows),
+            "harmonics": (["max(h2, h3)", "sets", "RMS off, median", "RMS on, median",
+                           "RMS on, p95", "within 0.30 deg RMS / 1.3 deg max"], harm),
+            "budget": (["sets", "within 0.30 deg RMS and 1.3 deg max (issue 13's budget)"],
+                       [[str(n), f"{len(budget)} ({100 * len(budget) / max(n, 1):.1f} %)"]])}
+
+
 def calib_plot(rows: list[dict[str, Any]], path: Any) -> None:
+    """Histograms: RMS and max error after convergence (off, on; log scale), the convergence
+    distance, and the RMS on against the harmonic level (coloured by status)."""
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
-    fig, ax = plt.subplots(figsize=(6, 4))
-    for mode in sorted({str(r["calibration"]) for r in rows}):
-        v = [float(r["err_rms_elec_deg"]) for r in rows if str(r["calibration"]) == mode]
-        ax.hist(v, bins=50, alpha=0.6, label=f"calibration {mode} ({len(v)} sets)")
-    ax.set_xlabel("RMS error after convergence, electrical degrees")
-    ax.set_ylabel("imperfection sets")
-    ax.legend()
+    fig, axs = plt.subplots(2, 2, figsize=(10, 7.5))
+    for ax, kind, label in ((axs[0, 0], "rms", "RMS"), (axs[0, 1], "max", "max")):
+        allv = np.concatenate([_f(rows, f"{kind}_{m}_deg") for m in calib_mc.MODES])
+        bins = np.geomspace(max(allv.min(), 1e-3) * 0.9, allv.max() * 1.1, 60)
+        for m, col in (("off", "tab:red"), ("on", "tab:blue")):
+            v = _f(rows, f"{kind}_{m}_deg")
+            ax.hist(v, bins=bins, alpha=0.6, color=col,
+                    label=f"calibration {m}: median {np.median(v):.2f}")
+        ax.set_xscale("log")
+        ax.set_xlabel(f"{label} error after convergence, electrical degrees")
+        ax.set_ylabel("sets")
+        ax.legend(fontsize=8)
+    conv = _f(rows, "convergence_lines", "converged")
+    ax = axs[1, 0]
+    if conv.size:
+        w = calib_mc.WINDOW_LINES            # distances are whole windows: bars centred on them
+        ax.hist(conv, bins=np.arange(-w / 2, max(conv.max(), 4 * w) + w, w), color="tab:green")
+    counts = {st: sum(r["status"] == st for r in rows) for st in calib_mc.STATUSES}
+    ax.set_title(", ".join(f"{k}: {v}" for k, v in counts.items()), fontsize=8)
+    ax.set_xlabel(f"convergence distance, lines of travel ({calib_mc.WINDOW_LINES}-line windows)")
+    ax.set_ylabel("sets")
+    ax = axs[1, 1]
+    for st, col in zip(calib_mc.STATUSES, ("tab:blue", "tab:orange", "tab:red")):
+        sel = [r for r in rows if r["status"] == st]
+        if sel:
+            ax.scatter([100 * max(float(r["h2"]), float(r["h3"])) for r in sel],
+                       _f(sel, "rms_on_deg"), s=3, color=col, alpha=0.5, label=st)
+    ax.axhline(0.30, color="gray", ls=":", lw=1, label="0.30 deg (issue 13)")
+    ax.set_yscale("log")
+    ax.set_xlabel("max(h2, h3), % of the fundamental")
+    ax.set_ylabel("RMS error, calibration on, deg el.")
+    ax.legend(fontsize=8, markerscale=3)
+    fig.suptitle(f"Calibration Monte-Carlo: {len(rows)} imperfection sets, off and on")
     fig.tight_layout()
-    fig.savefig(path, dpi=120)
+    fig.savefig(path, dpi=110)
     plt.close(fig)

@@ -95,6 +95,10 @@ def supported(scene: Any) -> None:
                       "where it needs them; use fidelity \"rtl\"")
     if runner._coarse(scene):
         raise _refuse(scene, "run.position", "\"quadrature\" needs fidelity \"rtl\"")
+    if runner.scripted_pc(scene):
+        raise _refuse(scene, "pc" if getattr(scene, "pc", None) is not None else "fault",
+                      "the scripted PC's link is simulated with the gateware only; use "
+                      "fidelity \"rtl\"")
     x = np.linspace(0.0, 1.0, 4096, endpoint=False)
     for i in scene.run.axes:
         spec = scene.encoders[int(i)].spec(seed=0)

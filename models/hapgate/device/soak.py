@@ -28,6 +28,7 @@ latches differ by exactly 2^20 counts per revolution travelled).
 from __future__ import annotations
 
 import math
+import resource
 import time
 from collections.abc import Mapping
 from typing import Any
@@ -150,6 +151,7 @@ def job(p: Mapping[str, Any]) -> dict[str, Any]:
     """One soak shard: n samples x 3 axes, seeded; the record of what held."""
     check(p)
     seed, n = int(p["seed"]), int(p["n"])
+    c0 = cpu_seconds()
     t0 = time.perf_counter()
     a, b, idx, x, motions = stimulus(seed, n)
     t_gen = time.perf_counter() - t0
@@ -159,7 +161,15 @@ def job(p: Mapping[str, Any]) -> dict[str, Any]:
     rec: dict[str, Any] = {"samples": n * AXES, "harness_s": r.seconds, "gen_s": t_gen}
     rec.update(evaluate(x, motions, r.outputs))
     rec["samples_per_s"] = n * AXES / r.seconds if r.seconds > 0 else 0.0
+    rec["cpu_s"] = cpu_seconds() - c0
     return rec
+
+
+def cpu_seconds() -> float:
+    """CPU seconds (user + system) of this process and its finished children (the harness):
+    the cost of a shard whatever the machine's load (wall time is not)."""
+    s, c = resource.getrusage(resource.RUSAGE_SELF), resource.getrusage(resource.RUSAGE_CHILDREN)
+    return s.ru_utime + s.ru_stime + c.ru_utime + c.ru_stime
 
 
 def evaluate(x: np.ndarray, motions: list[dict[str, Any]],

@@ -36,6 +36,15 @@ Record = dict[str, Any]
 SOURCE_DIRS = ("rtl", "dsp-fw", "tb/native", "models/hapgate/base", "models/hapgate/golden",
                "models/hapgate/flows", "models/hapgate/runners", "models/hapgate/device")
 SOURCE_EXT = {".v", ".sv", ".vlt", ".c", ".h", ".cpp", ".py", ".hex", ".toml", ".rdl"}
+# kinds that run less than all of SOURCE_DIRS (folders or files): the interpolator alone. A
+# change elsewhere (the firmware, the device runner, another kind's module) keeps their cache,
+# so a 10^9-sample soak resumes across unrelated edits.
+_INTERP_ONLY = ("rtl/interp", "tb/native/interp", "models/hapgate/base", "models/hapgate/golden",
+                "models/hapgate/flows", "models/hapgate/runners",
+                "models/hapgate/device/__init__.py", "models/hapgate/device/sweep.py")
+KIND_SOURCES: dict[str, tuple[str, ...]] = {
+    "soak": (*_INTERP_ONLY, "models/hapgate/device/soak.py"),
+    "calib_mc": (*_INTERP_ONLY, "models/hapgate/device/calib_mc.py")}
 CACHE = BUILD / "sweeps" / "cache"
 
 
@@ -189,7 +198,7 @@ def job_function(kind: str, name: str = "job") -> Callable[[Mapping[str, Any]], 
 
 
 # columns a job adds that vary between identical runs (excluded from reproducibility checks)
-VOLATILE = ("pid", "wall_s", "cached", "samples_per_s")
+VOLATILE = ("pid", "wall_s", "cached", "samples_per_s", "cpu_s", "harness_s", "gen_s")
 
 
 def run_job(kind: str, params: Mapping[str, Any]) -> Record:
@@ -203,11 +212,14 @@ def run_job(kind: str, params: Mapping[str, Any]) -> Record:
 
 
 # ---------------------------------------------------------------------------------- the cache
-def sources_digest(root: Path = ROOT) -> str:
-    """sha256 over the bytes (and relative paths) of every source a job may run."""
+def sources_digest(root: Path = ROOT, kind: str | None = None) -> str:
+    """sha256 over the bytes (and relative paths) of every source a job (of this kind) may
+    run: SOURCE_DIRS, or the kind's narrower KIND_SOURCES."""
     h = hashlib.sha256()
-    for d in SOURCE_DIRS:
-        for f in sorted((root / d).rglob("*")):
+    for d in KIND_SOURCES.get(kind or "", SOURCE_DIRS):
+        top = root / d
+        files = [top] if top.is_file() else sorted(top.rglob("*"))
+        for f in files:
             if f.is_file() and f.suffix in SOURCE_EXT and "__pycache__" not in f.parts:
                 h.update(str(f.relative_to(root)).encode())
                 h.update(f.read_bytes())
@@ -261,7 +273,7 @@ def run(spec: Spec, workers: int = 2, scheduler: str | None = None,
     order. `cache=None` disables the cache."""
     from distributed import as_completed
     params = list(spec.jobs() if jobs is None else jobs)
-    srcs = sources_digest()
+    srcs = sources_digest(kind=spec.kind)
     keys = [job_key(spec.kind, p, srcs) for p in params]
     cdir = ensure(cache / spec.kind) if cache is not None else None
     records: list[Record | None] = [None] * len(params)

@@ -64,7 +64,8 @@ BOARDS = {
               constraints="hx8k_breakout.pcf", constraint_opt="--pcf",
               layout_opt="--asc", layout="design.asc", pack=("yowasp-icepack",),
               bitstream="design.bin", logic="ICESTORM_LC", max_logic=0.75, min_slack=0.20,
-              sources=("boards/adc_pair_mux.v",), extra={"SERIAL_MUL": 1},
+              sources=("boards/adc_pair_mux.v",),
+              extra={"SERIAL_MUL": 1, "SQ_RAM": 1, "HOLD_C": 1, "LATCH_RAM": 1},
               doc="iCE40-HX8K breakout (CT256, no DSP blocks), 12 MHz oscillator, ADC pair "
                   "adapter"),
         Board(name="ecp5-evn", top="hapgate_ecp5_evn", clk_hz=48_000_000,
@@ -144,26 +145,9 @@ def place_route(board: Board, seed: int) -> tuple[PnrResult, dict[str, int]]:
                          board.layout_opt, f"{tag}.{board.layout}", "--freq", f"{mhz:g}",
                          "--report", f"{tag}.report.json", "--seed", str(seed), "-q",
                          "-l", f"{tag}.nextpnr.log"], cwd=wd, capture_output=True, text=True)
-    res: dict[str, int] = {}
-    fmax = 0.0
     rep_path = wd / f"{tag}.report.json"
-    if rep_path.exists():
-        rep = json.loads(rep_path.read_text())
-        for kind, u in rep.get("utilization", {}).items():
-            res[kind] = int(u.get("used", 0))
-            res[f"{kind}/avail"] = int(u.get("available", 0))
-        fmax = min((v.get("achieved", 0.0) for v in rep.get("fmax", {}).values()), default=0.0)
-    problems = []
-    # nextpnr exits 1 on a timing failure but still writes its output: the exit code decides
-    if pr.returncode != 0:
-        problems.append(f"nextpnr exit {pr.returncode}: {pr.stderr.strip()[-1500:]}")
-    used, avail = res.get(board.logic, 0), res.get(f"{board.logic}/avail", 0)
-    if avail and used > board.max_logic * avail:
-        problems.append(f"fit: {board.logic} {used}/{avail} = {used / avail:.1%} "
-                        f"> {board.max_logic:.0%}")
-    if fmax < (1 + board.min_slack) * mhz:
-        problems.append(f"timing margin: fmax {fmax:.1f} MHz < {1 + board.min_slack:.2f} x "
-                        f"{mhz:g} MHz")
+    report = json.loads(rep_path.read_text()) if rep_path.exists() else None
+    fmax, res, problems = judge(board, pr.returncode, pr.stderr, report)
     if pr.returncode == 0:
         pk = subprocess.run([*board.pack, f"{tag}.{board.layout}", f"{tag}.{board.bitstream}"],
                             cwd=wd, capture_output=True, text=True)
@@ -171,6 +155,38 @@ def place_route(board: Board, seed: int) -> tuple[PnrResult, dict[str, int]]:
             problems.append(f"bitstream: {pk.stderr.strip()[-500:]}")
     return (PnrResult(seed, not problems, fmax, time.perf_counter() - t0, "\n".join(problems)),
             res)
+
+
+def judge(board: Board, returncode: int, stderr: str, report: dict | None
+          ) -> tuple[float, dict[str, int], list[str]]:
+    """The verdict on one nextpnr run from its exit code and its --report JSON (None: not
+    written): (worst fmax in MHz, utilisation {kind: used, kind/avail: available}, problems).
+    A problem names what failed: nextpnr's exit code (it exits 1 on a timing failure but still
+    writes its output), the fit (logic cells above board.max_logic of the device), the timing
+    margin (fmax below (1 + board.min_slack) x the core clock) or a missing report."""
+    res: dict[str, int] = {}
+    fmax = 0.0
+    problems = []
+    if returncode != 0:
+        problems.append(f"nextpnr exit {returncode}: {stderr.strip()[-1500:]}")
+    if report is None:
+        problems.append("nextpnr wrote no report")
+        return fmax, res, problems
+    for kind, u in report.get("utilization", {}).items():
+        res[kind] = int(u.get("used", 0))
+        res[f"{kind}/avail"] = int(u.get("available", 0))
+    fmax = min((v.get("achieved", 0.0) for v in report.get("fmax", {}).values()), default=0.0)
+    mhz = board.clk_hz / 1e6
+    used, avail = res.get(board.logic, 0), res.get(f"{board.logic}/avail", 0)
+    if not avail:
+        problems.append(f"fit: no {board.logic} count in the report")
+    elif used > board.max_logic * avail:
+        problems.append(f"fit: {board.logic} {used}/{avail} = {used / avail:.1%} "
+                        f"> {board.max_logic:.0%}")
+    if fmax < (1 + board.min_slack) * mhz:
+        problems.append(f"timing margin: fmax {fmax:.1f} MHz < {1 + board.min_slack:.2f} x "
+                        f"{mhz:g} MHz")
+    return fmax, res, problems
 
 
 def pnr(board: Board, seeds: int = 1) -> Finding:

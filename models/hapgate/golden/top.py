@@ -38,6 +38,13 @@ from .interp import InterpConfig
 
 LATENCY = 5             # interpolator: capture-strobe cycle to output registers (rtl/interp)
 OFF = commutation.OFF
+DAC_TWR_NS = 50         # DAC7624/7625 t_WCS, CS low for write >= 50 ns (rtl/top/README.md)
+
+
+def dac_wr_clocks(clk_hz: int, twr_ns: int = DAC_TWR_NS) -> int:
+    """Clocks the DAC write strobe must stay low at clk_hz to last twr_ns (at least 1):
+    ceil(twr_ns * CLK_KHZ / 10**6), as hapgate_top.v derives WR_MIN."""
+    return max(1, -(-twr_ns * (clk_hz // 1000) // 1_000_000))
 
 
 @dataclass(frozen=True)
@@ -47,10 +54,14 @@ class TopConfig:
     interp: InterpConfig = field(default_factory=InterpConfig)
     comm: CommutationConfig = field(default_factory=CommutationConfig)
     lines_log2: int = 10
+    dac_twr_ns: int = DAC_TWR_NS   # the DAC's minimum write pulse: sets the strobe's clocks
 
     def __post_init__(self) -> None:
         if self.comm.clk_hz != self.clk_hz:
             object.__setattr__(self, "comm", replace(self.comm, clk_hz=self.clk_hz))
+        wr = max(self.comm.wr_cycles, dac_wr_clocks(self.clk_hz, self.dac_twr_ns))
+        if wr != self.comm.wr_cycles:  # as hapgate_top.v: never shorter than the DAC's t_WCS
+            object.__setattr__(self, "comm", replace(self.comm, wr_cycles=wr))
         if self.comm.count_bits != self.count_bits:
             raise ValueError("commutation count_bits must be lut_bits + 3 + lines_log2")
 
@@ -73,8 +84,8 @@ class TopConfig:
                 "AMP_MIN": i.amp_min, "AMP_MAX": i.amp_max, "LOSS_SAMPLES": i.loss_samples,
                 "LINES_LOG2": self.lines_log2, "POLE_PAIRS": c.pole_pairs,
                 "SKEW_NS": c.skew_ns, "FRAME_NS": c.frame_ns, "SETTLE_NS": c.settle_ns,
-                "WR_CYCLES": c.wr_cycles, **{k: v for k, v in c.rtl_params().items()
-                                             if k in ("ADDR_BITS", "MAG_BITS", "FS")},
+                "WR_CYCLES": c.wr_cycles, "DAC_TWR_NS": self.dac_twr_ns,
+                **{k: v for k, v in c.rtl_params().items() if k in ("ADDR_BITS", "MAG_BITS", "FS")},
                 "SINE_FILE": c.rtl_params()["LUT_FILE"], "DAC_BITS": c.dac_bits,
                 "OFFSET_BINARY": int(c.offset_binary), "SERIAL_MUL": int(c.serial_mul),
                 "BUS_ADDR_BITS": 8,
@@ -84,8 +95,8 @@ class TopConfig:
 
 
 def blocks() -> list[Block]:
-    srcs = ("interp/enc_calib.v", "interp/enc_interp.v", "interp/sample_strobe.v",
-            "interp/enc_interp3.v",
+    srcs = ("interp/enc_calib.v", "interp/ratio_div.v", "interp/enc_interp.v",
+            "interp/sample_strobe.v", "interp/enc_interp3.v",
             "commutation/sine_lut.v", "dac_sched/dac_sched.v", "commutation/commutator.v",
             "bus/emif_slave.v", "bus/hg_regfile.v", "bus/hg_bus.v", "top/hapgate_top.v")
     return [Block(name="hapgate_top", top="hapgate_top", sources=srcs,

@@ -50,6 +50,7 @@ extern "C" {
 // through the public entry (it runs the initial blocks).
 void Vhapgate_top___024root___eval(Vhapgate_top___024root* vlSelf);
 
+
 namespace {
 
 using hg_dev::kPi;
@@ -74,6 +75,7 @@ using hg_dev::LoadRec;
 using hg_dev::RunCfg;
 using hg_dev::TickRec;
 
+
 // ------------------------------------------------------------------ the testbench
 struct Bench {
     std::unique_ptr<VerilatedContext> ctx{new VerilatedContext};
@@ -91,9 +93,9 @@ struct Bench {
     struct Pend { uint64_t at_us; int ch; int code; };
     std::vector<Pend> pend;
     int16_t frame_codes[6] = {0, 0, 0, 0, 0, 0};
-    std::vector<LoadRec> loads;
-    std::vector<FrameRec> frames;
-    std::vector<int8_t> adc;      // A0 B0 A1 B1 A2 B2 per grid point of the scene (record bit 2)
+    hg_dev::RecordFile<LoadRec> loads;
+    hg_dev::RecordFile<FrameRec> frames;
+    hg_dev::RecordFile<int8_t> adc;       // A0 B0 A1 B1 A2 B2 per grid point of the scene (record bit 2)
     uint32_t skew = 0, frame = 0;  // clocks (from the RTL's DAC_SKEW / DAC_FRAME)
     // grid
     int64_t scene0_us = 0;        // grid point of scene time 0
@@ -129,7 +131,7 @@ struct Bench {
                 for (int i = 0; i < 6; ++i) r.i_ab[i] = o.i_ab[i];
                 r.energy = o.energy;
             }
-            frames.push_back(r);
+            frames.push(r);
         }
         // ADC words for the capture at the next edge (sample grid g), then one grid step
         int8_t a[3] = {0, 0, 0}, b[3] = {0, 0, 0};   // an axis that is not built has no signal
@@ -141,8 +143,8 @@ struct Bench {
         for (int i = 0; i < 3; ++i) {
             if (dropout[i]) a[i] = b[i] = 0;
             if (dynamic && (cfg->record & 4)) {
-                adc.push_back(a[i]);
-                adc.push_back(b[i]);
+                adc.push(a[i]);
+                adc.push(b[i]);
             }
             wa |= static_cast<uint32_t>(static_cast<uint8_t>(a[i])) << (8 * i);
             wb |= static_cast<uint32_t>(static_cast<uint8_t>(b[i])) << (8 * i);
@@ -182,7 +184,7 @@ struct Bench {
             int code = static_cast<int>(top->dac_data);
             if (code >= 8192) code -= 16384;
             const int ch = static_cast<int>(top->dac_addr);
-            if (cfg->record & 2) loads.push_back({static_cast<int64_t>(edge), ch, code});
+            if (cfg->record & 2) loads.push({static_cast<int64_t>(edge), ch, code});
             // frame n of this load: edge = n*FRAME + ch*SKEW + LOAD
             const uint64_t st = edge - kLoadClocks - static_cast<uint64_t>(ch) * skew;
             const uint64_t n = frame ? st / frame : 0;
@@ -295,6 +297,9 @@ int main(int argc, char** argv) {
     bench.plant = plant;
     bench.cfg = &cfg;
     bench.qtrue_ring.assign(Bench::kRing * 3, 0.0);
+    bench.frames.open(outdir + "/frames.bin");
+    bench.loads.open(outdir + "/loads.bin");
+    bench.adc.open(outdir + "/adc.bin");
     // integrator steps per grid point (dt from the plant config: 1e-6 / dt)
     {
         double dt = 1e-6;
@@ -352,6 +357,8 @@ int main(int argc, char** argv) {
     // scene time 0: the sweep and the settle are over; the plant is released there
     bench.scene0_us = static_cast<int64_t>(std::llround((bench.t_sweep0 + cfg.t_sweep_s + cfg.t_settle_s) * 1e6));
     const uint64_t end_us = static_cast<uint64_t>(bench.scene0_us) + static_cast<uint64_t>(std::llround(cfg.duration_s * 1e6));
+    const bool scripted = link && uart_link_scripted(link);   // a scene's scripted PC
+    if (scripted) uart_link_set_origin(link, static_cast<uint64_t>(bench.scene0_us));
     std::vector<TickRec> ticks;
     int64_t homed_isr = -1;
     bool enabled = false, hang = false, resumed = false;
@@ -416,7 +423,7 @@ int main(int argc, char** argv) {
         const uint64_t gs = tick_g - 1;
         const TickRec r = hg_dev::tick_record(s, bench.scene_t(tick_g), &bench.qtrue_ring[(gs % Bench::kRing) * 3]);
         ticks.push_back(r);
-        if (link && ticks.size() >= 65536) ticks.clear();  // serving: runs until a signal
+        if (link && !scripted && ticks.size() >= 65536) ticks.clear();  // serving: runs until a signal
         // ---- background loop: homing, then the scene and enable at scene time 0
         if (!enabled) {
             const uint32_t homed = HG_STAT_HOMED(0) | HG_STAT_HOMED(1) | HG_STAT_HOMED(2);
@@ -431,16 +438,20 @@ int main(int argc, char** argv) {
         }
     }
     const double wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - w0).count();
-    const double cpu_s = static_cast<double>(std::clock() - c0) / CLOCKS_PER_SEC;
+    const double cpu_s = static_cast<double>(std::clock() - c0) / CLOCKS_PER_SEC;  // one core
 #if HG_TRACE
     bench.tfp->close();
 #endif
     // ---------------------------------------------------------------- outputs
-    hg_dev::write_records(outdir, bench.frames, ticks, bench.loads, bench.adc);
+    bench.frames.close();
+    hg_dev::write_file(outdir, "ticks.bin", ticks.data(), ticks.size() * sizeof(TickRec));
+    bench.loads.close();
+    bench.adc.close();
     const double sim_s = static_cast<double>(end_us - static_cast<uint64_t>(bench.scene0_us)) * 1e-6;
     hg_dev::print_summary({CLK_HZ, AXIS_MASK, sim_s, wall_s, cpu_s, bench.edge, bench.frames.size(), ticks.size(),
                            bench.loads.size(), init_err, s.err, s.err_axis, enable_t, wdog_us, last_key_edge,
                            bench.scene0_us, bench.skew, bench.frame, D});
+    if (link) uart_link_summary(link, stdout);
     if (g_profile)
         std::printf("profile_plant_s=%.6g profile_firmware_s=%.6g profile_gateware_s=%.6g\n", g_plant_s,
                     g_isr_s - g_bus_in_isr_s, wall_s - g_plant_s - (g_isr_s - g_bus_in_isr_s));

@@ -99,14 +99,18 @@ TickRec tick_record(const hg_servo_t& s, double t, const double q_true[3]) {
     return r;
 }
 
+void write_file(const std::string& outdir, const std::string& name, const void* data, size_t bytes) {
+    FILE* f = std::fopen((outdir + "/" + name).c_str(), "wb");
+    if (!f) { std::fprintf(stderr, "error: cannot write %s/%s\n", outdir.c_str(), name.c_str()); std::exit(3); }
+    if (bytes) std::fwrite(data, 1, bytes, f);
+    if (std::fclose(f) != 0) { std::fprintf(stderr, "error: writing %s/%s failed\n", outdir.c_str(), name.c_str()); std::exit(3); }
+}
+
 void write_records(const std::string& outdir, const std::vector<FrameRec>& frames,
                    const std::vector<TickRec>& ticks, const std::vector<LoadRec>& loads,
                    const std::vector<int8_t>& adc) {
     auto dump = [&](const std::string& name, const void* data, size_t bytes) {
-        FILE* f = std::fopen((outdir + "/" + name).c_str(), "wb");
-        if (!f) { std::fprintf(stderr, "error: cannot write %s/%s\n", outdir.c_str(), name.c_str()); std::exit(3); }
-        if (bytes) std::fwrite(data, 1, bytes, f);
-        std::fclose(f);
+        write_file(outdir, name, data, bytes);
     };
     dump("frames.bin", frames.data(), frames.size() * sizeof(FrameRec));
     dump("ticks.bin", ticks.data(), ticks.size() * sizeof(TickRec));
