@@ -327,6 +327,7 @@ module hapgate_top #(
         dac_addr <= c_addr;
     end
 
+    initial dac_wr_n = 1'b1;  // high from FPGA configuration on, as the commutator's (dac_sched.v)
     always @(posedge clk) begin
         if (rst)
             dac_wr_n <= 1'b1;

@@ -1,11 +1,13 @@
 """cocotb timing tests of rtl/dac_sched/dac_sched.v, driven through the commutator that feeds it
 (the scheduler's producer): the DAC model checks setup, hold, strobe width and settling; the
-schedule check asserts order, skew, frame period and latency in simulation time."""
+schedule check asserts order, skew, frame period and latency in simulation time. power_up needs
+only clk and dac_wr_n: it also runs on the whole top and on gate-level netlists."""
 
 from __future__ import annotations
 
 import cocotb
 import numpy as np
+from cocotb.triggers import Timer
 from hapgate.golden import commutation as cm
 from hapgate.golden.dacsched import Bench, check_schedule, random_frames
 from hapgate.runners import tbutil
@@ -30,3 +32,16 @@ async def schedule_timing(dut):
     a = np.array([ld.addr for ld in bench.dac.loads])
     for ch in range(6):
         assert np.all(np.diff(t[a == ch]) >= cfg.settle_ns * 1000)
+
+
+@cocotb.test()
+async def power_up(dut):
+    """From FPGA configuration to the first clock: no clock edge, reset not yet applied, and the
+    DAC strobe is high all along (a low strobe would load the DACs with whatever is on the data
+    pins when it rises at the first clock)."""
+    dut.clk.value = 0
+    for step in range(10):
+        await Timer(100, "ns")
+        v = dut.dac_wr_n.value
+        assert v.is_resolvable and int(v) == 1, f"dac_wr_n is {v} {100 * (step + 1)} ns after " \
+            "power-up, before any clock"

@@ -1,8 +1,10 @@
 """DAC scheduler (rtl/dac_sched/dac_sched.v): timing in simulation time at every clock we ship
 (the 48 MHz default and the iCE40 board's 12 MHz, neither a whole number of ps: see
 hapgate.golden.dacsched.period_ps for the simulated period and the tolerance it implies), at
-50 and 12.5 MHz (exact periods) and a shorter frame, both simulators; bad configurations fail at
-elaboration; the schedule checker itself rejects wrong schedules."""
+50 and 12.5 MHz (exact periods) and a shorter frame, both simulators; the DAC strobe high from
+power-up before the first clock (RTL of the commutator and of the whole top, and the iCE40
+netlist); bad configurations fail at elaboration; the schedule checker itself rejects wrong
+schedules."""
 
 from __future__ import annotations
 
@@ -11,8 +13,10 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from hapgate.base.block import Block
 from hapgate.flows import blocks, boards, flow
 from hapgate.golden import commutation as cm
+from hapgate.golden import top
 from hapgate.golden.dacsched import Load, check_schedule, period_ps, spec_tolerance_ps
 from hapgate.runners import sim
 
@@ -33,7 +37,34 @@ CONFIGS = {
 def test_schedule_timing_rtl(simulator: str, name: str) -> None:
     cfg = CONFIGS[name]
     sim.run_cocotb(blocks.get("commutator"), simulator, "cocotb_dac_sched", HERE,
-                   params=cfg.rtl_params(), extra_env={"HG_MODEL": json.dumps(cfg.to_json())})
+                   params=cfg.rtl_params(), testcase="schedule_timing",
+                   extra_env={"HG_MODEL": json.dumps(cfg.to_json())})
+
+
+@pytest.mark.parametrize("simulator", sim.simulators())
+def test_strobe_high_from_power_up(simulator: str) -> None:
+    """The commutator (its scheduler's strobe) at the iCE40 board's clock, on the build of the
+    schedule test, and the whole top's DAC pin register (Icarus, on tb/top's build)."""
+    cfg = CONFIGS["c12_board"]
+    sim.run_cocotb(blocks.get("commutator"), simulator, "cocotb_dac_sched", HERE,
+                   params=cfg.rtl_params(), testcase="power_up")
+    if simulator == "icarus":
+        sim.run_cocotb(blocks.get("hapgate_top"), "icarus", "cocotb_dac_sched", HERE,
+                       params=top.TopConfig(clk_hz=50_000_000).rtl_params(), testcase="power_up")
+
+
+def test_strobe_high_from_power_up_ice40_netlist() -> None:
+    """What the FPGA does: the scheduler synthesized for iCE40, whose flip-flops configure to 0
+    (SB_DFF's model starts at 0), simulated with Yosys's cell models: the initial value became
+    logic (an inverted flip-flop), and the strobe is high before the first clock."""
+    if "icarus" not in sim.simulators():
+        pytest.fail("the gate-level netlist runs on Icarus (apt-get install iverilog)")
+    rtl = blocks.get("dac_sched")
+    net = flow.netlist(rtl, rtl.params(), "ice40")
+    gate = Block(name=f"dac_sched_ice40_netlist_{net.parent.name[-10:]}", top=rtl.top,
+                 sources=(str(net), str(flow.simlib("ice40"))), params=dict, doc="netlist")
+    sim.run_cocotb(gate, "icarus", "cocotb_dac_sched", HERE, params={}, testcase="power_up",
+                   build_args=["-DNO_ICE40_DEFAULT_ASSIGNMENTS"])
 
 
 @pytest.mark.parametrize("change, message", [

@@ -185,17 +185,20 @@ def test_clock_checked_before_any_work(tmp_path: Path, cmd: str, clk: str) -> No
 
 
 def test_commutation_clock_the_rtl_refuses(tmp_path: Path) -> None:
-    """1 MHz passes the basic rule but not the DAC schedule (skew of 2 clocks < strobe + 3):
-    refused up front with the reason, for the RTL engine without building anything."""
+    """1 MHz passes the basic rule but not the DAC schedule (skew of 2 clocks < strobe + 3), and
+    200 MHz overflows the scheduler's 32-bit clock arithmetic: refused up front with the reason,
+    by both engines, the RTL engine without building anything."""
     header, row = COMMANDS["commutation"]
     src = tmp_path / "cap.csv"
     src.write_text(f"{header}\n{row}\n")
     out = tmp_path / "out.csv"
-    for engine in ("model", "rtl"):
-        r = subprocess.run([sys.executable, "-m", "hapgate.commands.cli", "replay",
-                            "commutation", "--engine", engine, "--in", str(src), "--out",
-                            str(out), "--clk-hz", "1000000"], capture_output=True, text=True)
-        expect_error(r, "--clk-hz 1000000:", "too slow for the DAC schedule", out)
+    for clk, words in (("1000000", "too slow for the DAC schedule"),
+                       ("200000000", "too fast for the DAC scheduler")):
+        for engine in ("model", "rtl"):
+            r = subprocess.run([sys.executable, "-m", "hapgate.commands.cli", "replay",
+                                "commutation", "--engine", engine, "--in", str(src), "--out",
+                                str(out), "--clk-hz", clk], capture_output=True, text=True)
+            expect_error(r, f"--clk-hz {clk}:", words, out)
 
 
 def test_unknown_columns_are_named(tmp_path: Path) -> None:

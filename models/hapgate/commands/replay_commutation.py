@@ -12,10 +12,11 @@ DAC.csv: one row per input frame: frame, dac0..dac5 (signed codes, order m0a, m0
 m2b) and t0_ns..t5_ns (each load's time after the frame start, i.e. after the inputs are latched).
 
 Engines: `model` (numpy, bit-exact) or `rtl` (the commutator on a native Verilator harness,
-tb/native/commutation, clocked at --clk-hz: ~10^5 frames/s at 12 MHz, ~2.5 10^4 at 48 MHz; the
-RTL's codes are compared with the model and the DAC timing is checked clock by clock). For both
-engines --clk-hz must be a clock the RTL accepts (a multiple of 1 kHz giving whole clocks of
-skew and frame, >= 2 MHz with the default 2 us skew), checked before any work.
+tb/native/commutation, clocked at --clk-hz, idle clocks skipped: ~3-4 10^5 frames/s of CPU
+time at any clock; the RTL's codes are compared with the model and the DAC timing is checked
+clock by clock). For both engines --clk-hz must be a clock the RTL accepts (a multiple of
+1 kHz giving whole clocks of skew and frame, 2 MHz to 134.217 MHz with the default 2 us skew
+and 16 us frame), checked before any work.
 """
 
 from __future__ import annotations
@@ -72,6 +73,10 @@ def clock_error(clk_hz: int, engine: str) -> str | None:
         return (f"--clk-hz {clk_hz}: must be a positive multiple of 1 kHz up to {MAX_CLK_HZ} "
                 f"({hint})")
     khz = clk_hz // 1000
+    top_khz = 2147483647 // max(c.frame_ns, c.skew_ns)   # dac_sched's 32-bit clock arithmetic
+    if khz > top_khz:
+        return (f"--clk-hz {clk_hz}: too fast for the DAC scheduler (its 32-bit clock "
+                f"arithmetic takes at most {top_khz * 1000} Hz; {hint})")
     if khz * c.skew_ns % 1_000_000 or khz * c.frame_ns % 1_000_000:
         return (f"--clk-hz {clk_hz}: the {c.skew_ns} ns skew and {c.frame_ns} ns frame must be "
                 f"whole clocks ({hint})")

@@ -1,11 +1,14 @@
 """The native Verilator harness of the commutator and its DAC scheduler (tb/native/commutation/).
 
 `build_commutation(cfg)` Verilates rtl/commutation/commutator.v (with rtl/dac_sched/dac_sched.v
-and the sine ROM) and a C++ main that clocks it at the configuration's CLK_HZ, one build per
-parameter set (cached under build/native/ by `native.verilate_harness`). `run_commutation()`
-feeds it `Frames` and returns what the DAC received: the signed codes and each load's time after
-its frame start, in clocks, plus the port-timing violations the harness counted. Bad CLK_HZ
-(or any parameter the RTL refuses at elaboration) raises `ValueError` with the RTL's message.
+and the sine ROM, HG_SIM defined) and a C++ main that clocks it at the configuration's CLK_HZ,
+one build per parameter set (cached under build/native/ by `native.verilate_harness`).
+`run_commutation()` feeds it `Frames` and returns what the DAC received: the signed codes and
+each load's time after its frame start, in clocks, plus the port-timing violations the harness
+counted. By default the idle clocks between a channel's load and the next request pass in one
+edge each (dac_sched.v's HG_SIM hook: same outputs, every clock still counted by the checks).
+Bad CLK_HZ (or any parameter the RTL refuses at elaboration) raises `ValueError` with the RTL's
+message.
 """
 
 from __future__ import annotations
@@ -59,17 +62,22 @@ def check_config(cfg: cm.CommutationConfig) -> None:
         raise ValueError("; ".join(problems))
 
 
-def build_commutation(cfg: cm.CommutationConfig = cm.CommutationConfig()) -> Path:
-    """Verilate and compile the commutator harness for this configuration (cached)."""
+def build_commutation(cfg: cm.CommutationConfig = cm.CommutationConfig(),
+                      checks: cm.CommutationConfig | None = None) -> Path:
+    """Verilate and compile the commutator harness for this configuration (cached), with the
+    scheduler's HG_SIM idle-skip hook. `checks` (tests only): build the harness's port checks
+    for another configuration's strobe, frame and settling than the RTL's."""
     check_config(cfg)
     params = cfg.rtl_params()
-    settle_clocks = cfg.clk_hz // 1000 * cfg.settle_ns // 1_000_000
-    flags = (f"-DCOUNT_BITS={cfg.count_bits} -DANGLE_BITS={cfg.angle_bits} "
-             f"-DFRAME_CLOCKS={cfg.frame_clocks} -DWR_CYCLES={cfg.wr_cycles} "
+    c = cfg if checks is None else checks
+    settle_clocks = c.clk_hz // 1000 * c.settle_ns // 1_000_000
+    flags = (f"-DCOUNT_BITS={c.count_bits} -DANGLE_BITS={c.angle_bits} "
+             f"-DFRAME_CLOCKS={c.frame_clocks} -DWR_CYCLES={c.wr_cycles} "
              f"-DSETTLE_CLOCKS={settle_clocks} -O3")
     try:
         return native.verilate_harness("commutation_harness", "commutator", SOURCES, params,
-                                       [HARNESS], cflags=flags, inputs=[Path(params["LUT_FILE"])])
+                                       [HARNESS], cflags=flags, inputs=[Path(params["LUT_FILE"])],
+                                       vflags=["-DHG_SIM"])
     except RuntimeError as exc:
         log = Path(str(exc).rsplit("see ", 1)[-1])
         stops = re.findall(r"\b(\w+_must_\w+|\w+_needs_\w+)\b", log.read_text()) \
@@ -86,7 +94,10 @@ class CommRun:
     reset_words: np.ndarray  # (6,) the words of frame 0 (the reset frame)
     violations: int          # DAC port timing violations counted by the harness
     seconds: float           # harness wall time (simulation only)
-    clocks: int
+    cpu_seconds: float       # harness CPU time (simulation only; what the benchmark divides by)
+    clocks: int              # clocks simulated (skipped ones included)
+    edges: int = 0           # rising edges evaluated (= clocks without the idle skip)
+    skips: int = 0           # of which skip edges (each stands for 1 + its room clocks)
 
     def load_ns(self, cfg: cm.CommutationConfig) -> np.ndarray:
         return self.load_clocks * (1e9 / cfg.clk_hz)
@@ -107,21 +118,27 @@ def pack_frames(frames: cm.Frames, cfg: cm.CommutationConfig) -> np.ndarray:
     return rec
 
 
-def run_commutation(frames: cm.Frames, cfg: cm.CommutationConfig = cm.CommutationConfig()
-                    ) -> CommRun:
+def run_commutation(frames: cm.Frames, cfg: cm.CommutationConfig = cm.CommutationConfig(),
+                    skip: bool | str = True, exe: Path | None = None) -> CommRun:
     """Every row of `frames` through the Verilated commutator at cfg.clk_hz (row i latched at
-    frame start i + 1 after reset), with the DAC port checked clock by clock."""
+    frame start i + 1 after reset), with the DAC port checked clock by clock. skip: idle clocks
+    (after a channel's load until the next request or frame start) pass in one edge each
+    through the scheduler's HG_SIM hook, with the same outputs; False evaluates every clock.
+    ("force", tests only: also skip a clock at each load, which the checks must catch.)
+    exe: a harness built by build_commutation (default: the one for cfg)."""
     n = len(frames)
     if n == 0:
         raise ValueError("no frames")
-    exe = build_commutation(cfg)
+    if exe is None:
+        exe = build_commutation(cfg)
     rec = pack_frames(frames, cfg)
     with tempfile.TemporaryDirectory(dir=ensure(BUILD / "native" / "runs")) as tmp:
         fin, fout = Path(tmp) / "in.bin", Path(tmp) / "out.bin"
         rec.tofile(fin)
         t0 = time.perf_counter()
-        out = subprocess.run([str(exe), str(fin), str(fout), str(n)], capture_output=True,
-                             text=True)
+        out = subprocess.run([str(exe), str(fin), str(fout), str(n),
+                              skip if isinstance(skip, str) else ("skip" if skip else "noskip")],
+                             capture_output=True, text=True)
         wall = time.perf_counter() - t0
         if out.returncode != 0:
             raise RuntimeError(f"commutation harness failed ({out.returncode}): "
@@ -136,7 +153,10 @@ def run_commutation(frames: cm.Frames, cfg: cm.CommutationConfig = cm.Commutatio
         violations = max(violations, 1)
     return CommRun(codes=cm.decode(words[1:], cfg), load_clocks=data["at"][1:].astype(np.int64),
                    reset_words=words[0], violations=violations,
-                   seconds=float(stats.get("seconds", wall)), clocks=int(stats.get("clocks", 0)))
+                   seconds=float(stats.get("seconds", wall)),
+                   cpu_seconds=float(stats.get("cpu_seconds", wall)),
+                   clocks=int(stats.get("clocks", 0)), edges=int(stats.get("edges", 0)),
+                   skips=int(stats.get("skips", 0)))
 
 
 def schedule_errors(run: CommRun, cfg: cm.CommutationConfig) -> int:

