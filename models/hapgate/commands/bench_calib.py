@@ -165,26 +165,28 @@ def angle_resources() -> list[list[object]]:
 
 def run(quick: bool) -> bool:
     t0 = time.perf_counter()
-    rows = sweep(quick)
-    print("== encoder calibration: imperfection sweep, error against run time (electrical "
-          "degrees, from 200 lines of travel on; mean offset removed) ==")
-    print(table(SWEEP_HEADERS, rows))
-    print(f"csv: {write_csv('bench_calib_sweep.csv', SWEEP_HEADERS, rows)}")
-    res = resources()
-    print("\n== encoder calibration: resources of one axis (Yosys synth_ice40 -dsp) ==")
-    print(table(RES_HEADERS, res))
-    print(f"csv: {write_csv('bench_calib_resources.csv', RES_HEADERS, res)}")
-    ang = angle_sweep(quick)
-    print("\n== angle stage: paper / calib / calib + ratio, error against run time (electrical "
-          "degrees, from 200 lines of travel on; mean offset removed) ==")
-    print(table(ANGLE_HEADERS, ang))
-    print(f"csv: {write_csv('bench_angle_sweep.csv', ANGLE_HEADERS, ang)}")
-    ares = angle_resources()
-    print("\n== angle stage: resources of one axis, no calibration (Yosys synth_ice40 -dsp) ==")
-    print(table(RES_HEADERS, ares))
-    print(f"csv: {write_csv('bench_angle_resources.csv', RES_HEADERS, ares)}")
+    sections = [
+        ("encoder calibration: imperfection sweep, error against run time (electrical degrees, "
+         "from 200 lines of travel on; mean offset removed)", SWEEP_HEADERS,
+         lambda: sweep(quick), "bench_calib_sweep.csv"),
+        ("encoder calibration: resources of one axis (Yosys synth_ice40 -dsp)", RES_HEADERS,
+         resources, "bench_calib_resources.csv"),
+        ("angle stage: paper / calib / calib + ratio, error against run time (electrical "
+         "degrees, from 200 lines of travel on; mean offset removed)", ANGLE_HEADERS,
+         lambda: angle_sweep(quick), "bench_angle_sweep.csv"),
+        ("angle stage: resources of one axis, no calibration (Yosys synth_ice40 -dsp)",
+         RES_HEADERS, angle_resources, "bench_angle_resources.csv"),
+    ]
+    errs: list[list[object]] = []
+    for i, (title, headers, make, csv) in enumerate(sections):
+        rows = make()                  # each table printed as soon as it is measured
+        if headers is not RES_HEADERS:
+            errs += rows
+        print(("\n" if i else "") + f"== {title} ==")
+        print(table(headers, rows))
+        print(f"csv: {write_csv(csv, headers, rows)}")
     print(f"(calibration bench: {time.perf_counter() - t0:.1f} s)")
-    return all(r[-1] in ("-", 0) for r in rows + ang)
+    return all(r[-1] in ("-", 0) for r in errs)
 
 
 __all__ = ["run", "sweep", "resources"]
