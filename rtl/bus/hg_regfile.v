@@ -12,7 +12,9 @@ module hg_regfile #(
     parameter integer VEL_LOG2W    = 8,          // velocity window 2**VEL_LOG2W samples
     parameter integer SKEW_CLOCKS  = 96,         // DAC channel skew in clocks (read-only info)
     parameter integer FRAME_CLOCKS = 768,        // DAC frame in clocks (read-only info)
-    parameter integer ADDR_BITS    = 8           // decoded word-address bits (7..30; the map spans 64)
+    parameter integer ADDR_BITS    = 8,          // decoded word-address bits (7..30; the map spans 64)
+    parameter integer VEL_OBS      = 0,          // 1: the interpolator has the velocity observer
+    parameter integer VEL_SEL_RST  = 0           // reset value of every AXIS[i].VEL_CTRL.SEL
 ) (
     input  wire                 clk,
     input  wire                 rst,
@@ -28,6 +30,7 @@ module hg_regfile #(
     input  wire [95:0]          in_pos,
     input  wire [95:0]          in_pos_homed,
     input  wire [95:0]          in_vel,          // counts per 2**VEL_LOG2W samples
+    input  wire [95:0]          in_vel_obs,      // the observer's, same unit (VEL_OBS = 1)
     input  wire [95:0]          in_index_pos,
     input  wire [47:0]          in_index_count,
     input  wire [47:0]          in_overspeed_count,
@@ -51,6 +54,8 @@ module hg_regfile #(
     output wire [2:0]           ctl_cal_en,      // AXIS[i].CAL_CTRL.EN
     output wire [2:0]           ctl_cal_freeze,  // AXIS[i].CAL_CTRL.FREEZE
     output wire [11:0]          cfg_cal_mu,      // AXIS[i].CAL_CTRL.MU, 4 bits per axis
+    output wire [11:0]          cfg_obs_bw,      // AXIS[i].VEL_CTRL.BW, 4 bits per axis
+    output wire [2:0]           cfg_obs_type3,   // AXIS[i].VEL_CTRL.TYPE3
     output wire                 wdog_expired,    // sticky: all torque to zero
     output wire                 irq,             // servo tick pending (level)
     output reg                  tick             // one clock after each servo tick (observation)
@@ -88,7 +93,9 @@ module hg_regfile #(
     localparam [3:0] R_POS = 4'h0, R_VEL = 4'h1, R_IDX_POS = 4'h2, R_COUNTS = 4'h3,
                      R_POS_HOMED = 4'h4, R_FLAGS = 4'h5, R_CAL_CTRL = 4'h6, R_CAL_STAT = 4'h7,
                      R_TORQUE = 4'h8, R_OFFSET = 4'h9, R_MODE = 4'hA, R_TQ_LIMIT = 4'hB,
-                     R_CAL_OFS = 4'hC, R_CAL_GAIN = 4'hD, R_CAL_PHASE = 4'hE;
+                     R_CAL_OFS = 4'hC, R_CAL_GAIN = 4'hD, R_CAL_PHASE = 4'hE, R_VEL_CTRL = 4'hF;
+    localparam [0:0] VEL_SEL_R = VEL_SEL_RST[0];
+    localparam [7:0] VEL_CTRL_RST = {4'd6, 2'b00, 1'b1, VEL_SEL_R};  // BW = 6, TYPE3 = 1
 
     generate
         if (CLK_HZ < 1_000_000 || CLK_HZ % 1_000_000 != 0 || CLK_HZ / 100 > 16_777_215)
@@ -105,6 +112,10 @@ module hg_regfile #(
         if (VEL_LOG2W < 1 || VEL_LOG2W > 16 || SAMPLE_HZ < 1 || SAMPLE_HZ > CLK_HZ)
         begin : g_bad_vel
             hg_regfile_needs_1_le_VEL_LOG2W_le_16_and_SAMPLE_HZ_le_CLK_HZ u_stop ();
+        end
+        if ((VEL_OBS != 0 && VEL_OBS != 1) || (VEL_SEL_RST != 0 && VEL_SEL_RST != 1))
+        begin : g_bad_vel_obs
+            hg_regfile_VEL_OBS_and_VEL_SEL_RST_must_be_0_or_1 u_stop ();
         end
     endgenerate
 
@@ -124,7 +135,7 @@ module hg_regfile #(
             else if (a[5:4] == 2'b00)
                 mapped = (a[3:0] <= A_CLK[3:0]);
             else
-                mapped = (a[3:0] <= R_CAL_PHASE);  // 0x0..0xE: all but word 0xF
+                mapped = 1'b1;                     // 0x0..0xF: every axis word
         end
     endfunction
 
@@ -139,6 +150,7 @@ module hg_regfile #(
     reg [5:0]  mode_q;
     reg [47:0] tq_lim_q;
     reg [23:0] cal_ctrl_q;          // per axis {MU, 2'b00, FREEZE, EN}
+    reg [23:0] vel_ctrl_q;          // per axis {BW, 2'b00, TYPE3, SEL}
     reg        snap_req;            // CTRL.SNAP written this clock
     reg        cfg_err_set;
 
@@ -166,6 +178,7 @@ module hg_regfile #(
             mode_q          <= 6'b11_11_11;  // OFF
             tq_lim_q        <= 48'd0;
             cal_ctrl_q      <= 24'h60_60_60;  // MU = 6
+            vel_ctrl_q      <= {3{VEL_CTRL_RST}};
         end else begin
             ctl_fault_clear <= fault_clr_w;
             ctl_home_arm    <= (wr && glob_w && wa[3:0] == A_CTRL[3:0]) ? s_wdata[7:5] : 3'b000;
@@ -190,6 +203,7 @@ module hg_regfile #(
                     R_MODE:     mode_q[2*ax_w +: 2]     <= s_wdata[1:0];
                     R_TQ_LIMIT: tq_lim_q[16*ax_w +: 16] <= s_wdata[15:0];
                     R_CAL_CTRL: cal_ctrl_q[8*ax_w +: 8] <= {s_wdata[7:4], 2'b00, s_wdata[1:0]};
+                    R_VEL_CTRL: vel_ctrl_q[8*ax_w +: 8] <= {s_wdata[7:4], 2'b00, s_wdata[1:0]};
                     default: ;
                 endcase
             end
@@ -205,6 +219,8 @@ module hg_regfile #(
     assign ctl_cal_en     = {cal_ctrl_q[16], cal_ctrl_q[8], cal_ctrl_q[0]};
     assign ctl_cal_freeze = {cal_ctrl_q[17], cal_ctrl_q[9], cal_ctrl_q[1]};
     assign cfg_cal_mu     = {cal_ctrl_q[23:20], cal_ctrl_q[15:12], cal_ctrl_q[7:4]};
+    assign cfg_obs_bw     = {vel_ctrl_q[23:20], vel_ctrl_q[15:12], vel_ctrl_q[7:4]};
+    assign cfg_obs_type3  = {vel_ctrl_q[17], vel_ctrl_q[9], vel_ctrl_q[1]};
 
     // ---------------------------------------------------------------- servo tick and snapshot
     // A tick every tick_div_q clocks, exactly; a TICK_DIV write restarts the period (the first
@@ -235,6 +251,21 @@ module hg_regfile #(
     end
     assign irq = irq_tick_q;
 
+    // the velocity each axis reports: the window FIR's, or the observer's (VEL_CTRL.SEL)
+    wire [95:0] vel_src;
+    generate
+        if (VEL_OBS != 0) begin : g_vel_sel
+            genvar va;
+            for (va = 0; va < 3; va = va + 1) begin : g_ax
+                assign vel_src[32*va +: 32] = vel_ctrl_q[8*va] ? in_vel_obs[32*va +: 32]
+                                                               : in_vel[32*va +: 32];
+            end
+        end else begin : g_vel_fir
+            assign vel_src = in_vel;
+            wire unused_vel_obs = &{1'b0, in_vel_obs, vel_ctrl_q[16], vel_ctrl_q[8], vel_ctrl_q[0]};
+        end
+    endgenerate
+
     // the snapshot: all axes, all words, in one clock
     reg [95:0] sn_pos, sn_homed, sn_vel, sn_idx;   // axis 0 in the low bits
     reg [47:0] sn_icnt, sn_ovs;
@@ -254,7 +285,7 @@ module hg_regfile #(
         end else if (snap_now) begin
             sn_pos     <= in_pos;
             sn_homed   <= in_pos_homed;
-            sn_vel     <= in_vel;
+            sn_vel     <= vel_src;
             sn_idx     <= in_index_pos;
             sn_icnt    <= in_index_count;
             sn_ovs     <= in_overspeed_count;
@@ -360,7 +391,8 @@ module hg_regfile #(
                     R_CAL_STAT:  s_rdata = in_cal_stat[32*ax_r +: 32];
                     R_CAL_OFS:   s_rdata = in_cal_ofs[32*ax_r +: 32];
                     R_CAL_GAIN:  s_rdata = in_cal_gain[32*ax_r +: 32];
-                    default:     s_rdata = {16'd0, in_cal_phase[16*ax_r +: 16]};
+                    R_CAL_PHASE: s_rdata = {16'd0, in_cal_phase[16*ax_r +: 16]};
+                    default:     s_rdata = {24'd0, vel_ctrl_q[8*ax_r +: 8]};
                 endcase
             end
         end

@@ -19,7 +19,8 @@ module enc_interp #(
     parameter         CAL_LUT_FILE = "asin512.hex", // CAL = 1: 512-entry table (enccal.cal_table)
     parameter integer CAL_LINES_LOG2 = 3,       // CAL = 1: calibration block 2**N lines
     parameter integer CAL_NLOG     = 14,        // CAL = 1: blocks of 2**N samples or more ignored
-    parameter integer COARSE       = 0          // 1: plain quadrature, the fine angle zeroed (4 steps/line)
+    parameter integer COARSE       = 0,         // 1: plain quadrature, the fine angle zeroed (4 steps/line)
+    parameter integer VEL_OBS      = 0          // 1: build the tracking velocity observer (vel_observer)
 ) (
     input  wire        clk,
     input  wire        rst,
@@ -35,11 +36,15 @@ module enc_interp #(
     input  wire        ctl_cal_en,
     input  wire        ctl_cal_freeze,
     input  wire [3:0]  cfg_cal_mu,
+    // velocity observer settings (VEL_OBS = 1; levels captured with each sample)
+    input  wire [3:0]  cfg_obs_bw,        // bandwidth code s: x = 2**-s (2..8)
+    input  wire        cfg_obs_type3,     // 1: with the acceleration state
     // results, one per sample
     output reg         m_valid,
     output reg  [31:0] m_pos,             // position, counts (2**(LUT_BITS+3) per line), wraps
     output reg  [31:0] m_pos_homed,       // m_pos - home (home = 0 until homed)
     output reg  [31:0] m_vel,             // pos[n] - pos[n-W], counts per W samples (0 while n < W)
+    output reg  [31:0] m_vel_obs,         // the observer's velocity, same unit (0 with VEL_OBS = 0)
     output reg  [31:0] m_index_pos,       // start of the quadrant latched at the last index edge
     output reg  [15:0] m_index_count,     // index rising edges seen (wraps)
     output reg  [15:0] m_overspeed_count, // two-quadrant steps seen (saturates)
@@ -95,6 +100,9 @@ module enc_interp #(
         if (CAL != 0 && LUT_BITS > 8) begin : g_bad_cal_lut
             enc_interp_CAL_needs_LUT_BITS_at_most_8 u_stop ();
         end
+        if (VEL_OBS != 0 && VEL_OBS != 1) begin : g_bad_vel_obs
+            enc_interp_VEL_OBS_must_be_0_or_1 u_stop ();
+        end
     endgenerate
 
     // ---------------------------------------------------------------- stage A: capture
@@ -103,11 +111,13 @@ module enc_interp #(
     reg       idx_a, clr_a, arm_a;
     reg       clr_pend, arm_pend_ctl;
     reg       cal_en_a, cal_fr_a;
+    reg [4:0] obs_cfg_a;                 // {type3, bw} of the observer, with the sample
 
     always @(posedge clk) begin
         if (s_valid) begin
             cal_en_a <= ctl_cal_en;
             cal_fr_a <= ctl_cal_freeze;
+            obs_cfg_a <= {cfg_obs_type3, cfg_obs_bw};
             // INVERT: A' = B, B' = A is the angle 90deg - phi: the count runs the other way and
             // quadrant 0 (the index quadrant) maps onto itself.
             a_a   <= (INVERT != 0) ? s_b : s_a;
@@ -144,12 +154,14 @@ module enc_interp #(
     wire          v_in;                 // stage B input: valid, channels, index, pulses, faults
     wire [AW-1:0] a_in, b_in;
     wire          idx_in, clr_in, arm_in, clip_in, bad_in;
+    wire [4:0]    obs_cfg_in;
 
     generate
         if (CAL != 0) begin : g_cal
             wire        vk, clip_k, bad_k;
             wire [11:0] ac_k, bc_k;
             reg         idx_k, clr_k, arm_k;
+            reg [4:0]   obs_cfg_k;
             enc_calib #(
                 .LINES_LOG2(CAL_LINES_LOG2), .NLOG(CAL_NLOG), .AMP_MIN(AMP_MIN), .AMP_MAX(AMP_MAX)
             ) u_cal (
@@ -162,6 +174,7 @@ module enc_interp #(
             );
             always @(posedge clk) begin
                 if (va) idx_k <= idx_a;
+                if (va) obs_cfg_k <= obs_cfg_a;
             end
             always @(posedge clk) begin
                 if (rst) begin
@@ -177,6 +190,7 @@ module enc_interp #(
             assign a_in    = ac_k;
             assign b_in    = bc_k;
             assign idx_in  = idx_k;
+            assign obs_cfg_in = obs_cfg_k;
             assign clr_in  = clr_k;
             assign arm_in  = arm_k;
             assign clip_in = clip_k;
@@ -190,6 +204,7 @@ module enc_interp #(
             assign a_in    = a_a;
             assign b_in    = b_a;
             assign idx_in  = idx_a;
+            assign obs_cfg_in = obs_cfg_a;
             assign clr_in  = clr_a;
             assign arm_in  = arm_a;
             assign clip_in = (a_a == 8'h80) || (a_a == 8'h7f) || (b_a == 8'h80) || (b_a == 8'h7f);
@@ -236,9 +251,11 @@ module enc_interp #(
     endgenerate
     reg [1:0]          q_b;
     reg                half_b, idx_b, clr_b, arm_b, clip_b, bad_b;
+    reg [4:0]          obs_cfg_b;
 
     always @(posedge clk) begin
         q_b    <= {sa, odd};
+        obs_cfg_b <= obs_cfg_in;
         half_b <= half;
         idx_b  <= idx_in;
         clip_b <= clip_in;
@@ -353,12 +370,33 @@ module enc_interp #(
         end
     end
 
+    reg [4:0]  obs_cfg_c;
+    reg        ovs_c;
     always @(posedge clk) begin
         if (vb) begin
             pos_c       <= pos_next;
             pos_homed_c <= pos_next - home_next;
+            obs_cfg_c   <= obs_cfg_b;
+            ovs_c       <= overspeed;
         end
     end
+
+    // ---------------------------------------------------------------- velocity observer (VEL_OBS = 1)
+    // Updated with each sample's position at stage D (flags: the sticky faults after that sample);
+    // its velocity after the update is registered beside the FIR's at stage E.
+    wire [31:0] obs_vel;
+    generate
+        if (VEL_OBS != 0) begin : g_obs
+            vel_observer #(.VEL_LOG2W(VEL_LOG2W)) u_obs (
+                .clk(clk), .rst(rst), .s_valid(vc), .s_pos(pos_c), .s_hold(flags[2]),
+                .s_ovs(ovs_c), .cfg_bw(obs_cfg_c[3:0]), .cfg_type3(obs_cfg_c[4]),
+                .m_vel(obs_vel)
+            );
+        end else begin : g_noobs
+            assign obs_vel = 32'd0;
+            wire unused_obs = &{1'b0, obs_cfg_c, ovs_c};
+        end
+    endgenerate
 
     // ---------------------------------------------------------------- stage D: velocity delay line
     reg [DW-1:0]        hist [0:W-1];        // pos of the last W samples (low DW bits)
@@ -408,6 +446,7 @@ module enc_interp #(
             m_pos             <= pos_d;
             m_pos_homed       <= pos_homed_d;
             m_vel             <= full_d ? {{(32 - DW){vdiff[DW-1]}}, vdiff} : 32'd0;
+            m_vel_obs         <= obs_vel;
             m_index_pos       <= index_pos_d;
             m_index_count     <= index_count_d;
             m_overspeed_count <= ovs_count_d;

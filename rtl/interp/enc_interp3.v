@@ -20,7 +20,8 @@ module enc_interp3 #(
     parameter         CAL_LUT_FILE = "asin512.hex", // CAL = 1: 512-entry arcsine table
     parameter integer CAL_LINES_LOG2 = 3,        // CAL = 1: calibration block 2**N lines
     parameter integer CAL_NLOG     = 14,         // CAL = 1: blocks of 2**N samples ignored
-    parameter integer COARSE       = 0           // 1: plain quadrature (fine angle zeroed)
+    parameter integer COARSE       = 0,          // 1: plain quadrature (fine angle zeroed)
+    parameter integer VEL_OBS      = 0           // 1: tracking velocity observer in every axis
 ) (
     input  wire                 clk,
     input  wire                 rst,
@@ -33,10 +34,13 @@ module enc_interp3 #(
     input  wire [AXES-1:0]      ctl_cal_en,      // calibration controls (CAL = 1), per axis
     input  wire [AXES-1:0]      ctl_cal_freeze,
     input  wire [4*AXES-1:0]    cfg_cal_mu,
+    input  wire [4*AXES-1:0]    cfg_obs_bw,      // observer bandwidth code per axis (VEL_OBS = 1)
+    input  wire [AXES-1:0]      cfg_obs_type3,   // observer acceleration state per axis
     output wire                 m_valid,
     output wire [32*AXES-1:0]   m_pos,
     output wire [32*AXES-1:0]   m_pos_homed,
     output wire [32*AXES-1:0]   m_vel,
+    output wire [32*AXES-1:0]   m_vel_obs,       // observer velocity (0 with VEL_OBS = 0)
     output wire [32*AXES-1:0]   m_index_pos,
     output wire [16*AXES-1:0]   m_index_count,
     output wire [16*AXES-1:0]   m_overspeed_count,
@@ -74,7 +78,8 @@ module enc_interp3 #(
                 .LUT_BITS(LUT_BITS), .LUT_FILE(LUT_FILE), .VEL_LOG2W(VEL_LOG2W),
                 .AMP_MIN(AMP_MIN), .AMP_MAX(AMP_MAX), .LOSS_SAMPLES(LOSS_SAMPLES),
                 .INVERT((INVERT_MASK >> i) & 1), .CAL(CAL), .CAL_LUT_FILE(CAL_LUT_FILE),
-                .CAL_LINES_LOG2(CAL_LINES_LOG2), .CAL_NLOG(CAL_NLOG), .COARSE(COARSE)
+                .CAL_LINES_LOG2(CAL_LINES_LOG2), .CAL_NLOG(CAL_NLOG), .COARSE(COARSE),
+                .VEL_OBS(VEL_OBS)
             ) u_axis (
                 .clk(clk), .rst(rst),
                 .s_valid(adc_strobe),
@@ -83,6 +88,8 @@ module enc_interp3 #(
                 .m_valid(valid[i]),
                 .m_pos(m_pos[32*i +: 32]), .m_pos_homed(m_pos_homed[32*i +: 32]),
                 .m_vel(m_vel[32*i +: 32]), .m_index_pos(m_index_pos[32*i +: 32]),
+                .m_vel_obs(m_vel_obs[32*i +: 32]), .cfg_obs_bw(cfg_obs_bw[4*i +: 4]),
+                .cfg_obs_type3(cfg_obs_type3[i]),
                 .m_index_count(m_index_count[16*i +: 16]),
                 .m_overspeed_count(m_overspeed_count[16*i +: 16]),
                 .m_homed(m_homed[i]), .m_faults(m_faults[3*i +: 3]), .m_fault(m_fault[i]),

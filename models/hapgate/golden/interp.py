@@ -72,6 +72,7 @@ class InterpConfig:
     cal_lines_log2: int = 3    # calibration block = 2**cal_lines_log2 lines (RTL CAL_LINES_LOG2)
     cal_nlog: int = 14         # calibration blocks of >= 2**cal_nlog samples are ignored
     coarse: bool = False       # plain quadrature: the fine angle zeroed (RTL COARSE), 4 steps/line
+    vel_obs: bool = False      # build the tracking velocity observer (RTL VEL_OBS; golden.velobs)
 
     @property
     def fine_bits(self) -> int:
@@ -105,6 +106,8 @@ class InterpConfig:
                       "CAL_LINES_LOG2": self.cal_lines_log2, "CAL_NLOG": self.cal_nlog})
         if self.coarse:
             p["COARSE"] = 1
+        if self.vel_obs:
+            p["VEL_OBS"] = 1
         return p
 
 
@@ -124,7 +127,7 @@ def interp3_params(cfg: InterpConfig | None = None, clk_hz: int = BOARD_CLK_HZ,
 
 
 def blocks() -> list[Block]:
-    srcs = ("interp/enc_calib.v", "interp/enc_interp.v")
+    srcs = ("interp/enc_calib.v", "interp/vel_observer.v", "interp/enc_interp.v")
     return [
         Block(name="enc_interp", top="enc_interp", sources=srcs,
               params=lambda: InterpConfig().rtl_params(),
@@ -134,6 +137,12 @@ def blocks() -> list[Block]:
               # (the generic-gate synthesis of the update's barrel shifters takes minutes)
               lint_synth=("ice40",),
               doc="one axis with the online calibration stage (CAL = 1, rtl/interp/enc_calib.v)"),
+        Block(name="enc_interp_obs", top="enc_interp", sources=srcs,
+              params=lambda: InterpConfig(vel_obs=True).rtl_params(),
+              doc="one axis with the tracking velocity observer (VEL_OBS = 1, vel_observer.v)"),
+        Block(name="vel_observer", top="vel_observer", sources=("interp/vel_observer.v",),
+              params=lambda: {"VEL_LOG2W": 8},
+              doc="the tracking velocity observer alone (type II/III loop, one axis)"),
         Block(name="enc_interp3", top="enc_interp3",
               sources=srcs + ("interp/sample_strobe.v", "interp/enc_interp3.v"),
               params=interp3_params,

@@ -29,7 +29,8 @@ from ..golden.interp import InterpConfig
 from .sim import _locked
 
 HARNESS = TB / "native" / "interp" / "interp_harness.cpp"
-SOURCES = [RTL / "interp" / "enc_calib.v", RTL / "interp" / "enc_interp.v",
+SOURCES = [RTL / "interp" / "enc_calib.v", RTL / "interp" / "vel_observer.v",
+           RTL / "interp" / "enc_interp.v",
            RTL / "interp" / "sample_strobe.v",
            RTL / "interp" / "enc_interp3.v"]
 COLUMNS = ("pos", "pos_homed", "vel", "index_pos", "index_count", "homed", "faults",
