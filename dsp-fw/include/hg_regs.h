@@ -257,6 +257,20 @@ extern "C" {
 #define HAPGATE__AXIS_T__CAL_PHASE__PHASE_bw 16
 #define HAPGATE__AXIS_T__CAL_PHASE__PHASE_reset 0x0
 
+// reg - hapgate::axis_t::VEL_CTRL
+#define HAPGATE__AXIS_T__VEL_CTRL__SEL_bm 0x1
+#define HAPGATE__AXIS_T__VEL_CTRL__SEL_bp 0
+#define HAPGATE__AXIS_T__VEL_CTRL__SEL_bw 1
+#define HAPGATE__AXIS_T__VEL_CTRL__SEL_reset 0x0
+#define HAPGATE__AXIS_T__VEL_CTRL__TYPE3_bm 0x2
+#define HAPGATE__AXIS_T__VEL_CTRL__TYPE3_bp 1
+#define HAPGATE__AXIS_T__VEL_CTRL__TYPE3_bw 1
+#define HAPGATE__AXIS_T__VEL_CTRL__TYPE3_reset 0x1
+#define HAPGATE__AXIS_T__VEL_CTRL__BW_bm 0xf0
+#define HAPGATE__AXIS_T__VEL_CTRL__BW_bp 4
+#define HAPGATE__AXIS_T__VEL_CTRL__BW_bw 4
+#define HAPGATE__AXIS_T__VEL_CTRL__BW_reset 0x6
+
 // regfile - hapgate::axis_t
 typedef struct __attribute__ ((__packed__)) {
     uint32_t POS;
@@ -274,8 +288,8 @@ typedef struct __attribute__ ((__packed__)) {
     uint32_t CAL_OFS;
     uint32_t CAL_GAIN;
     uint32_t CAL_PHASE;
-    uint8_t RESERVED_3c_3f[0x4];
-} hapgate__axis_t__stride40_t;
+    uint32_t VEL_CTRL;
+} hapgate__axis_t_t;
 
 // addrmap - hapgate
 typedef struct __attribute__ ((__packed__)) {
@@ -292,7 +306,7 @@ typedef struct __attribute__ ((__packed__)) {
     uint32_t DAC_FRAME;
     uint32_t CLK_KHZ;
     uint8_t RESERVED_30_3f[0x10];
-    hapgate__axis_t__stride40_t AXIS[3];
+    hapgate__axis_t_t AXIS[3];
 } hapgate_t;
 
 

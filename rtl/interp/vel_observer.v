@@ -40,6 +40,7 @@ module vel_observer #(
     localparam signed [SW-1:0] A_LO = {{(SW - AW + 1){1'b1}}, {(AW - 1){1'b0}}};
 
     reg                 first, was_held;
+    reg [15:0]          pos_prev;                   // the previous sample's position (low bits)
     reg [PW-1:0]        p_q;
     reg signed [VW-1:0] v_q;
     reg signed [AW-1:0] a_q;
@@ -58,6 +59,9 @@ module vel_observer #(
     wire                 in_lock = (e_u[PW-1:LOCK] == {(PW - LOCK){1'b0}})
                                 || (e_u[PW-1:LOCK] == {(PW - LOCK){1'b1}} && |e_u[LOCK-1:0]);
     wire                 seed = first | s_ovs | was_held | ~in_lock;
+    // a seed after an overspeed step or a lost lock restarts at the last step's speed
+    wire [15:0]          step = s_pos[15:0] - pos_prev;
+    wire signed [SW-1:0] step_x = {{(SW - 16 - F){step[15]}}, step, {F{1'b0}}};
 
     wire signed [PW-1:0] e1  = e >>> s1;
     wire signed [PW-1:0] e0  = e >>> s0;
@@ -78,15 +82,18 @@ module vel_observer #(
     wire signed [SW-1:0] a_sum  = a_ext + e3_x;
     wire signed [SW-1:0] v_sat  = (v_sum > V_HI) ? V_HI : (v_sum < V_LO) ? V_LO : v_sum;
     wire signed [SW-1:0] a_sat  = (a_sum > A_HI) ? A_HI : (a_sum < A_LO) ? A_LO : a_sum;
+    wire signed [SW-1:0] d_sat  = (step_x > V_HI) ? V_HI : (step_x < V_LO) ? V_LO : step_x;
 
     always @(posedge clk) begin
         if (rst) begin
             first    <= 1'b1;
             was_held <= 1'b0;
             p_q      <= {PW{1'b0}};
+            pos_prev <= 16'd0;
             v_q      <= {VW{1'b0}};
             a_q      <= {AW{1'b0}};
         end else if (s_valid) begin
+            pos_prev <= s_pos[15:0];
             if (s_hold) begin
                 was_held <= 1'b1;
             end else if (seed) begin
@@ -94,6 +101,7 @@ module vel_observer #(
                 was_held <= 1'b0;
                 p_q      <= x_in;
                 a_q      <= {AW{1'b0}};
+                if (!first && !was_held) v_q <= d_sat[VW-1:0];
             end else begin
                 p_q <= p_sum[PW-1:0];
                 v_q <= v_sat[VW-1:0];
@@ -109,7 +117,7 @@ module vel_observer #(
     wire signed [VW:0]   v_clp = (v_out > O_HI) ? O_HI : v_out;
     assign m_vel = {{(32 - OW){v_clp[OW-1]}}, v_clp[OW-1:0]};
     wire unused_hi = &{1'b0, s_pos[31:16], p_sum[SW-1:PW], v_sat[SW-1:VW], a_sat[SW-1:AW],
-                       v_clp[VW:OW]};
+                       v_clp[VW:OW], d_sat[SW-1:VW]};
 endmodule
 
 `default_nettype wire

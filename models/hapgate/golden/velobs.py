@@ -19,8 +19,10 @@ code clamped to 2..8, x = 2^-s):
     seed = first sample after reset, or an overspeed (two-quadrant) step on this sample, or the
            first sample after a hold, or |e| >= 2^(12+F) (lost lock: more than 4 lines off)
     hold = the interpolator's signal-loss fault is set (sticky, until the DSP clears it)
-    hold:      nothing changes
-    seed:      P = (pos mod 2^16) << F, A = 0, V kept (0 after reset)
+    hold:      nothing changes (but the previous position below is still updated)
+    seed:      P = (pos mod 2^16) << F, A = 0, and V = 0 after reset, V kept after a hold,
+               otherwise (overspeed step, lost lock) V = sat(d << F) with d = the last step
+               pos[n] - pos[n-1] mod 2^16 (signed): the loop restarts at the speed it sees
     type II:   P += V + (e >> (s-1));                  V += e >> 2s           (gains 2x, x^2)
     type III:  P += V + (e >> (s-1)) + (e >> s);       V += A + (e >> (2s-1)) + (e >> 2s);
                A += e >> 3s                                         (gains 3x, 3x^2, x^3)
@@ -96,17 +98,22 @@ def run(pos: np.ndarray, faults: np.ndarray | None = None,
     lock = 1 << (LOCK_LOG2 + F)
     # per-sample shift amounts s - 1, s, 2s - 1, 2s, 3s (type II: 3s = -1 marks "no A")
     sh = np.stack([s_arr - 1, s_arr, 2 * s_arr - 1, 2 * s_arr, np.where(t3, 3 * s_arr, -1)], 1)
+    # the last step d (signed, 16 bits) in 2^-F counts per sample, saturated to V's range
+    d = ((np.diff(p, prepend=p[0]) + (1 << 15)) & 0xFFFF) - (1 << 15)
+    dstep = np.clip(d << F, V_LO, V_HI)
     vs = [0] * n
     pp, vv, aa = 0, 0, 0
     first, was_held = True, False
-    for k, (x, h, o, (s1, s0, s21, s2, s3)) in enumerate(
-            zip((p << F).tolist(), hold.tolist(), ovs.tolist(), sh.tolist())):
+    for k, (x, h, o, ds, (s1, s0, s21, s2, s3)) in enumerate(
+            zip((p << F).tolist(), hold.tolist(), ovs.tolist(), dstep.tolist(), sh.tolist())):
         if h:
             was_held = True
             vs[k] = vv
             continue
         e = ((x - pp + half) & mask) - half
         if first or o or was_held or e >= lock or e <= -lock:
+            if not (first or was_held):
+                vv = ds
             pp, aa = x, 0
             first = was_held = False
         elif s3 >= 0:                                   # type III
@@ -167,11 +174,14 @@ def closed_loop(shift: int, type3: bool) -> tuple[np.ndarray, np.ndarray]:
     return m, np.array([k1, k2, k3])
 
 
-def impulse_response(shift: int, type3: bool, n: int) -> np.ndarray:
+def impulse_response(shift: int, type3: bool, n: int, inject: np.ndarray | None = None
+                     ) -> np.ndarray:
     """h[j] = (M^j K)[1]: the velocity (counts/sample) after the update of sample j for a unit
-    position impulse at sample 0, j = 0..n-1 (powers by doubling: log2(n) matrix products)."""
+    position impulse at sample 0, j = 0..n-1 (powers by doubling: log2(n) matrix products).
+    With `inject` (a state vector) instead of K: the velocity's response to that disturbance of
+    the state (e.g. a truncation of one update)."""
     m, k = closed_loop(shift, type3)
-    cols = k.reshape(3, 1)
+    cols = (k if inject is None else np.asarray(inject, np.float64)).reshape(3, 1)
     mp = m
     while cols.shape[1] < n:
         cols = np.concatenate([cols, mp @ cols], axis=1)
