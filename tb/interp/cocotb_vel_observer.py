@@ -17,19 +17,31 @@ PERIOD_NS = 20
 
 
 def settings(n: int, seed: int) -> tuple[np.ndarray, np.ndarray]:
-    """Per-sample bandwidth code and loop type: piecewise constant, changing every ~400 samples."""
+    """Per-sample bandwidth code and loop type: piecewise constant, changing every 150 samples."""
     rng = np.random.default_rng(seed)
-    seg = np.arange(n) // 400
+    seg = np.arange(n) // 150
     codes = np.array([6, 3, 8, 0, 5, 15, 2, 7, 1, 9, 4, 6])
     bw = codes[(seg + rng.integers(0, codes.size)) % codes.size]
     t3 = ((seg + seed) % 3) != 1
     return bw, t3
 
 
+def joined(names: list[str], n_each: int) -> encsig.Scenario:
+    """The named scenarios back to back (one stream: one reset, the loop carried across)."""
+    parts = [encsig.scenario(s, n_each) for s in names]
+    off = np.arange(len(parts)) * n_each
+    return encsig.Scenario(
+        "+".join(names), np.concatenate([p.a for p in parts]),
+        np.concatenate([p.b for p in parts]), np.concatenate([p.index for p in parts]),
+        np.concatenate([p.truth_lines for p in parts]),
+        np.concatenate([p.clear_at + o for p, o in zip(parts, off)]).astype(np.int64),
+        np.concatenate([p.arm_at + o for p, o in zip(parts, off)]).astype(np.int64))
+
+
 @cocotb.test()
 async def observer_bit_exact(dut):
     cfg = interp.InterpConfig(**tbutil.model_config())  # type: ignore[arg-type]
-    sc = encsig.scenario(os.environ["HG_SCENARIO"], int(os.environ["HG_SAMPLES"]))
+    sc = joined(os.environ["HG_SCENARIO"].split(","), int(os.environ["HG_SAMPLES"]))
     n = sc.a.size
     bw, t3 = settings(n, int(os.environ.get("HG_SEED", "1")))
     clear = np.zeros(n, dtype=bool)

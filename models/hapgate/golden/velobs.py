@@ -49,6 +49,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .interp import InterpOut
+
 F = 28                      # fraction bits of P, V, A
 PI = 16                     # integer bits of P kept (the error is taken mod 2^16 counts)
 PW = PI + F                 # width of P and of the error
@@ -143,19 +145,13 @@ def scale_out(v: np.ndarray, vel_log2w: int) -> np.ndarray:
     return np.clip((np.asarray(v, np.int64) + (1 << (sh - 1))) >> sh, -lim, lim - 1)
 
 
-def run_interp(out: "InterpOutLike", cfg: ObsConfig = ObsConfig(),
+def run_interp(out: InterpOut, cfg: ObsConfig = ObsConfig(),
                bw: np.ndarray | None = None, type3: np.ndarray | None = None) -> np.ndarray:
     """The observer on an interpolator result (hapgate.golden.interp.run's InterpOut)."""
     qc = out.extra["qc"].astype(np.int64)
     step = np.zeros(qc.size, bool)
     step[1:] = np.abs(qc[1:] - qc[:-1]) == 2
     return run(out.pos, out.faults, step, cfg, bw, type3)
-
-
-class InterpOutLike:  # (typing only: anything with pos, faults and extra["qc"])
-    pos: np.ndarray
-    faults: np.ndarray
-    extra: dict[str, np.ndarray]
 
 
 # ----------------------------------------------------------------------------------------------

@@ -38,11 +38,11 @@ COLUMNS = ("pos", "pos_homed", "vel", "index_pos", "index_count", "homed", "faul
 # the calibration state (CAL = 1 builds; the identity constants otherwise), see cal_columns()
 CAL_COLUMNS = ("cal_ofs_a", "cal_ofs_b", "cal_gain_a", "cal_gain_b", "cal_phase", "cal_gear",
                "cal_updates")
-ALL_COLUMNS = COLUMNS + CAL_COLUMNS
+ALL_COLUMNS = COLUMNS + CAL_COLUMNS + ("vel_obs",)   # vel_obs: the observer (VEL_OBS = 1 builds)
 COLUMN_DTYPES = {"pos": "<i4", "pos_homed": "<i4", "vel": "<i4", "index_pos": "<i4",
                  "index_count": "<u2", "homed": "u1", "faults": "u1", "overspeed_count": "<u2",
                  "cal_ofs_a": "<i2", "cal_ofs_b": "<i2", "cal_gain_a": "<u2", "cal_gain_b": "<u2",
-                 "cal_phase": "<i2", "cal_gear": "u1", "cal_updates": "<u2"}
+                 "cal_phase": "<i2", "cal_gear": "u1", "cal_updates": "<u2", "vel_obs": "<i4"}
 FLAG_INDEX, FLAG_CLEAR, FLAG_ARM, FLAG_CAL_EN, FLAG_CAL_FREEZE = 1, 2, 4, 8, 16
 
 
@@ -146,13 +146,14 @@ def run_interp(a: np.ndarray, b: np.ndarray, index: np.ndarray | None = None,
                columns: Sequence[str] = COLUMNS, clear_at: Sequence[Sequence[int]] | None = None,
                arm_at: Sequence[Sequence[int]] | None = None,
                cal_en: np.ndarray | bool = False, cal_freeze: np.ndarray | bool = False,
-               cal_mu: int = 6) -> NativeRun:
+               cal_mu: int = 6, obs_bw: int = 6, obs_type3: bool = True) -> NativeRun:
     """Run samples (arrays of shape (n,) for one axis or (n, axes)) through the Verilated RTL.
 
     clear_at / arm_at: per axis, the sample numbers at which a fault clear / home arm pulse is
     applied (the same convention as hapgate.golden.interp.run). cal_en / cal_freeze: the
     calibration levels per sample (shape (n,), (n, axes) or a constant), cal_mu for every axis
-    (cfg.cal builds)."""
+    (cfg.cal builds); obs_bw, obs_type3: the velocity observer's settings for every axis
+    (cfg.vel_obs builds: the vel_obs column)."""
     a = np.asarray(a)
     axes = 1 if a.ndim == 1 else a.shape[1]
     n = a.shape[0]
@@ -178,8 +179,9 @@ def run_interp(a: np.ndarray, b: np.ndarray, index: np.ndarray | None = None,
         fin, fout = Path(tmp) / "in.bin", Path(tmp) / "out.bin"
         rec.tofile(fin)
         t0 = time.perf_counter()
-        out = subprocess.run([str(exe), str(fin), str(fout), str(n), str(mask), str(cal_mu)],
-                             capture_output=True, text=True)
+        obs_cfg = (obs_bw & 15) | (int(obs_type3) << 4)
+        out = subprocess.run([str(exe), str(fin), str(fout), str(n), str(mask), str(cal_mu),
+                              str(obs_cfg)], capture_output=True, text=True)
         wall = time.perf_counter() - t0
         if out.returncode != 0:
             raise RuntimeError(f"native harness failed ({out.returncode}): {out.stderr.strip()}")

@@ -3,15 +3,18 @@
 // through the Verilated RTL and writes the per-sample outputs. The path for 10^7..10^9 samples
 // (cocotb pays ~15 us of Python per clock). Driven by models/hapgate/native.py.
 //
-// usage: interp_harness IN OUT N_SAMPLES COLMASK [CAL_MU]
+// usage: interp_harness IN OUT N_SAMPLES COLMASK [CAL_MU [OBS_CFG]]
 //   IN : N_SAMPLES records of AXES x {int8 a, int8 b, uint8 flags}; flags bit0 index,
 //        bit1 fault clear, bit2 home arm (pulses applied with that sample), bit3 calibration
 //        enable, bit4 calibration freeze (levels captured with that sample; CAL = 1 builds).
 //   OUT: N_SAMPLES records of AXES x the selected columns, in this order and size:
 //        pos i32, pos_homed i32, vel i32, index_pos i32, index_count u16, homed u8,
 //        faults u8, overspeed_count u16, cal_ofs_a i16, cal_ofs_b i16, cal_gain_a u16,
-//        cal_gain_b u16, cal_phase i16, cal_gear u8, cal_updates u16 (COLMASK bit k: column k).
+//        cal_gain_b u16, cal_phase i16, cal_gear u8, cal_updates u16, vel_obs i32
+//        (COLMASK bit k: column k).
 //   CAL_MU: the calibration adaptation shift of every axis (default 6).
+//   OBS_CFG: the velocity observer's settings of every axis, bw | type3 << 4 (default 0x16;
+//        VEL_OBS = 1 builds; vel_obs reads 0 otherwise).
 // Prints "samples=N clocks=C seconds=S" on stdout.
 #include <array>
 #include <chrono>
@@ -52,9 +55,9 @@ inline uint64_t field(const VlWide<N>& v, int lo, int width) {
 struct Column {
     int bytes;
 };
-constexpr int kNCol = 15;
+constexpr int kNCol = 16;
 constexpr Column kColumns[kNCol] = {{4}, {4}, {4}, {4}, {2}, {1}, {1}, {2},
-                                   {2}, {2}, {2}, {2}, {2}, {1}, {2}};
+                                   {2}, {2}, {2}, {2}, {2}, {1}, {2}, {4}};
 
 template <typename T>
 void put(std::vector<uint8_t>& buf, T value, int bytes) {
@@ -64,8 +67,8 @@ void put(std::vector<uint8_t>& buf, T value, int bytes) {
 }  // namespace
 
 int main(int argc, char** argv) {
-    if (argc != 5 && argc != 6) {
-        std::fprintf(stderr, "usage: %s IN OUT N_SAMPLES COLMASK [CAL_MU]\n", argv[0]);
+    if (argc < 5 || argc > 7) {
+        std::fprintf(stderr, "usage: %s IN OUT N_SAMPLES COLMASK [CAL_MU [OBS_CFG]]\n", argv[0]);
         return 2;
     }
     const uint64_t n = std::strtoull(argv[3], nullptr, 10);
@@ -93,10 +96,17 @@ int main(int argc, char** argv) {
     top->enc_index = top->ctl_fault_clear = top->ctl_home_arm = 0;
     top->ctl_cal_en = top->ctl_cal_freeze = 0;
     {
-        const unsigned mu = (argc == 6) ? static_cast<unsigned>(std::strtoul(argv[5], nullptr, 0)) & 15U : 6U;
-        uint32_t mus = 0;
-        for (int ax = 0; ax < AXES; ++ax) mus |= mu << (4 * ax);
+        const unsigned mu = (argc >= 6) ? static_cast<unsigned>(std::strtoul(argv[5], nullptr, 0)) & 15U : 6U;
+        const unsigned oc = (argc == 7) ? static_cast<unsigned>(std::strtoul(argv[6], nullptr, 0)) : 0x16U;
+        uint32_t mus = 0, bws = 0, t3s = 0;
+        for (int ax = 0; ax < AXES; ++ax) {
+            mus |= mu << (4 * ax);
+            bws |= (oc & 15U) << (4 * ax);
+            t3s |= ((oc >> 4) & 1U) << ax;
+        }
         top->cfg_cal_mu = mus;
+        top->cfg_obs_bw = bws;
+        top->cfg_obs_type3 = t3s;
     }
     top->eval();
     for (int i = 0; i < 4; ++i) {
@@ -178,7 +188,8 @@ int main(int argc, char** argv) {
                     field(top->m_index_count, 16 * ax, 16), field(top->m_homed, ax, 1),
                     field(top->m_faults, 3 * ax, 3),        field(top->m_overspeed_count, 16 * ax, 16),
                     cs[7 * ax + 0], cs[7 * ax + 1], cs[7 * ax + 2], cs[7 * ax + 3],
-                    cs[7 * ax + 4], cs[7 * ax + 5], cs[7 * ax + 6]};
+                    cs[7 * ax + 4], cs[7 * ax + 5], cs[7 * ax + 6],
+                    field(top->m_vel_obs, 32 * ax, 32)};
                 for (int c = 0; c < kNCol; ++c)
                     if (mask & (1U << c)) put(obuf, v[c], kColumns[c].bytes);
             }
