@@ -47,11 +47,7 @@ module vel_observer #(
 
     // shift amounts from the clamped code
     wire [3:0] s  = (cfg_bw < 4'd2) ? 4'd2 : (cfg_bw > 4'd8) ? 4'd8 : cfg_bw;
-    wire [4:0] s1 = {1'b0, s} - 5'd1;
-    wire [4:0] s0 = {1'b0, s};
-    wire [4:0] s2 = {s, 1'b0};
-    wire [4:0] s21 = s2 - 5'd1;
-    wire [4:0] s3 = s2 + {1'b0, s};
+    wire [3:0] s1 = s - 4'd1;
 
     wire [PW-1:0]        x_in = {s_pos[15:0], {F{1'b0}}};
     wire [PW-1:0]        e_u  = x_in - p_q;                 // wraps: the wrap-aware error
@@ -63,19 +59,23 @@ module vel_observer #(
     wire [15:0]          step = s_pos[15:0] - pos_prev;
     wire signed [SW-1:0] step_x = {{(SW - 16 - F){step[15]}}, step, {F{1'b0}}};
 
-    wire signed [PW-1:0] e1  = e >>> s1;
-    wire signed [PW-1:0] e0  = e >>> s0;
-    wire signed [PW-1:0] e21 = e >>> s21;
-    wire signed [PW-1:0] e2  = e >>> s2;
-    wire signed [PW-1:0] e3  = e >>> s3;
+    // floor shifts compose exactly (floor(floor(e / 2^a) / 2^b) = floor(e / 2^(a+b))), so the
+    // five shifts e >>> (s-1, s, 2s-1, 2s, 3s) are three shifters by s-1, s, s and two wires.
+    // In lock |e| < 2^LOCK, so the shifters take LOCK + 1 bits.
+    wire signed [LOCK:0] e_l = e[LOCK:0];
+    wire signed [LOCK:0] e1  = e_l >>> s1;
+    wire signed [LOCK:0] e0  = e1 >>> 1;
+    wire signed [LOCK:0] e21 = e1 >>> s;
+    wire signed [LOCK:0] e2  = e21 >>> 1;
+    wire signed [LOCK:0] e3  = e2 >>> s;
 
     wire signed [SW-1:0] v_ext  = {{(SW - VW){v_q[VW-1]}}, v_q};
     wire signed [SW-1:0] a_ext  = {{(SW - AW){a_q[AW-1]}}, a_q};
-    wire signed [SW-1:0] e1_x   = {{(SW - PW){e1[PW-1]}}, e1};
-    wire signed [SW-1:0] e0_x   = {{(SW - PW){e0[PW-1]}}, e0};
-    wire signed [SW-1:0] e21_x  = {{(SW - PW){e21[PW-1]}}, e21};
-    wire signed [SW-1:0] e2_x   = {{(SW - PW){e2[PW-1]}}, e2};
-    wire signed [SW-1:0] e3_x   = {{(SW - PW){e3[PW-1]}}, e3};
+    wire signed [SW-1:0] e1_x   = {{(SW - LOCK - 1){e1[LOCK]}}, e1};
+    wire signed [SW-1:0] e0_x   = {{(SW - LOCK - 1){e0[LOCK]}}, e0};
+    wire signed [SW-1:0] e21_x  = {{(SW - LOCK - 1){e21[LOCK]}}, e21};
+    wire signed [SW-1:0] e2_x   = {{(SW - LOCK - 1){e2[LOCK]}}, e2};
+    wire signed [SW-1:0] e3_x   = {{(SW - LOCK - 1){e3[LOCK]}}, e3};
 
     wire [SW-1:0]        p_sum  = {2'b00, p_q} + v_ext + e1_x + (cfg_type3 ? e0_x : {SW{1'b0}});
     wire signed [SW-1:0] v_sum  = cfg_type3 ? v_ext + a_ext + e21_x + e2_x : v_ext + e2_x;
@@ -116,8 +116,8 @@ module vel_observer #(
     localparam signed [VW:0] O_HI = {{(VW - OW + 2){1'b0}}, {(OW - 1){1'b1}}};
     wire signed [VW:0]   v_clp = (v_out > O_HI) ? O_HI : v_out;
     assign m_vel = {{(32 - OW){v_clp[OW-1]}}, v_clp[OW-1:0]};
-    wire unused_hi = &{1'b0, s_pos[31:16], p_sum[SW-1:PW], v_sat[SW-1:VW], a_sat[SW-1:AW],
-                       v_clp[VW:OW], d_sat[SW-1:VW]};
+    wire unused_hi = &{1'b0, s_pos[31:16], e[PW-1:LOCK+1], p_sum[SW-1:PW], v_sat[SW-1:VW],
+                       a_sat[SW-1:AW], v_clp[VW:OW], d_sat[SW-1:VW]};
 endmodule
 
 `default_nettype wire

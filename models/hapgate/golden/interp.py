@@ -139,9 +139,11 @@ def blocks() -> list[Block]:
               doc="one axis with the online calibration stage (CAL = 1, rtl/interp/enc_calib.v)"),
         Block(name="enc_interp_obs", top="enc_interp", sources=srcs,
               params=lambda: InterpConfig(vel_obs=True).rtl_params(),
+              # (Verilator and Icarus only: the observer's synthesis is the next block's)
+              lint_synth=(),
               doc="one axis with the tracking velocity observer (VEL_OBS = 1, vel_observer.v)"),
         Block(name="vel_observer", top="vel_observer", sources=("interp/vel_observer.v",),
-              params=lambda: {"VEL_LOG2W": 8},
+              params=lambda: {"VEL_LOG2W": 8}, lint_synth=("ice40",),
               doc="the tracking velocity observer alone (type II/III loop, one axis)"),
         Block(name="enc_interp3", top="enc_interp3",
               sources=srcs + ("interp/sample_strobe.v", "interp/enc_interp3.v"),
