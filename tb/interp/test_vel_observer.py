@@ -180,3 +180,18 @@ def test_no_divergence() -> None:
         quiet = slice(c + relock, c + 10_000)
         diff = np.abs(v[quiet] - ref[quiet])
         assert np.max(diff) <= 1, f"not re-locked {relock} samples after the clear at {c}"
+
+
+@pytest.mark.parametrize("shift", [6, 8])
+def test_acquisition_while_moving(shift: int) -> None:
+    """Out of reset with the shaft already turning (20 and 200 counts/sample: 19 and 190 rev/s;
+    the type-III loop starts at V = 0): within 16/x samples it reads the speed to one count/W
+    for good. (At 190 rev/s and s = 8 the error passes 4 lines: the lost-lock seed at the last
+    step's speed is what keeps this under 10/x; a linear pull-in takes 20/x.)"""
+    for v in (20, 200):
+        n = 24 << shift
+        pos = np.arange(n, dtype=np.int64) * v
+        out = velobs.run(pos, cfg=velobs.ObsConfig(bw=shift))
+        bad = np.flatnonzero(np.abs(out - v * W) > 1)
+        last = int(bad[-1]) if bad.size else 0
+        assert last < 16 << shift, f"v={v} s={shift}: off until sample {last}"
