@@ -13,7 +13,7 @@ module hg_bus #(
     parameter integer FRAME_CLOCKS = 768,        // DAC frame in clocks (read-only info)
     parameter integer ADDR_BITS    = 8,          // word-address lines decoded
     parameter integer VEL_OBS      = 0,          // 1: the interpolator has the velocity observer
-    parameter integer VEL_SEL_RST  = 0           // reset value of AXIS[i].VEL_CTRL.SEL
+    parameter integer VEL_SEL_RST  = 0           // 1: VEL_CTRL.SEL resets to 7
 ) (
     input  wire                 clk,
     input  wire                 rst,

@@ -21,7 +21,7 @@ module hapgate_top #(
     parameter integer CAL_NLOG      = 14,         // CAL = 1: blocks of 2**N samples ignored
     parameter integer COARSE        = 0,          // 1: plain quadrature, fine angle zeroed (Z-width)
     parameter integer VEL_OBS       = 0,          // 1: tracking velocity observer beside the FIR
-    parameter integer VEL_OBS_SEL   = 0,          // reset value of AXIS[i].VEL_CTRL.SEL (1: report it)
+    parameter integer VEL_OBS_SEL   = 0,          // 1: VEL_CTRL.SEL resets to 7 (VEL = the observer)
     parameter integer LINES_LOG2    = 10,         // encoder lines per revolution = 2**LINES_LOG2
     parameter integer POLE_PAIRS    = 2,          // motor electrical cycles per revolution
     parameter integer SKEW_NS       = 2000,       // DAC channel-to-channel skew

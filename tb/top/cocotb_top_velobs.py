@@ -70,18 +70,19 @@ async def observer_through_the_top(dut) -> None:
     async def rd(name: str) -> int:
         return await master.read(W[name], emif.random_timing(rng, PERIOD_PS))
 
-    # reset: SEL = 1 (VEL_OBS_SEL), TYPE3 = 1, BW = 6 on every axis
-    for i in range(3):
-        assert await rd(f"AXIS[{i}].VEL_CTRL") == 0x63, f"axis {i} VEL_CTRL reset"
-    await wr("AXIS[1].VEL_CTRL", 0x30)          # FIR reported; observer type II, s = 3
-    await wr("AXIS[2].VEL_CTRL", 0xF3)          # observer, type III, code 15 (acts as 8)
-    assert await rd("AXIS[1].VEL_CTRL") == 0x30
-    assert await rd("AXIS[2].VEL_CTRL") == 0xF3
-    await wr("AXIS[2].VEL_CTRL", 0x43)          # s = 4
+    # reset: SEL = 7 (VEL_OBS_SEL), TYPE3 = 7, BW = 6 on every axis
+    assert await rd("VEL_CTRL") == 0x6_6677, "VEL_CTRL reset"
+    # axis 0 observer III s = 6; axis 1 the FIR reported, its observer type II at s = 3;
+    # axis 2 observer III at code 15 (acts as 8), then 4; bits 3, 7 and 20.. read 0
+    await wr("VEL_CTRL", 0xFFFF_FFFF)
+    assert await rd("VEL_CTRL") == 0xF_FF77
+    await wr("VEL_CTRL", 0xF_3655)
+    assert await rd("VEL_CTRL") == 0xF_3655
+    await wr("VEL_CTRL", 0x4_3655)
     snaps: list[tuple[str, list[int]]] = []
-    for when, sel0 in ((0.55, None), (0.85, 0x60)):
+    for when, sel0 in ((0.55, None), (0.85, 0x4_3654)):
         if sel0 is not None:
-            await wr("AXIS[0].VEL_CTRL", sel0)  # axis 0: back to the FIR
+            await wr("VEL_CTRL", sel0)          # axis 0: back to the FIR
         end_ps = ref + int(when * N) * CFG.div * PERIOD_PS
         await Timer(end_ps - int(get_sim_time(unit="ps")), unit="ps")
         await wr("CTRL", 1 << 8)
@@ -95,11 +96,11 @@ async def observer_through_the_top(dut) -> None:
         t3 = np.ones(N, dtype=bool)
         sel = np.ones(N, dtype=bool)
         for c in mon.committed:
-            if c.we and c.word == W[f"AXIS[{i}].VEL_CTRL"]:
+            if c.we and c.word == W["VEL_CTRL"]:
                 after = cap > c.edge
-                bw[after] = (c.wdata >> 4) & 15
-                t3[after] = bool(c.wdata & 2)
-                sel[after] = bool(c.wdata & 1)
+                bw[after] = (c.wdata >> (8 + 4 * i)) & 15
+                t3[after] = bool((c.wdata >> (4 + i)) & 1)
+                sel[after] = bool((c.wdata >> i) & 1)
         out = interp.run(a[:, i], b[:, i], None, CFG.interp)
         vo = velobs.run_interp(out, bw=bw, type3=t3)
         for name, got in snaps:

@@ -15,8 +15,8 @@ refused). The hapgate-specific hardware behaviour is written out here:
 - STATUS.CFG_ERR one clock after a refused write; BUS_ERR at an unmapped access; PROTO_ERR at a
   dropped access; all three cleared by CTRL.FAULT_CLR;
 - VEL reads floor(v * SAMPLE_HZ / 2**VEL_LOG2W) of the snapshot's window difference v, or of the
-  observer's velocity when the FPGA has the observer (`vel_obs`) and AXIS[i].VEL_CTRL.SEL was 1
-  before the snapshot's edge (`vel_sel_reset`: SEL's reset value, hapgate_top VEL_OBS_SEL).
+  observer's velocity when the FPGA has the observer (`vel_obs`) and bit i of VEL_CTRL.SEL was
+  set before the snapshot's edge (`vel_sel_reset`: SEL resets to 7, hapgate_top VEL_OBS_SEL).
 
 Time is counted in clock edges (integers). Every register updates at an edge from the values
 before it. `access(word, we, wdata, edge)` applies an access that the bus slave committed at
@@ -77,7 +77,7 @@ class RegModel:
     sample_hz: int = 1_000_000
     vel_log2w: int = 8
     vel_obs: bool = False                # the interpolator has the observer (VEL_OBS = 1)
-    vel_sel_reset: bool = False          # reset value of AXIS[i].VEL_CTRL.SEL (VEL_OBS_SEL)
+    vel_sel_reset: bool = False          # VEL_CTRL.SEL resets to 7 (hapgate_top VEL_OBS_SEL)
     inputs: Inputs = _zero_inputs
     input_edges: list[int] = field(default_factory=list)  # sorted edges where inputs(e) changes
     # state
@@ -107,9 +107,7 @@ class RegModel:
     def reset(self, edge: int) -> None:
         self.stored = {r.name: r.reset for r in self.rm.registers}
         if self.vel_sel_reset:
-            for i in range(3):
-                self.stored[f"AXIS[{i}].VEL_CTRL"] |= self.regs[f"AXIS[{i}].VEL_CTRL"].field(
-                    "SEL").mask
+            self.stored["VEL_CTRL"] |= self.regs["VEL_CTRL"].field("SEL").mask
         self.snap = [AxisInputs() for _ in range(3)]
         self.seq = 0
         self.sticky = {"CFG_ERR": False, "BUS_ERR": False, "PROTO_ERR": False}
@@ -139,7 +137,7 @@ class RegModel:
               access_word: int | None = None, proto: bool = False) -> None:
         """Apply everything that happens at edge e (all from the values before e)."""
         timeout_pre = self._field("WDOG_TIMEOUT", "US")
-        sel_pre = [self.vel_obs and self._field(f"AXIS[{i}].VEL_CTRL", "SEL") == 1
+        sel_pre = [self.vel_obs and (self._field("VEL_CTRL", "SEL") >> i) & 1 == 1
                    for i in range(3)]
         ins = self.inputs(e)
         for i in range(3):  # index seen: sticky on a non-zero index count

@@ -47,7 +47,7 @@ class TopConfig:
     interp: InterpConfig = field(default_factory=InterpConfig)
     comm: CommutationConfig = field(default_factory=CommutationConfig)
     lines_log2: int = 10
-    vel_obs_sel: bool = False    # reset value of AXIS[i].VEL_CTRL.SEL (RTL VEL_OBS_SEL)
+    vel_obs_sel: bool = False    # VEL_CTRL.SEL resets to 7: every axis reports the observer
 
     def __post_init__(self) -> None:
         if self.comm.clk_hz != self.clk_hz:
