@@ -35,11 +35,10 @@ The closed loop's characteristic polynomial in u = z - 1 is u^2 + 2x u + x^2 (ty
 u^3 + 3x u^2 + 3x^2 u + x^3 (type III): a double (triple) pole at z = 1 - x, critically damped,
 stable for every code. Type II lags a constant acceleration a by 2a/x in velocity (2/x samples);
 type III follows it without lag (its error is under constant jerk). `float_response` gives the
-same loops without quantisation (for the delay figures); `truth_budget` derives the error a
-correct loop may have on a ramp.
+same loops without quantisation (the tests' reference for the error against the true velocity).
 
 The recurrence is non-linear (floor shifts, saturation, seeding), so it cannot be vectorised over
-samples exactly: `run` steps through the samples on Python integers (about 2 M samples/s); the
+samples exactly: `run` steps through the samples on Python integers (~0.4 M samples per CPU-s); the
 inputs and the output scaling are vectorised. Long runs go through the native harness.
 """
 
@@ -72,11 +71,6 @@ class ObsConfig:
     @property
     def shift(self) -> int:
         return min(max(self.bw, S_MIN), S_MAX)
-
-
-def out_bits(vel_log2w: int) -> int:
-    """Signed width of the output (it fits the FIR's stored DW = LUT_BITS + L + 4 bits)."""
-    return vel_log2w + V_INT + 1
 
 
 def run(pos: np.ndarray, faults: np.ndarray | None = None,
@@ -194,19 +188,3 @@ def float_response(pos: np.ndarray, shift: int, type3: bool) -> np.ndarray:
     size = 1 << int(np.ceil(np.log2(2 * n)))
     y = np.fft.irfft(np.fft.rfft(x - x[0], size) * np.fft.rfft(h, size), size)
     return y[:n]
-
-
-def ramp_lag_samples(shift: int, type3: bool) -> float:
-    """Steady-state velocity lag under constant acceleration, in samples (lag / a): the group
-    delay of the loop's velocity at DC. Type II: 2/x - 1/2 ... taken from the float loop."""
-    x = 2.0 ** -shift
-    return 0.0 if type3 else 2.0 / x
-
-
-def truth_budget(acc_cps2: float, noise_cps: float, shift: int, type3: bool) -> float:
-    """Budget (counts/sample) for |observer velocity - true velocity| on a settled constant-
-    acceleration ramp: the loop's own lag, the output rounding (half a unit of 1/W), half a
-    sample of acceleration (the truth is taken at the sample, the loop's velocity is the step
-    to the next one) and 5 sigma of its noise."""
-    return (acc_cps2 * ramp_lag_samples(shift, type3) + 0.5 / 256 + 0.5 * acc_cps2
-            + 5.0 * noise_cps)
