@@ -38,7 +38,9 @@ COLUMNS = ("pos", "pos_homed", "vel", "index_pos", "index_count", "homed", "faul
 # the calibration state (CAL = 1 builds; the identity constants otherwise), see cal_columns()
 CAL_COLUMNS = ("cal_ofs_a", "cal_ofs_b", "cal_gain_a", "cal_gain_b", "cal_phase", "cal_gear",
                "cal_updates")
-ALL_COLUMNS = COLUMNS + CAL_COLUMNS + ("vel_obs",)   # vel_obs: the observer (VEL_OBS = 1 builds)
+ALL_COLUMNS = COLUMNS + CAL_COLUMNS
+# every column of the harness, in its order: + the velocity observer's (VEL_OBS = 1 builds)
+HARNESS_COLUMNS = ALL_COLUMNS + ("vel_obs",)
 COLUMN_DTYPES = {"pos": "<i4", "pos_homed": "<i4", "vel": "<i4", "index_pos": "<i4",
                  "index_count": "<u2", "homed": "u1", "faults": "u1", "overspeed_count": "<u2",
                  "cal_ofs_a": "<i2", "cal_ofs_b": "<i2", "cal_gain_a": "<u2", "cal_gain_b": "<u2",
@@ -159,10 +161,10 @@ def run_interp(a: np.ndarray, b: np.ndarray, index: np.ndarray | None = None,
     n = a.shape[0]
     if n == 0:
         raise ValueError("no samples")
-    unknown = set(columns) - set(ALL_COLUMNS)
+    unknown = set(columns) - set(HARNESS_COLUMNS)
     if unknown:
-        raise ValueError(f"unknown columns {sorted(unknown)}; known: {', '.join(ALL_COLUMNS)}")
-    cols = [c for c in ALL_COLUMNS if c in columns]
+        raise ValueError(f"unknown columns {sorted(unknown)}; known: {', '.join(HARNESS_COLUMNS)}")
+    cols = [c for c in HARNESS_COLUMNS if c in columns]
     exe = build_interp(cfg, clk_hz=clk_hz, axes=axes)
     rec = np.zeros((n, axes, 3), dtype=np.uint8)
     rec[:, :, 0] = _as_2d(a, n, axes, "int8").view(np.uint8)
@@ -173,7 +175,7 @@ def run_interp(a: np.ndarray, b: np.ndarray, index: np.ndarray | None = None,
     flags |= _levels(cal_en, n, axes) * FLAG_CAL_EN
     flags |= _levels(cal_freeze, n, axes) * FLAG_CAL_FREEZE
     rec[:, :, 2] = flags
-    mask = sum(1 << ALL_COLUMNS.index(c) for c in cols)
+    mask = sum(1 << HARNESS_COLUMNS.index(c) for c in cols)
     dtype = np.dtype([(f"{c}{ax}", COLUMN_DTYPES[c]) for ax in range(axes) for c in cols])
     with tempfile.TemporaryDirectory(dir=ensure(BUILD / "native" / "runs")) as tmp:
         fin, fout = Path(tmp) / "in.bin", Path(tmp) / "out.bin"
