@@ -2,8 +2,10 @@
 // Sin/cos encoder interpolator, one axis: sign-bit quadrant + arcsine LUT on the smaller channel
 // (the paper's method), 32-bit position, index latch and homing, window-difference velocity,
 // sticky faults. Bit-exact model and full description: models/hapgate/interp.py.
-// Latency: 5 clocks from the cycle with s_valid high to the cycle with m_valid high (6 with CAL = 1:
-// the online calibration stage enc_calib.v between capture and angle, models/hapgate/enccal.py).
+// Latency: 5 clocks from the cycle with s_valid high to the cycle with m_valid high, + 1 with CAL = 1
+// (the online calibration stage enc_calib.v between capture and angle, models/hapgate/enccal.py),
+// + ANGLE_REG, + RATIO_BITS + 1 with ANGLE = 1 (the ratio divider ratio_div.v; golden/angle.py),
+// + HARM (the harmonic correction table lookup).
 `timescale 1ns / 1ps
 `default_nettype none
 
@@ -20,6 +22,14 @@ module enc_interp #(
     parameter integer CAL_LINES_LOG2 = 3,       // CAL = 1: calibration block 2**N lines
     parameter integer CAL_NLOG     = 14,        // CAL = 1: blocks of 2**N samples or more ignored
     parameter integer COARSE       = 0,         // 1: plain quadrature, the fine angle zeroed (4 steps/line)
+    parameter integer ANGLE        = 0,         // fine angle: 0 arcsine of the smaller channel (paper),
+                                                // 1 ratio table atan(smaller / larger), pipelined divider
+    parameter integer RATIO_BITS   = 10,        // ANGLE = 1: ratio table 2**RATIO_BITS entries (6..12)
+    parameter         RATIO_FILE   = "atan.hex", // ANGLE = 1: $readmemh table (golden.angle.ratio_table)
+    parameter integer ANGLE_REG    = 0,         // 1: a register after abs/compare/select (latency + 1)
+    parameter integer HARM         = 0,         // 1 (needs ANGLE = 1): harmonic correction table
+                                                // (latency + 1); RATIO_FILE then has 2 more bits
+    parameter integer HARM_LOG2    = 6,         // HARM = 1: 2**HARM_LOG2 entries per line (4..8)
     parameter integer VEL_OBS      = 0          // 1: build the tracking velocity observer (vel_observer)
 ) (
     input  wire        clk,
@@ -36,7 +46,16 @@ module enc_interp #(
     input  wire        ctl_cal_en,
     input  wire        ctl_cal_freeze,
     input  wire [3:0]  cfg_cal_mu,
-    // velocity observer settings (VEL_OBS = 1; levels captured with each sample)
+    // harmonic correction (HARM = 1): enable level captured with each sample; table write port
+    // (signed entries in 1/4 count, a write applies to samples whose lookup comes after it);
+    // read-back of entry cfg_harm_addr in clocks without a sample in the lookup stage
+    input  wire        ctl_harm_en,
+    input  wire        cfg_harm_we,
+    input  wire [7:0]  cfg_harm_addr,
+    input  wire [7:0]  cfg_harm_data,
+    output wire [7:0]  m_harm_rdata,
+    // velocity observer settings (VEL_OBS = 1): levels read at each sample's observer update,
+    // LATENCY - 2 clocks after its capture
     input  wire [3:0]  cfg_obs_bw,        // bandwidth code s: x = 2**-s (2..8)
     input  wire        cfg_obs_type3,     // 1: with the acceleration state
     // results, one per sample
@@ -69,10 +88,8 @@ module enc_interp #(
     localparam integer RUNW = $clog2(LOSS_SAMPLES + 1);
     localparam integer AMP2_MIN_I = AMP_MIN * AMP_MIN;
     localparam integer AMP2_MAX_I = AMP_MAX * AMP_MAX;
-    localparam integer QUADRANT_I = 1 << FB;            // fine counts per quadrant
     localparam [16:0]     AMP2_MIN = AMP2_MIN_I[16:0];
     localparam [16:0]     AMP2_MAX = AMP2_MAX_I[16:0];
-    localparam [FB:0]     QUADRANT = QUADRANT_I[FB:0];
     localparam [RUNW-1:0] LOSS_N   = LOSS_SAMPLES[RUNW-1:0];
     localparam [QCW-1:0]  QC_TWO   = {{(QCW - 2){1'b0}}, 2'd2};
 
@@ -97,8 +114,23 @@ module enc_interp #(
         if (CAL != 0 && CAL != 1) begin : g_bad_cal
             enc_interp_CAL_must_be_0_or_1 u_stop ();
         end
-        if (CAL != 0 && LUT_BITS > 8) begin : g_bad_cal_lut
-            enc_interp_CAL_needs_LUT_BITS_at_most_8 u_stop ();
+        if (CAL != 0 && ANGLE == 0 && LUT_BITS > 8) begin : g_bad_cal_lut
+            enc_interp_CAL_with_ANGLE_0_needs_LUT_BITS_at_most_8 u_stop ();
+        end
+        if (ANGLE != 0 && ANGLE != 1) begin : g_bad_angle
+            enc_interp_ANGLE_must_be_0_or_1 u_stop ();
+        end
+        if (ANGLE_REG != 0 && ANGLE_REG != 1) begin : g_bad_angle_reg
+            enc_interp_ANGLE_REG_must_be_0_or_1 u_stop ();
+        end
+        if (ANGLE != 0 && (RATIO_BITS < 6 || RATIO_BITS > 12)) begin : g_bad_ratio_bits
+            enc_interp_RATIO_BITS_must_be_6_to_12 u_stop ();
+        end
+        if ((HARM != 0 && HARM != 1) || (HARM != 0 && ANGLE == 0)) begin : g_bad_harm
+            enc_interp_HARM_must_be_0_or_1_and_needs_ANGLE_1 u_stop ();
+        end
+        if (HARM != 0 && (HARM_LOG2 < 4 || HARM_LOG2 > 8)) begin : g_bad_harm_log2
+            enc_interp_HARM_LOG2_must_be_4_to_8 u_stop ();
         end
         if (VEL_OBS != 0 && VEL_OBS != 1) begin : g_bad_vel_obs
             enc_interp_VEL_OBS_must_be_0_or_1 u_stop ();
@@ -110,14 +142,13 @@ module enc_interp #(
     reg [7:0] a_a, b_a;
     reg       idx_a, clr_a, arm_a;
     reg       clr_pend, arm_pend_ctl;
-    reg       cal_en_a, cal_fr_a;
-    reg [4:0] obs_cfg_a;                 // {type3, bw} of the observer, with the sample
+    reg       cal_en_a, cal_fr_a, hen_a;
 
     always @(posedge clk) begin
         if (s_valid) begin
+            hen_a    <= ctl_harm_en;
             cal_en_a <= ctl_cal_en;
             cal_fr_a <= ctl_cal_freeze;
-            obs_cfg_a <= {cfg_obs_type3, cfg_obs_bw};
             // INVERT: A' = B, B' = A is the angle 90deg - phi: the count runs the other way and
             // quadrant 0 (the index quadrant) maps onto itself.
             a_a   <= (INVERT != 0) ? s_b : s_a;
@@ -153,15 +184,13 @@ module enc_interp #(
     localparam integer LUT_N = (CAL != 0) ? 512 : 129;
     wire          v_in;                 // stage B input: valid, channels, index, pulses, faults
     wire [AW-1:0] a_in, b_in;
-    wire          idx_in, clr_in, arm_in, clip_in, bad_in;
-    wire [4:0]    obs_cfg_in;
+    wire          idx_in, clr_in, arm_in, clip_in, bad_in, hen_in;
 
     generate
         if (CAL != 0) begin : g_cal
             wire        vk, clip_k, bad_k;
             wire [11:0] ac_k, bc_k;
-            reg         idx_k, clr_k, arm_k;
-            reg [4:0]   obs_cfg_k;
+            reg         idx_k, clr_k, arm_k, hen_k;
             enc_calib #(
                 .LINES_LOG2(CAL_LINES_LOG2), .NLOG(CAL_NLOG), .AMP_MIN(AMP_MIN), .AMP_MAX(AMP_MAX)
             ) u_cal (
@@ -173,8 +202,10 @@ module enc_interp #(
                 .m_updates(m_cal_updates)
             );
             always @(posedge clk) begin
-                if (va) idx_k <= idx_a;
-                if (va) obs_cfg_k <= obs_cfg_a;
+                if (va) begin
+                    idx_k <= idx_a;
+                    hen_k <= hen_a;
+                end
             end
             always @(posedge clk) begin
                 if (rst) begin
@@ -190,7 +221,7 @@ module enc_interp #(
             assign a_in    = ac_k;
             assign b_in    = bc_k;
             assign idx_in  = idx_k;
-            assign obs_cfg_in = obs_cfg_k;
+            assign hen_in  = hen_k;
             assign clr_in  = clr_k;
             assign arm_in  = arm_k;
             assign clip_in = clip_k;
@@ -204,7 +235,7 @@ module enc_interp #(
             assign a_in    = a_a;
             assign b_in    = b_a;
             assign idx_in  = idx_a;
-            assign obs_cfg_in = obs_cfg_a;
+            assign hen_in  = hen_a;
             assign clr_in  = clr_a;
             assign arm_in  = arm_a;
             assign clip_in = (a_a == 8'h80) || (a_a == 8'h7f) || (b_a == 8'h80) || (b_a == 8'h7f);
@@ -234,56 +265,208 @@ module enc_interp #(
     wire          half = (y >= x);                 // local angle >= 45 deg: the smaller is x
     wire [AW-1:0] msm  = half ? x : y;             // the smaller magnitude
 
-    reg                vb;
-    reg [LUT_BITS-1:0] lut_b;
+    wire [AW-1:0] mlg  = half ? y : x;             // the larger magnitude (ANGLE = 1)
+
+    // Delay from the select to the table read: ANGLE_REG register(s), then (ANGLE = 1) the
+    // divider's RATIO_BITS + 1 stages. Control bits (valid, pulses) are reset, data is not.
+    localparam integer QB  = RATIO_BITS + 1;
+    localparam integer XD  = ANGLE_REG + ((ANGLE != 0) ? QB : 0);
+    localparam integer SBW = 7;
+    wire [2:0]     ctl_0 = {v_in, v_in & clr_in, v_in & arm_in};
+    wire [SBW-1:0] sbd_0 = {hen_in, sa, odd, half, idx_in, clip_in, bad_in};
+    wire [2:0]     ctl_s;                           // at the table read
+    wire [SBW-1:0] sbd_s;
+    wire [AW-1:0]  msm_r, mlg_r;                    // after the optional ANGLE_REG register
     generate
-        if (CAL != 0) begin : g_lut_cal
-            wire [8:0]         addr = (msm > 12'd511) ? 9'd511 : msm[8:0];  // the table clamps
+        if (XD == 0) begin : g_nodelay
+            assign ctl_s = ctl_0;
+            assign sbd_s = sbd_0;
+        end else begin : g_delay
+            reg  [3*XD-1:0]   ctl_d;                      // tap i in bits [3i +: 3]
+            reg  [SBW*XD-1:0] sbd_d;
+            wire [3*XD+2:0]   ctl_sh = {ctl_d, ctl_0};
+            wire [SBW*XD+SBW-1:0] sbd_sh = {sbd_d, sbd_0};
+            always @(posedge clk) begin
+                if (rst) ctl_d <= {(3 * XD){1'b0}};
+                else     ctl_d <= ctl_sh[3*XD-1:0];
+            end
+            always @(posedge clk) sbd_d <= sbd_sh[SBW*XD-1:0];
+            wire unused_sh = &{1'b0, ctl_sh[3*XD+2:3*XD], sbd_sh[SBW*XD+SBW-1:SBW*XD]};
+            assign ctl_s = ctl_d[3*XD-1 -: 3];
+            assign sbd_s = sbd_d[SBW*XD-1 -: SBW];
+        end
+        if (ANGLE_REG != 0) begin : g_areg
+            reg [AW-1:0] msm_q, mlg_q;
+            always @(posedge clk) begin
+                msm_q <= msm;
+                mlg_q <= mlg;
+            end
+            assign msm_r = msm_q;
+            assign mlg_r = mlg_q;
+        end else begin : g_noareg
+            assign msm_r = msm;
+            assign mlg_r = mlg;
+        end
+    endgenerate
+
+    // ANGLE = 1: the ratio table carries HF = 2 fraction bits (0..2**(LUT_BITS+HF)); the fine
+    // angle is rounded back to counts after the (HARM = 1) harmonic correction in 1/4 count
+    localparam integer HF  = (ANGLE != 0) ? 2 : 0;
+    localparam integer TW  = LUT_BITS + 1 + HF;     // table word
+    reg              vb;
+    wire [TW-1:0]    t_b;                           // table output: 0..2**(LUT_BITS+HF)
+    generate
+        if (ANGLE != 0) begin : g_ratio
+            // atan(m / M) through floor(m 2**RATIO_BITS / M) (clamped: m = M reads the last entry)
+            localparam integer RN = 1 << RATIO_BITS;
+            wire [QB-1:0]         quo;
+            ratio_div #(.W(AW), .QB(QB)) u_div (
+                .clk(clk), .s_num(msm_r), .s_den(mlg_r), .m_quo(quo)
+            );
+            wire [RATIO_BITS-1:0] addr = quo[QB-1] ? {RATIO_BITS{1'b1}} : quo[RATIO_BITS-1:0];
+            reg [TW-1:0]          rtab [0:RN-1];
+            reg [TW-1:0]          t_q;
+            initial $readmemh(RATIO_FILE, rtab);
+            always @(posedge clk) t_q <= rtab[addr];
+            assign t_b = t_q;
+        end else if (CAL != 0) begin : g_lut_cal
+            wire [8:0]         addr = (msm_r > 12'd511) ? 9'd511 : msm_r[8:0];  // the table clamps
             reg [LUT_BITS-1:0] lut [0:LUT_N-1];
+            reg [LUT_BITS-1:0] lut_b;
             initial $readmemh(CAL_LUT_FILE, lut);
             always @(posedge clk) lut_b <= lut[addr];
+            assign t_b = {1'b0, lut_b};
+            wire unused_mlg = &{1'b0, mlg_r};
         end else begin : g_lut
-            wire [7:0]         addr = msm;                                 // 0..128
+            wire [7:0]         addr = msm_r;                               // 0..128
             reg [LUT_BITS-1:0] lut [0:LUT_N-1];
+            reg [LUT_BITS-1:0] lut_b;
             initial $readmemh(LUT_FILE, lut);
             always @(posedge clk) lut_b <= lut[addr];
+            assign t_b = {1'b0, lut_b};
+            wire unused_mlg = &{1'b0, mlg_r};
         end
     endgenerate
     reg [1:0]          q_b;
-    reg                half_b, idx_b, clr_b, arm_b, clip_b, bad_b;
-    reg [4:0]          obs_cfg_b;
+    reg                half_b, idx_b, clr_b, arm_b, clip_b, bad_b, hen_b;
 
     always @(posedge clk) begin
-        q_b    <= {sa, odd};
-        obs_cfg_b <= obs_cfg_in;
-        half_b <= half;
-        idx_b  <= idx_in;
-        clip_b <= clip_in;
-        bad_b  <= bad_in;
+        hen_b  <= sbd_s[6];
+        q_b    <= sbd_s[5:4];
+        half_b <= sbd_s[3];
+        idx_b  <= sbd_s[2];
+        clip_b <= sbd_s[1];
+        bad_b  <= sbd_s[0];
     end
 
     always @(posedge clk) begin
         if (rst) begin
-            vb      <= 1'b0;
-            clr_b   <= 1'b0;
-            arm_b   <= 1'b0;
-            sa_prev <= 1'b0;
-            sb_prev <= 1'b0;
+            vb    <= 1'b0;
+            clr_b <= 1'b0;
+            arm_b <= 1'b0;
         end else begin
-            vb    <= v_in;
-            clr_b <= v_in & clr_in;
-            arm_b <= v_in & arm_in;
-            if (v_in) begin
-                sa_prev <= sa;
-                sb_prev <= sb;
-            end
+            vb    <= ctl_s[2];
+            clr_b <= ctl_s[1];
+            arm_b <= ctl_s[0];
         end
     end
 
+    always @(posedge clk) begin
+        if (rst) begin
+            sa_prev <= 1'b0;
+            sb_prev <= 1'b0;
+        end else if (v_in) begin
+            sa_prev <= sa;
+            sb_prev <= sb;
+        end
+    end
+
+    // ---------------------------------------------------------------- stage H: harmonic table (HARM = 1)
+    // Stage C's inputs: the sample after stage B (or after stage H), fine angle sign-extended.
+    wire           vC, clrC, armC, idxC, clipC, badC;
+    wire [1:0]     qC;
+    wire [31:0]    fineC;
+    generate
+        if (HARM != 0) begin : g_harm
+            localparam integer HN  = 1 << HARM_LOG2;
+            localparam integer FH  = FB + HF;                    // fine bits in 1/2**HF count
+            localparam [FH:0]  QUAD_H = {1'b1, {FH{1'b0}}};
+            wire [FH:0]          fine_h = half_b ? QUAD_H - {1'b0, t_b} : {1'b0, t_b};
+            wire [FH+1:0]        lpos   = {q_b, {FH{1'b0}}} + {1'b0, fine_h};  // mod one line
+            wire [HARM_LOG2-1:0] hidx   = lpos[FH+1 -: HARM_LOG2];
+            reg  [7:0]           htab [0:HN-1];
+            reg  [7:0]           h_rd, rdata_q;
+            reg                  vh, clr_h, arm_h, rd_smp;
+            reg  [1:0]           q_h;
+            reg                  idx_h, clip_h, bad_h, hen_h;
+            reg  [FH:0]          fine_hq;
+            wire [HARM_LOG2-1:0] raddr = vb ? hidx : cfg_harm_addr[HARM_LOG2-1:0];
+            always @(posedge clk) begin
+                if (cfg_harm_we) htab[cfg_harm_addr[HARM_LOG2-1:0]] <= cfg_harm_data;
+                h_rd <= htab[raddr];
+            end
+            always @(posedge clk) begin
+                q_h     <= q_b;
+                idx_h   <= idx_b;
+                clip_h  <= clip_b;
+                bad_h   <= bad_b;
+                hen_h   <= hen_b;
+                fine_hq <= fine_h;
+                if (!rd_smp) rdata_q <= h_rd;                      // a read-back clock
+            end
+            always @(posedge clk) begin
+                if (rst) begin
+                    vh     <= 1'b0;
+                    clr_h  <= 1'b0;
+                    arm_h  <= 1'b0;
+                    rd_smp <= 1'b0;
+                end else begin
+                    vh     <= vb;
+                    clr_h  <= clr_b;
+                    arm_h  <= arm_b;
+                    rd_smp <= vb;
+                end
+            end
+            // fine = (fine_h - H + 2**(HF-1)) >> HF, signed: may leave 0..2**FB by the correction
+            wire [31:0] hx   = hen_h ? {{24{h_rd[7]}}, h_rd} : 32'd0;
+            wire [31:0] fsum = {{(31 - FH){1'b0}}, fine_hq} - hx + 32'd2;  // + half a count
+            wire [31:0] fcor = {{HF{fsum[31]}}, fsum[31:HF]};
+            assign vC    = vh;
+            assign clrC  = clr_h;
+            assign armC  = arm_h;
+            assign idxC  = idx_h;
+            assign clipC = clip_h;
+            assign badC  = bad_h;
+            assign qC    = q_h;
+            assign fineC = (COARSE != 0) ? 32'd0 : fcor;
+            assign m_harm_rdata = rdata_q;
+            wire unused_h = &{1'b0, fsum[HF-1:0], cfg_harm_addr, lpos[FH+1-HARM_LOG2:0]};
+        end else begin : g_noharm
+            // ANGLE = 0: f = h ? 2**FB - T : T; ANGLE = 1: f = round((h ? 2**(FB+HF) - T : T) / 4)
+            wire [FB+HF:0] lut_ext = {1'b0, t_b};
+            wire [FB+HF:0] quad_e  = {1'b1, {(FB + HF){1'b0}}};
+            wire [FB+HF:0] fine_e  = half_b ? quad_e - lut_ext : lut_ext;  // mirror: 2**FB - T
+            localparam integer RND_I = (HF == 2) ? 2 : 0;   // half a count in 1/4 count
+            localparam [FB+HF:0] RND = RND_I[FB+HF:0];
+            wire [FB+HF:0] fine_r  = fine_e + RND;
+            wire [FB:0]    fine_i  = fine_r[FB+HF:HF];
+            assign vC    = vb;
+            assign clrC  = clr_b;
+            assign armC  = arm_b;
+            assign idxC  = idx_b;
+            assign clipC = clip_b;
+            assign badC  = bad_b;
+            assign qC    = q_b;
+            assign fineC = (COARSE != 0) ? 32'd0 : {{(31 - FB){1'b0}}, fine_i};
+            assign m_harm_rdata = 8'd0;
+            if (HF != 0) begin : g_round
+                wire unused_r = &{1'b0, fine_r[HF-1:0]};
+            end
+            wire unused_h = &{1'b0, hen_b, cfg_harm_we, cfg_harm_addr, cfg_harm_data};
+        end
+    endgenerate
+
     // ---------------------------------------------------------------- stage C: count, index, faults
-    wire [FB:0]    lut_ext = {{(FB + 1 - LUT_BITS){1'b0}}, lut_b};
-    wire [FB:0]    fine_i  = half_b ? QUADRANT - lut_ext : lut_ext;  // mirror: 2**FB - T, not -1
-    wire [FB:0]    fine    = (COARSE != 0) ? {(FB + 1){1'b0}} : fine_i;
 
     reg            started, last_up, idx_prev, arm_pend, homed_q;
     reg [1:0]      q_prev;
@@ -292,12 +475,12 @@ module enc_interp #(
     reg [RUNW-1:0] run;
     reg [2:0]      flags;
 
-    wire [1:0]     dq        = q_b - q_prev;
+    wire [1:0]     dq        = qC - q_prev;
     wire           overspeed = started && (dq == 2'd2);
     reg  [QCW-1:0] qc_next;
     always @(*) begin
         if (!started)
-            qc_next = {{(QCW - 2){1'b0}}, q_b};
+            qc_next = {{(QCW - 2){1'b0}}, qC};
         else case (dq)
             2'd1:    qc_next = qc + 1'b1;
             2'd3:    qc_next = qc - 1'b1;
@@ -307,19 +490,19 @@ module enc_interp #(
     end
 
     wire [31:0]     qstart   = {qc_next, {FB{1'b0}}};
-    wire [31:0]     pos_next = qstart + {{(31 - FB){1'b0}}, fine};
+    wire [31:0]     pos_next = qstart + fineC;
     // The index is high in quadrant 0 of line 0, so its edge marks a line start; the decoder may
     // still show the neighbouring quadrant there (the channel crossing zero reads 0 and holds its
     // sign), so the latch takes the nearest line start: qc rounded to a multiple of 4.
     wire [QCW-3:0]  qline      = qc_next[QCW-1:2] + {{(QCW - 3){1'b0}}, qc_next[1]};  // (qc+2)/4
     wire [31:0]     line_start = {qline, 2'b00, {FB{1'b0}}};
-    wire            rise     = idx_b & ~idx_prev;
-    wire            home_now = rise & (arm_pend | arm_b);
+    wire            rise     = idxC & ~idx_prev;
+    wire            home_now = rise & (arm_pend | armC);
     wire [31:0]     home_next = home_now ? line_start : home;
-    wire [RUNW-1:0] run_next = !bad_b ? {RUNW{1'b0}}
+    wire [RUNW-1:0] run_next = !badC ? {RUNW{1'b0}}
                              : (run == LOSS_N) ? run : run + 1'b1;
     wire            loss     = (run_next == LOSS_N);
-    wire [2:0]      flags_next = (clr_b ? 3'b000 : flags) | {loss, clip_b, overspeed};
+    wire [2:0]      flags_next = (clrC ? 3'b000 : flags) | {loss, clipC, overspeed};
 
     reg        vc;
     reg [31:0] pos_c, pos_homed_c, index_pos_c;
@@ -342,19 +525,19 @@ module enc_interp #(
             index_count_c <= 16'd0;
             ovs_count_c   <= 16'd0;
         end else begin
-            vc <= vb;
-            if (vb) begin
+            vc <= vC;
+            if (vC) begin
                 started  <= 1'b1;
-                q_prev   <= q_b;
+                q_prev   <= qC;
                 qc       <= qc_next;
                 if (started && dq == 2'd1) last_up <= 1'b1;
                 if (started && dq == 2'd3) last_up <= 1'b0;
-                idx_prev <= idx_b;
+                idx_prev <= idxC;
                 if (rise) begin
                     index_pos_c   <= line_start;
                     index_count_c <= index_count_c + 16'd1;
                 end
-                if (arm_b) begin
+                if (armC) begin
                     arm_pend <= 1'b1;
                     homed_q  <= 1'b0;
                 end
@@ -370,13 +553,11 @@ module enc_interp #(
         end
     end
 
-    reg [4:0]  obs_cfg_c;
-    reg        ovs_c;
+    reg ovs_c;
     always @(posedge clk) begin
-        if (vb) begin
+        if (vC) begin
             pos_c       <= pos_next;
             pos_homed_c <= pos_next - home_next;
-            obs_cfg_c   <= obs_cfg_b;
             ovs_c       <= overspeed;
         end
     end
@@ -389,12 +570,12 @@ module enc_interp #(
         if (VEL_OBS != 0) begin : g_obs
             vel_observer #(.VEL_LOG2W(VEL_LOG2W)) u_obs (
                 .clk(clk), .rst(rst), .s_valid(vc), .s_pos(pos_c), .s_hold(flags[2]),
-                .s_ovs(ovs_c), .cfg_bw(obs_cfg_c[3:0]), .cfg_type3(obs_cfg_c[4]),
+                .s_ovs(ovs_c), .cfg_bw(cfg_obs_bw), .cfg_type3(cfg_obs_type3),
                 .m_vel(obs_vel)
             );
         end else begin : g_noobs
             assign obs_vel = 32'd0;
-            wire unused_obs = &{1'b0, obs_cfg_c, ovs_c};
+            wire unused_obs = &{1'b0, cfg_obs_bw, cfg_obs_type3, ovs_c};
         end
     endgenerate
 
@@ -413,13 +594,15 @@ module enc_interp #(
             hist[wptr] <= pos_c[DW-1:0];
             old_d      <= hist[wptr];            // read-before-write: pos[n - W]
         end
-        pos_d         <= pos_c;
-        pos_homed_d   <= pos_homed_c;
-        index_pos_d   <= index_pos_c;
-        index_count_d <= index_count_c;
-        ovs_count_d   <= ovs_count_c;
-        homed_d       <= homed_q;
-        flags_d       <= flags;
+        if (vc) begin  // (held between samples: a simulator then skips the copies too)
+            pos_d         <= pos_c;
+            pos_homed_d   <= pos_homed_c;
+            index_pos_d   <= index_pos_c;
+            index_count_d <= index_count_c;
+            ovs_count_d   <= ovs_count_c;
+            homed_d       <= homed_q;
+            flags_d       <= flags;
+        end
     end
 
     always @(posedge clk) begin

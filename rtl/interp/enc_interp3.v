@@ -21,6 +21,12 @@ module enc_interp3 #(
     parameter integer CAL_LINES_LOG2 = 3,        // CAL = 1: calibration block 2**N lines
     parameter integer CAL_NLOG     = 14,         // CAL = 1: blocks of 2**N samples ignored
     parameter integer COARSE       = 0,          // 1: plain quadrature (fine angle zeroed)
+    parameter integer ANGLE        = 0,          // 1: ratio angle stage atan(smaller / larger)
+    parameter integer RATIO_BITS   = 10,         // ANGLE = 1: ratio table 2**RATIO_BITS entries
+    parameter         RATIO_FILE   = "atan.hex", // ANGLE = 1: the ratio table
+    parameter integer ANGLE_REG    = 0,          // 1: register after the angle select (latency + 1)
+    parameter integer HARM         = 0,          // 1 (ANGLE = 1): harmonic correction table
+    parameter integer HARM_LOG2    = 6,          // HARM = 1: 2**HARM_LOG2 entries per line
     parameter integer VEL_OBS      = 0           // 1: tracking velocity observer in every axis
 ) (
     input  wire                 clk,
@@ -34,6 +40,11 @@ module enc_interp3 #(
     input  wire [AXES-1:0]      ctl_cal_en,      // calibration controls (CAL = 1), per axis
     input  wire [AXES-1:0]      ctl_cal_freeze,
     input  wire [4*AXES-1:0]    cfg_cal_mu,
+    input  wire [AXES-1:0]      ctl_harm_en,     // harmonic correction (HARM = 1), per axis
+    input  wire [AXES-1:0]      cfg_harm_we,     // table write strobe per axis
+    input  wire [7:0]           cfg_harm_addr,   // entry (write and read-back), shared
+    input  wire [7:0]           cfg_harm_data,   // signed, 1/4 count
+    output wire [8*AXES-1:0]    m_harm_rdata,    // read-back of entry cfg_harm_addr per axis
     input  wire [4*AXES-1:0]    cfg_obs_bw,      // observer bandwidth code per axis (VEL_OBS = 1)
     input  wire [AXES-1:0]      cfg_obs_type3,   // observer acceleration state per axis
     output wire                 m_valid,
@@ -79,6 +90,8 @@ module enc_interp3 #(
                 .AMP_MIN(AMP_MIN), .AMP_MAX(AMP_MAX), .LOSS_SAMPLES(LOSS_SAMPLES),
                 .INVERT((INVERT_MASK >> i) & 1), .CAL(CAL), .CAL_LUT_FILE(CAL_LUT_FILE),
                 .CAL_LINES_LOG2(CAL_LINES_LOG2), .CAL_NLOG(CAL_NLOG), .COARSE(COARSE),
+                .ANGLE(ANGLE), .RATIO_BITS(RATIO_BITS), .RATIO_FILE(RATIO_FILE),
+                .ANGLE_REG(ANGLE_REG), .HARM(HARM), .HARM_LOG2(HARM_LOG2),
                 .VEL_OBS(VEL_OBS)
             ) u_axis (
                 .clk(clk), .rst(rst),
@@ -98,7 +111,10 @@ module enc_interp3 #(
                 .m_cal_ofs_a(m_cal_ofs_a[16*i +: 16]), .m_cal_ofs_b(m_cal_ofs_b[16*i +: 16]),
                 .m_cal_gain_a(m_cal_gain_a[16*i +: 16]), .m_cal_gain_b(m_cal_gain_b[16*i +: 16]),
                 .m_cal_phase(m_cal_phase[16*i +: 16]), .m_cal_gear(m_cal_gear[8*i +: 8]),
-                .m_cal_updates(m_cal_updates[16*i +: 16])
+                .m_cal_updates(m_cal_updates[16*i +: 16]),
+                .ctl_harm_en(ctl_harm_en[i]), .cfg_harm_we(cfg_harm_we[i]),
+                .cfg_harm_addr(cfg_harm_addr), .cfg_harm_data(cfg_harm_data),
+                .m_harm_rdata(m_harm_rdata[8*i +: 8])
             );
         end
     endgenerate

@@ -141,6 +141,7 @@ module hapgate_top #(
 `endif
     endgenerate
 
+    wire [8*NAX-1:0] harm_rdata;
     enc_interp3 #(
         .CLK_HZ(CLK_HZ), .SAMPLE_HZ(SAMPLE_HZ), .AXES(NAX), .LUT_BITS(LUT_BITS),
         .LUT_FILE(ASIN_FILE), .VEL_LOG2W(VEL_LOG2W), .AMP_MIN(AMP_MIN), .AMP_MAX(AMP_MAX),
@@ -158,9 +159,12 @@ module hapgate_top #(
         .m_cal_valid(cal_valid), .m_cal_ofs_a(c_cal_ofs_a), .m_cal_ofs_b(c_cal_ofs_b),
         .m_cal_gain_a(c_cal_gain_a), .m_cal_gain_b(c_cal_gain_b), .m_cal_phase(c_cal_phase),
         .m_cal_gear(c_cal_gear), .m_cal_updates(c_cal_updates),
+        // harmonic correction (enc_interp HARM = 1) not built in the top: tied off
+        .ctl_harm_en({NAX{1'b0}}), .cfg_harm_we({NAX{1'b0}}), .cfg_harm_addr(8'd0),
+        .cfg_harm_data(8'd0), .m_harm_rdata(harm_rdata),
         .m_vel_obs(c_vel_obs), .cfg_obs_bw(c_obs_bw), .cfg_obs_type3(c_obs_type3)
     );
-    wire unused_cal_valid = cal_valid;  // (the registers read the live state)
+    wire unused_cal_valid = &{1'b0, cal_valid, harm_rdata};  // (the registers read the live state)
     wire [95:0] cal_ofs_w, cal_gain_w, cal_stat_w;
 
     genvar ax;

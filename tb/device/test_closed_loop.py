@@ -121,3 +121,26 @@ def test_unbuilt_axis_is_held_still():
     assert np.ptp(q[:, 0]) == 0 and np.ptp(q[:, 2]) == 0
     assert np.ptp(q[:, 1]) > 0
     assert any("axis 0" in x for x in r.skipped) and any("axis 2" in x for x in r.skipped)
+
+
+def test_link_garbage_is_dropped_and_the_pc_force_expires():
+    """The scripted PC pushes 1 N through the link (SET_FORCE every 5 ms); at 30 ms 512 seeded
+    random bytes arrive, then silence. The firmware counts bad frames and acts on none of them
+    (its good-frame count is exactly the PC's ENABLE and SET_FORCE frames), renders the PC's force
+    while it lives and from (last good frame + timeout) at most one servo tick on renders zero,
+    without latching an error."""
+    s = sc.load(SCENES / "link_garbage.toml").override({
+        "run.axes": [1], "run.duration_s": 0.05, "fault": [
+            {"at_s": 0.03, "kind": "link_garbage", "bytes": 512}],
+        "firmware.pc_force_timeout_ms": 10.0, "expect": {}})
+    r = runner.run(s)
+    m = r.metrics
+    sent = 1 + 6                                       # ENABLE + SET_FORCE at 0, 5, ..., 25 ms
+    assert m["link_good_frames"] == sent, m
+    assert m["link_bad_frames"] >= 1 and m["fw_error"] == "NONE", m
+    tick_ms = 1e3 / s.run.servo_hz
+    assert 10.0 - tick_ms <= m["pc_force_zero_ms"] <= 10.0 + tick_ms, m
+    t, f = r.arrays["tick_t"], r.arrays["tick_f_cmd"]
+    live = (t > 0.002) & (t < 0.03)
+    assert np.allclose(f[live], s.pc.force_n, atol=1e-6), f[live][:3]
+    assert not np.any(f[t > 0.03 + 0.010 + 2 * tick_ms * 1e-3])

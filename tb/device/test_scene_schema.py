@@ -51,7 +51,7 @@ def test_every_example_scene_loads(path: Path) -> None:
 
 def test_the_examples_listed_in_the_task_exist() -> None:
     need = {"wall", "wall_10k", "free_fast", "dropout", "hang", "watchdog", "miscommutation",
-            "pc_force", "short"}
+            "pc_force", "short", "link_garbage"}
     assert need <= {p.stem for p in SCENES}
     short = sc.load(ROOT / "scenes" / "short.toml")
     assert short.run.duration_s <= 0.02 and len(short.run.axes) == 1
@@ -269,6 +269,19 @@ BAD = [
     ("trace_model", '[run]\nfidelity = "model"\ntrace = true\n', r": run\.trace: a waveform"),
     ("zero_torque_no_fault", "[expect]\nzero_torque_within_us = 20.0\n",
      r": expect\.zero_torque_within_us: the scene injects no"),
+    ("garbage_needs_pc", '[[fault]]\nat_s = 0.0\nkind = "link_garbage"\n',
+     r": fault\[0\]\.kind: link_garbage needs the PC link: env kind \"pc\", not 'none'"),
+    ("garbage_bytes_range", '[env]\nkind = "pc"\n[[fault]]\nat_s = 0.0\nkind = "link_garbage"\n'
+     'bytes = 0\n', r": fault\[0\]\.bytes: 0 out of range: 1\.\.65536"),
+    ("bytes_not_garbage", '[[fault]]\nat_s = 0.0\nkind = "hang"\nbytes = 4\n',
+     r": fault\[0\]\.bytes: applies to link_garbage only, not 'hang'"),
+    ("pc_needs_pc_env", '[env]\nkind = "wall"\n[pc]\nforce_n = [0.0, 1.0, 0.0]\n',
+     r": pc: a scripted PC needs env kind \"pc\", not 'wall'"),
+    ("pc_force_limit", '[env]\nkind = "pc"\n[pc]\nforce_n = [0.0, 11.0, 0.0]\n',
+     r": pc\.force_n: \|f\| = 11 N out of range: <= 10 N"),
+    ("pc_unknown", '[env]\nkind = "pc"\n[pc]\nforce = [0.0, 1.0, 0.0]\n',
+     r": pc\.force: unknown key"),
+    ("pc_period", '[env]\nkind = "pc"\n[pc]\nperiod_ms = 0.5\n', r": pc\.period_ms: 0\.5 out of"),
     ("expect_ratio_order", "[expect]\nmin_torque_ratio = 0.9\nmax_torque_ratio = 0.8\n",
      r": expect\.min_torque_ratio: exceeds"),
 ]

@@ -169,8 +169,16 @@ def test_garbage_bursts_move_nothing_and_resync(served: Server) -> None:
         after = dev.stats().device
         s1 = dev.state()                           # resynchronised: requests work
         dev.stop_stream()
-    assert all(s.torque_zero for s in pushes if s.seq > s0.seq + 4)
-    assert all(s.f == (0.0, 0.0, 0.0) for s in pushes if s.seq > s0.seq + 4)
+    # the good force's first tick, from the device's own latency report (not from the PC's
+    # clock: on a loaded machine the device may run ahead of the PC by many ticks); its TTL is 2
+    ctr = dev._counter & 0xFFFF
+    lat = {s.force_latency_ticks for s in pushes if s.force_counter == ctr}
+    assert len(lat) == 1, lat                      # no strong force was ever accepted
+    over = s0.seq + lat.pop() + 2
+    quiet = [s for s in pushes if s.seq >= over]
+    assert len(quiet) >= len(pushes) - 3
+    assert all(s.torque_zero for s in quiet)
+    assert all(s.f == (0.0, 0.0, 0.0) for s in quiet)
     pos = np.array([s.p for s in pushes])
     assert np.abs(pos - pos[0]).max() < 2e-5        # nothing pushed the handle
     bad = sum(after[k] - before[k] for k in ("bad_framing", "bad_crc", "bad_version",

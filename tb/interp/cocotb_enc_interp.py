@@ -16,7 +16,7 @@ from cocotb.utils import get_sim_time
 from hapgate.golden import encsig, interp
 from hapgate.runners import native, tbutil
 
-LATENCY = 5        # clocks from the cycle with s_valid high to the cycle with m_valid high
+LATENCY = 5        # clocks s_valid -> m_valid, paper path (+1 ANGLE_REG, +RB+1 ratio, +1 HARM)
 PERIOD_NS = 20     # 50 MHz for the unit test; the 3-axis top derives its strobe from CLK_HZ
 
 
@@ -87,8 +87,12 @@ async def stream(dut, sc: encsig.Scenario, gaps: np.ndarray | None = None,
     return {c: np.array(v, dtype=np.int64) for c, v in cols.items()}, np.array(lat)
 
 
-def assert_latency(lat_ns: np.ndarray) -> None:
-    want = LATENCY * PERIOD_NS
+def assert_latency(lat_ns: np.ndarray, cfg: interp.InterpConfig) -> None:
+    """Latency is part of the spec: LATENCY clocks for the paper's path, one more with the angle
+    register (ANGLE_REG), RATIO_BITS + 1 more with the ratio divider (ANGLE = 1)."""
+    extra = int(cfg.angle_reg) + ((cfg.ratio_bits + 1) if cfg.ratio else 0) + int(cfg.harm)
+    assert cfg.latency == LATENCY + extra + int(cfg.cal)
+    want = (LATENCY + extra) * PERIOD_NS
     assert np.all(lat_ns == want), f"latency {sorted(set(lat_ns.tolist()))} ns != {want} ns"
 
 
@@ -99,6 +103,10 @@ async def reset(dut) -> None:
     dut.s_index.value = 0
     dut.ctl_fault_clear.value = 0
     dut.ctl_home_arm.value = 0
+    dut.ctl_harm_en.value = 0      # harmonic table (HARM = 1) off and not written
+    dut.cfg_harm_we.value = 0
+    dut.cfg_harm_addr.value = 0
+    dut.cfg_harm_data.value = 0
     await tbutil.start(dut, period_ns=PERIOD_NS)
 
 
@@ -120,7 +128,7 @@ async def scenario_bit_exact(dut):
     if os.environ.get("HG_DUMP"):  # the benchmark measures the RTL's own positions
         np.save(os.environ["HG_DUMP"], rtl["pos"])
     check(rtl, sc, cfg)
-    assert_latency(lat)
+    assert_latency(lat, cfg)
 
 
 @cocotb.test()
@@ -128,13 +136,13 @@ async def gaps_latency_and_pulses(dut):
     """Samples with random idle clocks between them, control pulses in the idle clocks: the
     results are the same, and the latency is LATENCY clocks of simulation time."""
     cfg = config()
-    sc = encsig.scenario("dropout_controls", 3000)
+    sc = encsig.scenario("dropout_controls", int(os.environ.get("HG_GAPS_SAMPLES", "3000")))
     rng = np.random.default_rng(3)
     gaps = rng.integers(1, 4, sc.a.size)
     await reset(dut)
     rtl, lat = await stream(dut, sc, gaps=gaps, pulses_between=True)
     check(rtl, sc, cfg)
-    assert_latency(lat)
+    assert_latency(lat, cfg)
 
 
 @cocotb.test()

@@ -90,8 +90,12 @@ async def observer_bit_exact(dut):
     assert rtl["pos"].size == n, f"{rtl['pos'].size} results for {n} samples"
     out = interp.run(sc.a, sc.b, sc.index, cfg, clear_at=sc.clear_at, arm_at=sc.arm_at)
     model = native.model_matrix(out)
+    # the settings are levels read at each sample's update, latency - 2 clocks after its capture:
+    # at one sample per clock, those driven with sample k + latency - 2
+    lag = cfg.latency - 2
+    at = np.minimum(np.arange(n) + lag, n - 1)
     model["vel_obs"] = velobs.run_interp(out, velobs.ObsConfig(vel_log2w=cfg.vel_log2w),
-                                         bw=bw, type3=t3)
+                                         bw=bw[at], type3=t3[at])
     bad = native.first_mismatch(rtl, model)
     assert bad is None, f"{sc.name}: first mismatch at sample {bad[0]}, column {bad[1]}: " \
                         f"RTL {bad[2]} model {bad[3]}"

@@ -19,11 +19,12 @@ SAMPLES = {"verilator": 6000, "icarus": 2500}   # per scenario (Icarus is the sl
 
 
 def _run(simulator: str, cfg: interp.InterpConfig, testcase: str | list[str],
-         scenario: str = "") -> None:
+         scenario: str = "", gaps_samples: int = 3000) -> None:
     sim.run_cocotb(blocks.get("enc_interp"), simulator, "cocotb_enc_interp", HERE,
                    params=cfg.rtl_params(), testcase=testcase,
                    extra_env={"HG_MODEL": json.dumps(asdict(cfg)), "HG_SCENARIO": scenario,
-                              "HG_SAMPLES": str(SAMPLES[simulator])})
+                              "HG_SAMPLES": str(SAMPLES[simulator]),
+                              "HG_GAPS_SAMPLES": str(gaps_samples)})
 
 
 @pytest.mark.parametrize("simulator", sim.simulators())
@@ -48,3 +49,19 @@ def test_other_lut_density(simulator: str, lut_bits: int) -> None:
     """The LUT density is a parameter (the bench sweeps 5..9): bit-exact at both ends."""
     cfg = interp.InterpConfig(lut_bits=lut_bits, vel_log2w=4, loss_samples=3)
     _run(simulator, cfg, "scenario_bit_exact", "reversals_paper")
+
+
+@pytest.mark.parametrize("cfg", [interp.InterpConfig(angle_reg=True),
+                                 interp.InterpConfig(ratio=True, lut_bits=9, angle_reg=True),
+                                 interp.InterpConfig(ratio=True, harm=True)],
+                         ids=["angle_reg", "ratio4096_angle_reg", "ratio_harm_off"])
+def test_angle_stage_variants(cfg: interp.InterpConfig) -> None:
+    """The angle register stage (ANGLE_REG = 1, issue 15) and the ratio stage at 4096 counts per
+    line (ANGLE = 1, LUT_BITS = 9) on Icarus (no build cost; Verilator where Icarus is missing):
+    bit-exact on every sample and
+    column with idle clocks and pulses between samples, and the latency of each variant in
+    simulation time (5 + 1, 5 + 1 + 11 clocks), and the harmonic table's stage (HARM = 1, table
+    disabled: the plain ratio angle, 5 + 11 + 1 clocks). The native harness runs the ratio stage
+    and the harmonic table at 1024 counts per line over 10^6 samples (test_ratio_native.py)."""
+    # 1200 samples of the dropout scenario (its dropout, clears and arms scale with n)
+    _run(sim.simulators()[-1], cfg, ["gaps_latency_and_pulses"], gaps_samples=1200)

@@ -91,16 +91,16 @@ async def observer_through_the_top(dut) -> None:
 
     # ---------------------------------------------------------------- the models
     cap = (np.arange(N) + 1) * CFG.div + 1      # capture edge of each sample
+    upd = cap + CFG.interp.latency - 2          # its observer update (the settings read there)
     for i in range(3):
         bw = np.full(N, 6)
         t3 = np.ones(N, dtype=bool)
         sel = np.ones(N, dtype=bool)
         for c in mon.committed:
             if c.we and c.word == W["VEL_CTRL"]:
-                after = cap > c.edge
-                bw[after] = (c.wdata >> (8 + 4 * i)) & 15
-                t3[after] = bool((c.wdata >> (4 + i)) & 1)
-                sel[after] = bool((c.wdata >> i) & 1)
+                bw[upd > c.edge] = (c.wdata >> (8 + 4 * i)) & 15
+                t3[upd > c.edge] = bool((c.wdata >> (4 + i)) & 1)
+                sel[cap > c.edge] = bool((c.wdata >> i) & 1)
         out = interp.run(a[:, i], b[:, i], None, CFG.interp)
         vo = velobs.run_interp(out, bw=bw, type3=t3)
         for name, got in snaps:

@@ -48,6 +48,9 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                    help="online encoder calibration on (enc_interp CAL = 1, enabled from the "
                         "first sample; output format unchanged; the error includes its "
                         "convergence, ~200 lines)")
+    p.add_argument("--angle", choices=("asin", "ratio"), default="asin",
+                   help="angle stage: the paper's arcsine (default) or the ratio table "
+                        "atan(smaller / larger) (enc_interp ANGLE = 1; rtl/interp/README.md)")
     p.add_argument("--no-align", action="store_true",
                    help="do not remove the mean offset between position and truth_counts")
 
@@ -72,10 +75,12 @@ def clock_error(clk_hz: int) -> str | None:
 
 
 def main(args: argparse.Namespace) -> int:
-    if args.calib and args.lut_bits > 8:
-        print("error: --calib needs --lut-bits <= 8", file=sys.stderr)
+    ratio = args.angle == "ratio"
+    if args.calib and args.lut_bits > 8 and not ratio:
+        print("error: --calib with the arcsine needs --lut-bits <= 8 (or --angle ratio)",
+              file=sys.stderr)
         return 2
-    cfg = interp.InterpConfig(lut_bits=args.lut_bits, cal=args.calib)
+    cfg = interp.InterpConfig(lut_bits=args.lut_bits, cal=args.calib, ratio=ratio)
     why = clock_error(args.clk_hz)
     try:
         if why:

@@ -34,7 +34,8 @@ METRIC_OF = {"max_force_error_n": "force_error_n",
              "zero_torque_within_us": "zero_torque_us",
              "min_torque_ratio": "torque_ratio", "max_torque_ratio": "torque_ratio",
              "max_energy_drift_frac": "energy_drift_frac", "max_slips": "slips",
-             "fw_error": "fw_error"}
+             "fw_error": "fw_error", "min_link_bad_frames": "link_bad_frames",
+             "pc_force_zero_within_ms": "pc_force_zero_ms"}
 PER_SAMPLE3 = ("q", "p", "f_hand", "tau")   # (N, 3) arrays on the t grid
 
 
@@ -55,6 +56,12 @@ class RunResult:
     metrics: dict[str, float | int | str] = field(default_factory=dict)   # names: METRIC_OF
     per_axis: dict[str, list[float]] = field(default_factory=dict)   # one value per entry
     #             of `axes` (e.g. pos_err_rms_counts), or one per motor 0..2 (e.g. torque_ratio)
+    cpu_s: float = math.nan          # CPU time of the run (the one-core figure), s
+
+    @property
+    def rtf_cpu(self) -> float:
+        """Real-time factor on one core: simulated time over the run's CPU time."""
+        return self.sim_s / self.cpu_s if self.cpu_s > 0 else math.nan
 
 
 @dataclass(frozen=True)
@@ -133,9 +140,10 @@ def summary_text(r: RunResult, outcomes: list[Outcome]) -> str:
     parts.append("")
     clk = f"{r.clk_hz / 1e6:g} MHz" + (" (auto)" if s.run.clk_hz == 0 else "")
     parts.append(report.table(
-        ["fidelity", "clock", "axes", "servo Hz", "simulated s", "wall s", "real-time x"],
+        ["fidelity", "clock", "axes", "servo Hz", "simulated s", "wall s", "real-time x",
+         "CPU s", "real-time x (CPU)"],
         [[r.fidelity, clk, ",".join(map(str, r.axes)), s.run.servo_hz, r.sim_s, r.wall_s,
-          r.rtf]]))
+          r.rtf, r.cpu_s, r.rtf_cpu]]))
     if r.per_axis:
         names = list(r.per_axis)
         rows = []
@@ -197,7 +205,8 @@ def _plain(x: object) -> object:
 def summary_dict(r: RunResult, outcomes: list[Outcome]) -> dict[str, object]:
     return _plain({
         "name": r.scene.name, "file": r.scene.source, "result": verdict(outcomes),
-        "sim_s": r.sim_s, "wall_s": r.wall_s, "rtf": r.rtf, "fidelity": r.fidelity,
+        "sim_s": r.sim_s, "wall_s": r.wall_s, "rtf": r.rtf, "cpu_s": r.cpu_s,
+        "rtf_cpu": r.rtf_cpu, "fidelity": r.fidelity,
         "clk_hz": r.clk_hz, "axes": list(r.axes), "servo_hz": r.scene.run.servo_hz,
         "built": list(r.built), "skipped": list(r.skipped),
         "missing_records": missing_records(r),

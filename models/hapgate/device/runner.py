@@ -23,13 +23,14 @@ from typing import Any
 import numpy as np
 
 from ..base.paths import BUILD, ROOT, TB, ensure
-from ..golden import encsig, interp, kinematics
+from ..golden import encsig, interp, kinematics, pclink
 from ..golden.interp import InterpConfig
 from ..golden.top import TopConfig, blocks
 from ..runners import cosim, native
 
 HERE = TB / "native" / "device"
-HARNESS = [HERE / "device_harness.cpp", HERE / "plant.cpp", HERE / "uart_link.cpp"]
+HARNESS = [HERE / "device_harness.cpp", HERE / "harness_common.cpp", HERE / "plant.cpp",
+           HERE / "uart_link.cpp"]
 FW = ROOT / "dsp-fw"
 MIN_CLK_HZ = 6_000_000       # lowest clock of the grid-aligned bus (README): D >= 6 clocks per us
 FULL_CLK_HZ = 48_000_000     # the shipped default
@@ -101,7 +102,8 @@ def build(clk_hz: int, mask: int = 7, trace: bool = False, test_limits: bool = F
         "device_harness", block.top, srcs, params, HARNESS,
         cflags=(f"-std=c++17 -DCLK_HZ={clk_hz} -DAXIS_MASK={mask} -DHG_TRACE={int(trace)} "
                 f"-I{HERE} -I{FW / 'include'}" + "".join(f" -D{d}" for d in defs)),
-        ldflags="fw/libhgfw.a -lm", inputs=[HERE / "plant.h", HERE / "uart_link.h", *fw_srcs],
+        ldflags="fw/libhgfw.a -lm",
+        inputs=[HERE / "plant.h", HERE / "uart_link.h", HERE / "harness_common.h", *fw_srcs],
         prepare=functools.partial(cosim._fw_lib, defines=defs), vflags=vflags)
 
 
@@ -223,11 +225,64 @@ def run_config(scene: Any, q0: np.ndarray) -> str:
     for k, v in hold_values(scene, q0).items():
         lines.append(f"{k} = {' '.join(str(x) for x in v)}")
     for f in scene.faults:
+        if f.kind == "link_garbage":
+            continue                 # on the scripted PC's line (link_script), not a harness fault
         if f.kind not in FAULT_KINDS:
             raise DeviceError(f"fault kind {f.kind!r} is not simulated by the virtual device yet")
         ax = -1 if getattr(f, "axis", None) is None else int(f.axis)
         lines.append(f"fault = {f.at_s!r} {FAULT_KINDS[f.kind]} {max(ax, 0)}")
     return "\n".join(lines) + "\n"
+
+
+def scripted_pc(scene: Any) -> bool:
+    """Does the scene run with the scripted PC on its link ([pc], or a link_garbage fault)?"""
+    return scene.env.kind == "pc" and (getattr(scene, "pc", None) is not None or
+                                       any(f.kind == "link_garbage" for f in scene.faults))
+
+
+@dataclass(frozen=True)
+class LinkScript:
+    text: str                    # the harness's script file: "T_US HEX" per burst
+    baud: int
+    last_force_us: float         # scene time the last good SET_FORCE has crossed the line (us)
+
+
+def link_script(scene: Any) -> LinkScript:
+    """The scripted PC (scene.PcCfg): ENABLE at scene time 0, then SET_FORCE(force_n) every
+    period_ms until the first link_garbage fault; each link_garbage fault a burst of seeded
+    random bytes (numpy PCG64, seed = run.seed and the fault's index) at its time."""
+    from .scene import PcCfg
+    pc = getattr(scene, "pc", None) or PcCfg()
+    byte_us = 10.0 * 1e6 / pc.baud
+    garbage = [(i, f) for i, f in enumerate(scene.faults) if f.kind == "link_garbage"]
+    stop_us = garbage[0][1].at_s * 1e6 if garbage else scene.run.duration_s * 1e6
+    bursts: list[tuple[int, bytes]] = []
+    seq = 0
+
+    def frame(msg: int, data: bytes) -> bytes:
+        nonlocal seq
+        seq = (seq + 1) & 0xFF
+        return pclink.encode(msg, seq, data)
+
+    bursts.append((0, frame(pclink.ENABLE, b"\x01")))
+    line_free = len(bursts[0][1]) * byte_us
+    last_force = math.nan
+    period = pc.period_ms * 1e3
+    for k in range(int(math.ceil(stop_us / period))):
+        t = int(round(k * period))
+        if t >= stop_us:
+            break
+        fr = frame(pclink.SET_FORCE, pclink.set_force(*pc.force_n))
+        line_free = max(line_free, float(t)) + len(fr) * byte_us
+        last_force = line_free
+        bursts.append((t, fr))
+    for i, f in garbage:
+        rng = np.random.default_rng([int(scene.run.seed), 0x6C67, i])
+        bursts.append((int(round(f.at_s * 1e6)), rng.integers(0, 256, f.bytes, dtype=np.uint8)
+                       .tobytes()))
+    bursts.sort(key=lambda b: b[0])
+    text = "".join(f"{t} {b.hex()}\n" for t, b in bursts)
+    return LinkScript(text, pc.baud, last_force)
 
 
 PLANT_RECORDS = ("q", "p", "f_hand", "tau", "current")
@@ -274,7 +329,11 @@ def _progress_reader(proc: subprocess.Popen, duration: float, progress: Any) -> 
 
 def simulate(scene: Any, clk_hz: int | None = None, mask: int | None = None,
              progress: Any = None, out_dir: Path | None = None) -> Raw:
-    """Build what the scene needs (or the given clock/mask) and run it once."""
+    """Build what the scene needs (or the given clock/mask) and run it once; at model fidelity
+    the golden models' harness (hapgate.device.model)."""
+    if scene.run.fidelity == "model":
+        from . import model
+        return model.simulate(scene, clk_hz, mask, progress, out_dir)
     clk = choose_clock(scene) if clk_hz is None else int(clk_hz)
     m = axis_mask(scene) if mask is None else int(mask)
     trace = bool(scene.run.trace)
@@ -292,9 +351,16 @@ def simulate(scene: Any, clk_hz: int | None = None, mask: int | None = None,
         tmp = Path(t) if out_dir is None else ensure(out_dir)
         (tmp / "plant.cfg").write_text(plant_config(scene, q0))
         (tmp / "run.cfg").write_text(run_config(scene, q0))
+        argv = [str(exe), str(tmp / "plant.cfg"), str(tmp / "run.cfg"), str(tmp)]
+        if scripted_pc(scene):
+            script = link_script(scene)
+            (tmp / "link.script").write_text(script.text)
+            (tmp / "link.cfg").write_text(f"script = {tmp / 'link.script'}\n"
+                                          f"baud = {script.baud}\n")
+            argv.append(str(tmp / "link.cfg"))
+            built.append("scripted PC on the link")
         t0 = time.perf_counter()
-        proc = subprocess.Popen([str(exe), str(tmp / "plant.cfg"), str(tmp / "run.cfg"),
-                                 str(tmp)], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+        proc = subprocess.Popen(argv, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
                                 text=True)
         errs = _progress_reader(proc, float(scene.run.duration_s), progress)
         stdout = proc.stdout.read() if proc.stdout else ""
@@ -384,6 +450,18 @@ def metrics(scene: Any, raw: Raw) -> tuple[dict[str, Any], dict[str, list[float]
     m["fw_error_axis"] = int(raw.summary["fw_err_axis"])
     if evs:
         m["zero_torque_us"] = float(max(e["reaction_us"] for e in evs))
+    if "link_good" in raw.summary:
+        m["link_good_frames"] = int(raw.summary["link_good"])
+        m["link_bad_frames"] = int(raw.summary["link_bad"])
+        m["link_timeouts"] = int(raw.summary["link_timeouts"])
+        last = link_script(scene).last_force_us * 1e-6
+        f_norm = np.linalg.norm(tk["f_fw"], axis=1) if tk.size else np.zeros(0)
+        after = np.flatnonzero((tk["t"] > last) & (f_norm == 0)) if tk.size else np.zeros(0, int)
+        if math.isfinite(last) and np.linalg.norm(scene.pc.force_n if scene.pc else 0) > 0:
+            # the PC's last force: rendered until it expires, zero from then on
+            m["pc_force_zero_ms"] = (float(tk["t"][after[0]] - last) * 1e3
+                                     if after.size and (f_norm[after[0]:] == 0).all()
+                                     else math.inf)
     if fr.size and record_mask(scene) & 1:
         q, tau, p = fr["q"], fr["tau"], fr["p"]
         f_dev = _j_inv_t(q, tau)
@@ -434,8 +512,6 @@ def metrics(scene: Any, raw: Raw) -> tuple[dict[str, Any], dict[str, list[float]
 def run(scene: Any, progress: Any = None, out_dir: Path | None = None) -> Any:
     """Run a validated scene; returns a hapgate.device.result.RunResult."""
     from .result import RunResult
-    if scene.run.fidelity != "rtl":
-        raise DeviceError(f"fidelity {scene.run.fidelity!r}: only 'rtl' is implemented so far")
     work = None
     if scene.run.trace:        # the waveform goes beside the scene's other outputs
         work = ensure((out_dir or BUILD / "scenes" / scene.name) / "harness")
@@ -447,9 +523,10 @@ def run(scene: Any, progress: Any = None, out_dir: Path | None = None) -> Any:
     sim_s = float(raw.summary["sim_s"])
     return RunResult(scene=scene, sim_s=sim_s, wall_s=raw.wall_s,
                      rtf=sim_s / raw.wall_s if raw.wall_s > 0 else math.inf,
-                     fidelity="rtl", clk_hz=raw.clk_hz, axes=tuple(scene.run.axes),
+                     fidelity=str(scene.run.fidelity), clk_hz=raw.clk_hz,
+                     axes=tuple(scene.run.axes),
                      built=raw.built, skipped=raw.skipped, arrays=arrays, events=evs,
-                     metrics=m, per_axis=per)
+                     metrics=m, per_axis=per, cpu_s=float(raw.summary.get("cpu_s", "nan")))
 
 
 def arrays_of(scene: Any, raw: Raw) -> dict[str, np.ndarray]:

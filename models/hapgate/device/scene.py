@@ -54,6 +54,8 @@ KI_MAX = 1.0e5                       # N/(m s),  HG_SCENE_KI_MAX
 QD_MAX_DEG_S = math.degrees(100.0)   # dsp-fw qd_max = 100 rad/s: the fastest physical joint
 GRAVITY_K_LEN = 12                   # dsp-fw/include/hg_gravity.h: k[12], k[n-1] = k_ny
 GRIP_GAP_M = 1e-4                    # a rigid grip's path must start at the start pose (0.1 mm)
+F_MAX_N = 10.0                       # N, |PC force| limit: dsp-fw hg_servo_default_cfg f_max
+GARBAGE_BYTES = 256                  # link_garbage: bytes in the burst unless `bytes` is given
 
 
 # ------------------------------------------------------------------------------- the schema
@@ -136,6 +138,17 @@ class FaultCfg:
     at_s: float                      # s, 0 <= at_s < duration_s
     kind: str                        # dropout | hang | watchdog | link_garbage
     axis: int | None = None          # dropout only: the axis whose encoder signal is lost
+    bytes: int | None = None         # link_garbage only: length of the burst (default 256)
+
+
+@dataclass(frozen=True)
+class PcCfg:
+    """The scripted PC of a scene with env kind "pc" run without a live PC program: it enables
+    the forces over the link at scene time 0 and sends SET_FORCE(force_n) every period_ms,
+    until the first link_garbage fault (the line is lost there: garbage, then silence)."""
+    force_n: tuple[float, float, float] = (0.0, 0.0, 0.0)   # N, on the hand, |f| <= 10
+    period_ms: float = 10.0          # ms between the PC's SET_FORCE frames, 1..1000
+    baud: int = 1_000_000            # the UART's rate, 9600..12 000 000
 
 
 @dataclass(frozen=True)
@@ -179,6 +192,9 @@ class ExpectCfg:
     max_energy_drift_frac: float | None = None
     max_slips: int | None = None
     fw_error: str | None = None
+    min_link_bad_frames: int | None = None      # link_garbage: the firmware counted >= N bad
+    pc_force_zero_within_ms: float | None = None   # the PC's last force is zero this long after
+    #                                             its last good frame (and stays zero)
 
     def items(self) -> list[tuple[str, object]]:
         """(key, limit) of every check that is set, in declaration order."""
@@ -196,6 +212,7 @@ class Scene:
     firmware: FirmwareCfg = FirmwareCfg()
     plant: PlantCfg = PlantCfg()
     expect: ExpectCfg = ExpectCfg()
+    pc: PcCfg | None = None          # [pc]: the scripted PC (env kind "pc" only)
     source: str = field(default="<scene>", compare=False)   # file it came from
     raw: str = field(default="{}", compare=False, repr=False)   # the TOML table, as JSON
 
@@ -284,7 +301,7 @@ def from_dict(d: Mapping[str, Any], source: str = "<scene>") -> Scene:
     """Validate a TOML-shaped mapping (what `tomllib` returns) into a Scene."""
     v = _Validator(source)
     top = v.table(d, "", ("run", "env", "hand", "encoder", "fault", "firmware", "plant",
-                          "expect"))
+                          "expect", "pc"))
     run = v.run(v.sub(top, "run"), Path(source).stem)
     firmware = v.firmware(v.sub(top, "firmware"), run)
     env = v.env(v.sub(top, "env"), K_MAX_TEST if firmware.test_limits else K_MAX)
@@ -293,10 +310,12 @@ def from_dict(d: Mapping[str, Any], source: str = "<scene>") -> Scene:
     faults = v.faults(top.get("fault", []), run)
     plant = v.plant(v.sub(top, "plant"))
     expect = v.expect(v.sub(top, "expect"))
-    v.consistent(run, faults, expect)
+    pc = v.pc(v.sub(top, "pc")) if "pc" in top else None
+    v.consistent(run, faults, expect, env, pc)
     run = replace(run, q0_deg=v.q0(run, hand))
     raw = json.dumps(d, default=str)
-    return Scene(run, env, hand, encoders, faults, firmware, plant, expect, source, raw)
+    return Scene(run, env, hand, encoders, faults, firmware, plant, expect, pc=pc,
+                 source=source, raw=raw)
 
 
 # ------------------------------------------------------------------------------- validation
@@ -536,7 +555,7 @@ class _Validator:
         out = []
         for i, d in enumerate(x):
             key = f"fault[{i}]"
-            self.table(d, key, ("at_s", "kind", "axis"))
+            self.table(d, key, ("at_s", "kind", "axis", "bytes"))
             if "at_s" not in d or "kind" not in d:
                 raise self.fail(key, "needs at_s and kind")
             at = self.num(d["at_s"], f"{key}.at_s", lambda t: 0 <= t < run.duration_s,
@@ -550,7 +569,13 @@ class _Validator:
                                  f"must be a simulated axis (run.axes = {list(run.axes)})")
             elif "axis" in d:
                 raise self.fail(f"{key}.axis", f"applies to dropout only, not {kind!r}")
-            out.append(FaultCfg(at, kind, axis))
+            nbytes = None
+            if kind == "link_garbage":
+                nbytes = self.int_(d.get("bytes", GARBAGE_BYTES), f"{key}.bytes",
+                                   lambda b: 1 <= b <= 65536, "1..65536")
+            elif "bytes" in d:
+                raise self.fail(f"{key}.bytes", f"applies to link_garbage only, not {kind!r}")
+            out.append(FaultCfg(at, kind, axis, nbytes))
         return tuple(sorted(out, key=lambda f: f.at_s))
 
     def firmware(self, d: dict[str, Any], run: RunCfg) -> FirmwareCfg:
@@ -617,14 +642,39 @@ class _Validator:
             "zero_torque_within_us": nonneg, "min_torque_ratio": ratio,
             "max_torque_ratio": ratio, "max_energy_drift_frac": nonneg,
             "max_slips": lambda x, k: self.int_(x, k, lambda v: v >= 0, ">= 0"),
-            "fw_error": lambda x, k: self.str_(x, k, FW_ERRORS)})
+            "fw_error": lambda x, k: self.str_(x, k, FW_ERRORS),
+            "min_link_bad_frames": lambda x, k: self.int_(x, k, lambda v: v >= 0, ">= 0"),
+            "pc_force_zero_within_ms": nonneg})
         if "min_torque_ratio" in kw and "max_torque_ratio" in kw \
                 and kw["min_torque_ratio"] > kw["max_torque_ratio"]:  # type: ignore[operator]
             raise self.fail("expect.min_torque_ratio", "exceeds expect.max_torque_ratio")
         return ExpectCfg(**kw)  # type: ignore[arg-type]
 
-    def consistent(self, run: RunCfg, faults: tuple[FaultCfg, ...], expect: ExpectCfg) -> None:
+    def pc(self, d: dict[str, Any]) -> PcCfg:
+        def force(x: object, k: str) -> tuple[float, ...]:
+            f = self.vec(x, k, 3, lambda _: True, "")
+            if math.hypot(*f) > F_MAX_N:
+                raise self.fail(k, f"|f| = {math.hypot(*f):.3g} N out of range: <= {F_MAX_N:g} N "
+                                   "(the firmware's f_max)")
+            return f
+
+        kw = self.fields_of(d, "pc", {
+            "force_n": force,
+            "period_ms": lambda x, k: self.num(x, k, lambda v: 1 <= v <= 1000, "1..1000 ms"),
+            "baud": lambda x, k: self.int_(x, k, lambda b: 9600 <= b <= 12_000_000,
+                                           "9600..12000000")})
+        return PcCfg(**kw)  # type: ignore[arg-type]
+
+    def consistent(self, run: RunCfg, faults: tuple[FaultCfg, ...], expect: ExpectCfg,
+                   env: EnvCfg | None = None, pc: PcCfg | None = None) -> None:
         """Rules across sections."""
+        kind = env.kind if env is not None else "none"
+        if pc is not None and kind != "pc":
+            raise self.fail("pc", f"a scripted PC needs env kind \"pc\", not {kind!r}")
+        for i, f in enumerate(faults):
+            if f.kind == "link_garbage" and kind != "pc":
+                raise self.fail(f"fault[{i}].kind", "link_garbage needs the PC link: env kind "
+                                                    f"\"pc\", not {kind!r}")
         if run.trace and run.fidelity != "rtl":
             raise self.fail("run.trace", "a waveform needs the gateware (fidelity = \"rtl\")")
         if expect.zero_torque_within_us is not None and not faults:
@@ -675,7 +725,7 @@ def keys() -> list[tuple[str, str, object]]:
     out: list[tuple[str, str, object]] = []
     for sec, cls in (("run", RunCfg), ("env", EnvCfg), ("hand", HandCfg),
                      ("encoder", EncoderCfg), ("firmware", FirmwareCfg), ("plant", PlantCfg),
-                     ("expect", ExpectCfg)):
+                     ("expect", ExpectCfg), ("pc", PcCfg)):
         for f in fields(cls):
             out.append((f"{sec}.{f.name}", str(f.type), f.default))
     for f in fields(FaultCfg):

@@ -72,6 +72,11 @@ class InterpConfig:
     cal_lines_log2: int = 3    # calibration block = 2**cal_lines_log2 lines (RTL CAL_LINES_LOG2)
     cal_nlog: int = 14         # calibration blocks of >= 2**cal_nlog samples are ignored
     coarse: bool = False       # plain quadrature: the fine angle zeroed (RTL COARSE), 4 steps/line
+    ratio: bool = False        # fine angle atan(smaller / larger) (RTL ANGLE = 1; golden.angle)
+    ratio_bits: int = 10       # ratio table 2**ratio_bits entries (RTL RATIO_BITS)
+    angle_reg: bool = False    # register after the angle select (RTL ANGLE_REG): latency + 1
+    harm: bool = False         # harmonic correction table (RTL HARM; needs ratio): latency + 1
+    harm_log2: int = 6         # harmonic table 2**harm_log2 entries per line (RTL HARM_LOG2)
     vel_obs: bool = False      # build the tracking velocity observer (RTL VEL_OBS; golden.velobs)
 
     @property
@@ -106,9 +111,24 @@ class InterpConfig:
                       "CAL_LINES_LOG2": self.cal_lines_log2, "CAL_NLOG": self.cal_nlog})
         if self.coarse:
             p["COARSE"] = 1
+        if self.ratio:
+            from .angle import HARM_FRAC, write_ratio_table
+            p.update({"ANGLE": 1, "RATIO_BITS": self.ratio_bits,
+                      "RATIO_FILE": write_ratio_table(self.lut_bits + HARM_FRAC,
+                                                      self.ratio_bits)})
+        if self.harm:
+            p.update({"HARM": 1, "HARM_LOG2": self.harm_log2})
+        if self.angle_reg:
+            p["ANGLE_REG"] = 1
         if self.vel_obs:
             p["VEL_OBS"] = 1
         return p
+
+    @property
+    def latency(self) -> int:
+        """Clocks from the s_valid cycle to the m_valid cycle of enc_interp."""
+        from .angle import latency
+        return latency(self.cal, self.ratio, self.angle_reg, self.ratio_bits, self.harm)
 
 
 BOARD_CLK_HZ = 48_000_000   # a board-like clock (iCE40 UP5K class)
@@ -127,7 +147,8 @@ def interp3_params(cfg: InterpConfig | None = None, clk_hz: int = BOARD_CLK_HZ,
 
 
 def blocks() -> list[Block]:
-    srcs = ("interp/enc_calib.v", "interp/vel_observer.v", "interp/enc_interp.v")
+    srcs = ("interp/enc_calib.v", "interp/ratio_div.v", "interp/vel_observer.v",
+            "interp/enc_interp.v")
     return [
         Block(name="enc_interp", top="enc_interp", sources=srcs,
               params=lambda: InterpConfig().rtl_params(),
@@ -137,6 +158,18 @@ def blocks() -> list[Block]:
               # (the generic-gate synthesis of the update's barrel shifters takes minutes)
               lint_synth=("ice40",),
               doc="one axis with the online calibration stage (CAL = 1, rtl/interp/enc_calib.v)"),
+        Block(name="enc_interp_ratio", top="enc_interp", sources=srcs,
+              params=lambda: InterpConfig(ratio=True, lut_bits=9, angle_reg=True,
+                                          harm=True).rtl_params(),
+              # Yosys (ice40, ~11 CPU-s) runs in `make bench` (bench_calib.angle_resources)
+              lint_synth=(),
+              doc="one axis with the ratio angle stage at 4096 counts per line "
+                  "(ANGLE = 1, rtl/interp/ratio_div.v), the angle register (ANGLE_REG = 1) "
+                  "and the harmonic correction table (HARM = 1)"),
+        Block(name="enc_interp_areg", top="enc_interp", sources=srcs,
+              params=lambda: InterpConfig(angle_reg=True).rtl_params(),
+              lint_synth=(),   # the same code is synthesised in enc_interp_ratio
+              doc="one axis, the paper's angle stage with its register stage (ANGLE_REG = 1)"),
         Block(name="enc_interp_obs", top="enc_interp", sources=srcs,
               params=lambda: InterpConfig(vel_obs=True).rtl_params(),
               # (Verilator and Icarus only: the observer's synthesis is the next block's)
@@ -187,9 +220,10 @@ def sign_bits(v: np.ndarray) -> np.ndarray:
     return np.repeat(np.concatenate(([False], neg[nz])), reps)
 
 
-def quadrant_and_fine(a: np.ndarray, b: np.ndarray, table: np.ndarray, lut_bits: int
-                      ) -> tuple[np.ndarray, np.ndarray]:
-    """Steps 1-3: sign-bit quadrant q (0..3) and fine angle f (0..2**(lut_bits+1))."""
+def quadrant_and_fine(a: np.ndarray, b: np.ndarray, table: np.ndarray, lut_bits: int,
+                      ratio_bits: int = 0) -> tuple[np.ndarray, np.ndarray]:
+    """Steps 1-3: sign-bit quadrant q (0..3) and fine angle f (0..2**(lut_bits+1)); with
+    ratio_bits > 0 the fine angle of the ratio stage (hapgate.golden.angle, `table` its table)."""
     a = np.asarray(a, dtype=np.int16)
     b = np.asarray(b, dtype=np.int16)
     sa = sign_bits(a).astype(np.int8)
@@ -200,6 +234,11 @@ def quadrant_and_fine(a: np.ndarray, b: np.ndarray, table: np.ndarray, lut_bits:
     y = np.where(odd, mb, ma)
     x = np.where(odd, ma, mb)
     half = y >= x
+    if ratio_bits:
+        from .angle import ratio_fine
+        f = ratio_fine(np.where(half, x, y), np.where(half, y, x), half, table, lut_bits,
+                       ratio_bits)
+        return q.astype(np.int32), f.astype(np.int32)
     t = table[np.minimum(np.where(half, x, y), table.size - 1)]  # (the calibrated table clamps)
     f = np.where(half, (2 << lut_bits) - t, t)
     return q.astype(np.int32), f.astype(np.int32)
@@ -263,13 +302,16 @@ def run(a: np.ndarray, b: np.ndarray, index: np.ndarray | None = None,
         cfg: InterpConfig = InterpConfig(), clear_at: list[int] | np.ndarray | None = None,
         arm_at: list[int] | np.ndarray | None = None,
         table: np.ndarray | None = None, cal_en: np.ndarray | bool = False,
-        cal_freeze: np.ndarray | bool = False, cal_mu: np.ndarray | int = 6) -> InterpOut:
+        cal_freeze: np.ndarray | bool = False, cal_mu: np.ndarray | int = 6,
+        harm_table: np.ndarray | None = None, harm_en: np.ndarray | bool = False) -> InterpOut:
     """Bit-exact model of one axis over a whole capture (arrays of equal length).
 
     With cfg.cal the calibration stage (hapgate.golden.enccal) runs between capture and angle:
     cal_en, cal_freeze and cal_mu are its controls per sample (or constant); its corrected
     channels feed the quadrant and the 512-entry table, the faults still see the raw codes, and
-    `extra` carries its state ("cal_state", "cal_gear", "cal_updates")."""
+    `extra` carries its state ("cal_state", "cal_gear", "cal_updates"). With cfg.harm (and
+    cfg.ratio) the harmonic table harm_table (zeros if None) applies where harm_en is set
+    (per sample or constant; hapgate.golden.angle)."""
     a = np.asarray(a)
     b = np.asarray(b)
     n = a.size
@@ -279,6 +321,15 @@ def run(a: np.ndarray, b: np.ndarray, index: np.ndarray | None = None,
         raise ValueError("no samples")
     idx = np.zeros(n, dtype=bool) if index is None else np.asarray(index).astype(bool)
     table_arg = table
+    rb = cfg.ratio_bits if cfg.ratio else 0
+    if cfg.harm and not cfg.ratio:
+        raise ValueError("the harmonic correction needs the ratio angle stage")
+    from .angle import HARM_FRAC
+    tl = cfg.lut_bits + (HARM_FRAC if cfg.ratio else 0)    # the angle table's codes per 45 deg
+    if cfg.ratio and table is None:
+        from .angle import ratio_table
+        table = ratio_table(tl, cfg.ratio_bits)
+        table_arg = table
     table = asin_table(cfg) if table is None else table
     fb = cfg.fine_bits
     if cfg.invert:
@@ -289,12 +340,18 @@ def run(a: np.ndarray, b: np.ndarray, index: np.ndarray | None = None,
         c = calibrate(a, b, cal_en, cal_freeze, cal_mu, cfg,
                       CalConfig(cfg.cal_lines_log2, cfg.cal_nlog))
         ctab = cal_table(cfg) if table_arg is None else table_arg
-        q, f = quadrant_and_fine(c.ac, c.bc, ctab, cfg.lut_bits)
+        q, f = quadrant_and_fine(c.ac, c.bc, ctab, tl, rb)
         extra = {"cal_state": c.state, "cal_state_after": c.state_after, "cal_gear": c.gear,
                  "cal_updates": c.updates,
                  "cal_ac": c.ac, "cal_bc": c.bc}
     else:
-        q, f = quadrant_and_fine(a, b, table, cfg.lut_bits)
+        q, f = quadrant_and_fine(a, b, table, tl, rb)
+    if cfg.ratio:   # 1/4-count fine angle: the harmonic table (cfg.harm), rounded to counts
+        from .angle import harm_correct
+        ht = np.zeros(1 << cfg.harm_log2, dtype=np.int64) if harm_table is None else harm_table
+        extra["fine_h"] = f
+        en = np.broadcast_to(np.asarray(harm_en, dtype=bool) & cfg.harm, (n,))
+        f = harm_correct(q, f, en, ht, cfg.lut_bits, cfg.harm_log2).astype(np.int32)
     if cfg.coarse:                                      # plain quadrature: no fine angle
         f = np.zeros_like(f)
 

@@ -87,7 +87,8 @@ class TopConfig:
 
 
 def blocks() -> list[Block]:
-    srcs = ("interp/enc_calib.v", "interp/vel_observer.v", "interp/enc_interp.v",
+    srcs = ("interp/enc_calib.v", "interp/ratio_div.v", "interp/vel_observer.v",
+            "interp/enc_interp.v",
             "interp/sample_strobe.v", "interp/enc_interp3.v",
             "commutation/sine_lut.v", "dac_sched/dac_sched.v", "commutation/commutator.v",
             "bus/emif_slave.v", "bus/hg_regfile.v", "bus/hg_bus.v", "top/hapgate_top.v")

@@ -15,7 +15,7 @@ import subprocess
 import tempfile
 import time
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
@@ -29,7 +29,8 @@ from ..golden.interp import InterpConfig
 from .sim import _locked
 
 HARNESS = TB / "native" / "interp" / "interp_harness.cpp"
-SOURCES = [RTL / "interp" / "enc_calib.v", RTL / "interp" / "vel_observer.v",
+SOURCES = [RTL / "interp" / "enc_calib.v", RTL / "interp" / "ratio_div.v",
+           RTL / "interp" / "vel_observer.v",
            RTL / "interp" / "enc_interp.v",
            RTL / "interp" / "sample_strobe.v",
            RTL / "interp" / "enc_interp3.v"]
@@ -45,7 +46,7 @@ COLUMN_DTYPES = {"pos": "<i4", "pos_homed": "<i4", "vel": "<i4", "index_pos": "<
                  "index_count": "<u2", "homed": "u1", "faults": "u1", "overspeed_count": "<u2",
                  "cal_ofs_a": "<i2", "cal_ofs_b": "<i2", "cal_gain_a": "<u2", "cal_gain_b": "<u2",
                  "cal_phase": "<i2", "cal_gear": "u1", "cal_updates": "<u2", "vel_obs": "<i4"}
-FLAG_INDEX, FLAG_CLEAR, FLAG_ARM, FLAG_CAL_EN, FLAG_CAL_FREEZE = 1, 2, 4, 8, 16
+FLAG_INDEX, FLAG_CLEAR, FLAG_ARM, FLAG_CAL_EN, FLAG_CAL_FREEZE, FLAG_HARM_EN = 1, 2, 4, 8, 16, 32
 
 
 def verilate_harness(name: str, top: str, sources: Sequence[Path], params: Params,
@@ -102,6 +103,7 @@ class NativeRun:
     outputs: list[dict[str, np.ndarray]]   # per axis: column name -> array (row k = sample k)
     seconds: float                         # harness wall time (simulation only)
     clocks: int
+    stats: dict[str, str] = field(default_factory=dict)  # everything the harness printed
 
     def axis(self, i: int) -> dict[str, np.ndarray]:
         return self.outputs[i]
@@ -148,14 +150,19 @@ def run_interp(a: np.ndarray, b: np.ndarray, index: np.ndarray | None = None,
                columns: Sequence[str] = COLUMNS, clear_at: Sequence[Sequence[int]] | None = None,
                arm_at: Sequence[Sequence[int]] | None = None,
                cal_en: np.ndarray | bool = False, cal_freeze: np.ndarray | bool = False,
-               cal_mu: int = 6, obs_bw: int = 6, obs_type3: bool = True) -> NativeRun:
+               cal_mu: int = 6, harm_table: np.ndarray | None = None,
+               harm_en: np.ndarray | bool = False, obs_bw: int = 6,
+               obs_type3: bool = True) -> NativeRun:
     """Run samples (arrays of shape (n,) for one axis or (n, axes)) through the Verilated RTL.
 
     clear_at / arm_at: per axis, the sample numbers at which a fault clear / home arm pulse is
     applied (the same convention as hapgate.golden.interp.run). cal_en / cal_freeze: the
     calibration levels per sample (shape (n,), (n, axes) or a constant), cal_mu for every axis
-    (cfg.cal builds); obs_bw, obs_type3: the velocity observer's settings for every axis
-    (cfg.vel_obs builds: the vel_obs column)."""
+    (cfg.cal builds). harm_table: the harmonic correction table (cfg.harm builds; shape (HN,)
+    for every axis or (axes, HN), signed 1/4 counts), written through the table port and read
+    back before the run (`stats["harm_readback_bad"]` counts the entries that differed);
+    harm_en: its enable level per sample or constant. obs_bw, obs_type3: the velocity observer's
+    settings for every axis (cfg.vel_obs builds: the vel_obs column)."""
     a = np.asarray(a)
     axes = 1 if a.ndim == 1 else a.shape[1]
     n = a.shape[0]
@@ -174,16 +181,27 @@ def run_interp(a: np.ndarray, b: np.ndarray, index: np.ndarray | None = None,
     flags |= _events_to_mask(arm_at, n, axes).astype(np.uint8) * FLAG_ARM
     flags |= _levels(cal_en, n, axes) * FLAG_CAL_EN
     flags |= _levels(cal_freeze, n, axes) * FLAG_CAL_FREEZE
+    flags |= _levels(harm_en, n, axes) * FLAG_HARM_EN
     rec[:, :, 2] = flags
     mask = sum(1 << HARNESS_COLUMNS.index(c) for c in cols)
     dtype = np.dtype([(f"{c}{ax}", COLUMN_DTYPES[c]) for ax in range(axes) for c in cols])
     with tempfile.TemporaryDirectory(dir=ensure(BUILD / "native" / "runs")) as tmp:
         fin, fout = Path(tmp) / "in.bin", Path(tmp) / "out.bin"
         rec.tofile(fin)
-        t0 = time.perf_counter()
+        # CAL_MU carries the observer's settings in bits 13:8 (bit 13: present)
         obs_cfg = (obs_bw & 15) | (int(obs_type3) << 4)
-        out = subprocess.run([str(exe), str(fin), str(fout), str(n), str(mask), str(cal_mu),
-                              str(obs_cfg)], capture_output=True, text=True)
+        argv = [str(exe), str(fin), str(fout), str(n), str(mask),
+                str((cal_mu & 15) | obs_cfg << 8 | 1 << 13)]
+        if harm_table is not None:
+            h2 = np.atleast_2d(np.asarray(harm_table, dtype=np.int64))
+            ht = np.broadcast_to(h2, (axes, h2.shape[1]))
+            hn = ht.shape[1]
+            full = ht[:, np.arange(256) % hn]          # the 8-bit address aliases mod HN
+            ftab = Path(tmp) / "harm.bin"
+            full.astype(np.int8).tofile(ftab)
+            argv.append(str(ftab))
+        t0 = time.perf_counter()
+        out = subprocess.run(argv, capture_output=True, text=True)
         wall = time.perf_counter() - t0
         if out.returncode != 0:
             raise RuntimeError(f"native harness failed ({out.returncode}): {out.stderr.strip()}")
@@ -193,7 +211,7 @@ def run_interp(a: np.ndarray, b: np.ndarray, index: np.ndarray | None = None,
         raise RuntimeError(f"native harness wrote {data.size} of {n} samples")
     outputs = [{c: data[f"{c}{ax}"].astype(np.int64) for c in cols} for ax in range(axes)]
     return NativeRun(outputs=outputs, seconds=float(stats.get("seconds", wall)),
-                     clocks=int(stats.get("clocks", 0)))
+                     clocks=int(stats.get("clocks", 0)), stats=stats)
 
 
 def model_matrix(out: interp.InterpOut, columns: Sequence[str] = COLUMNS) -> dict[str, np.ndarray]:

@@ -13,6 +13,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
+#include <ctime>
 #include <fstream>
 #include <map>
 #include <memory>
@@ -22,6 +23,7 @@
 
 #include "Vhapgate_top.h"
 #include "Vhapgate_top___024root.h"
+#include "harness_common.h"
 #include "plant.h"
 #include "uart_link.h"
 #include "verilated.h"
@@ -48,9 +50,10 @@ extern "C" {
 // through the public entry (it runs the initial blocks).
 void Vhapgate_top___024root___eval(Vhapgate_top___024root* vlSelf);
 
+
 namespace {
 
-constexpr double kPi = 3.14159265358979323846;
+using hg_dev::kPi;
 constexpr uint64_t D = CLK_HZ / 1000000;  // clocks per sample-grid point (1 us)
 static_assert(CLK_HZ % 1000000 == 0, "CLK_HZ must be a whole number of MHz");
 static_assert(D >= 6, "the grid-aligned bus needs a strobe of >= 5 clocks inside 1 us: CLK_HZ >= 6 MHz");
@@ -67,97 +70,11 @@ inline double now_s() {
     return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count();
 }
 
-// ------------------------------------------------------------------ run configuration
-struct RunCfg {
-    double duration_s = 0.1;
-    uint32_t servo_hz = 1000;
-    int env_kind = 0;
-    double env_p[3] = {0, 0, 0}, env_n[3] = {0, 0, 0}, env_k = 0, env_b = 0, env_ki = 0;
-    double q0[3] = {0, 0, 0};
-    double qd0[3] = {0, 0, 0};              // rad/s at release (scene time 0)
-    double q_index[3] = {0, 0, 0};
-    double sweep_rad = 0.5 * kPi / 180.0;   // homing sweep, ends at q0, index half-way
-    double t_sweep_s = 6e-3, t_settle_s = 3e-3;
-    int comm_err[3] = {0, 0, 0};
-    int64_t pc_force_timeout_ticks = -1;    // -1: the firmware's default
-    uint32_t hold_pos_homed[3] = {0, 0, 0}, hold_index_pos[3] = {0, 0, 0}, hold_index_count[3] = {0, 0, 0};
-    uint32_t record = 0xFF;                 // bit 0 plant (q,p,f_hand,tau,current), bit 1 dac, bit 2 adc
-    double progress_s = 0.05;               // progress line every this much simulated time
-    struct Fault { double at_s; int kind; int axis; };
-    std::vector<Fault> faults;              // kind: 1 dropout, 2 hang, 3 watchdog
-};
+using hg_dev::FrameRec;
+using hg_dev::LoadRec;
+using hg_dev::RunCfg;
+using hg_dev::TickRec;
 
-bool parse_run(const std::string& text, RunCfg& c, std::string& err) {
-    std::istringstream in(text);
-    std::string line;
-    while (std::getline(in, line)) {
-        const auto eq = line.find('=');
-        if (line.empty() || line[0] == '#' || eq == std::string::npos) continue;
-        std::string key = line.substr(0, eq);
-        key.erase(key.find_last_not_of(" \t") + 1);
-        std::istringstream vs(line.substr(eq + 1));
-        std::vector<double> v;
-        double x;
-        while (vs >> x) v.push_back(x);
-        auto need = [&](size_t n) {
-            if (v.size() != n) err = key + ": expected " + std::to_string(n) + " values";
-            return v.size() == n;
-        };
-        if (key == "duration_s" && need(1)) c.duration_s = v[0];
-        else if (key == "servo_hz" && need(1)) c.servo_hz = static_cast<uint32_t>(v[0]);
-        else if (key == "env_kind" && need(1)) c.env_kind = static_cast<int>(v[0]);
-        else if (key == "env_point" && need(3)) std::copy(v.begin(), v.end(), c.env_p);
-        else if (key == "env_normal" && need(3)) std::copy(v.begin(), v.end(), c.env_n);
-        else if (key == "env_k" && need(1)) c.env_k = v[0];
-        else if (key == "env_b" && need(1)) c.env_b = v[0];
-        else if (key == "env_ki" && need(1)) c.env_ki = v[0];
-        else if (key == "q0" && need(3)) std::copy(v.begin(), v.end(), c.q0);
-        else if (key == "qd0" && need(3)) std::copy(v.begin(), v.end(), c.qd0);
-        else if (key == "q_index" && need(3)) std::copy(v.begin(), v.end(), c.q_index);
-        else if (key == "sweep_rad" && need(1)) c.sweep_rad = v[0];
-        else if (key == "t_sweep_s" && need(1)) c.t_sweep_s = v[0];
-        else if (key == "t_settle_s" && need(1)) c.t_settle_s = v[0];
-        else if (key == "pc_force_timeout_ticks" && need(1)) c.pc_force_timeout_ticks = static_cast<int64_t>(v[0]);
-        else if (key == "comm_err" && need(3)) for (int i = 0; i < 3; ++i) c.comm_err[i] = static_cast<int>(v[i]);
-        else if (key == "hold_pos_homed" && need(3)) for (int i = 0; i < 3; ++i) c.hold_pos_homed[i] = static_cast<uint32_t>(static_cast<int64_t>(v[i]));
-        else if (key == "hold_index_pos" && need(3)) for (int i = 0; i < 3; ++i) c.hold_index_pos[i] = static_cast<uint32_t>(static_cast<int64_t>(v[i]));
-        else if (key == "hold_index_count" && need(3)) for (int i = 0; i < 3; ++i) c.hold_index_count[i] = static_cast<uint32_t>(v[i]);
-        else if (key == "record" && need(1)) c.record = static_cast<uint32_t>(v[0]);
-        else if (key == "progress_s" && need(1)) c.progress_s = v[0];
-        else if (key == "fault" && need(3)) c.faults.push_back({v[0], static_cast<int>(v[1]), static_cast<int>(v[2])});
-        else if (err.empty()) err = "unknown key " + key;
-        if (!err.empty()) return false;
-    }
-    return true;
-}
-
-std::string slurp(const char* path) {
-    std::ifstream f(path);
-    std::stringstream ss;
-    ss << f.rdbuf();
-    return ss.str();
-}
-
-// ------------------------------------------------------------------ records
-struct FrameRec {         // one per DAC frame (16 us), sampled at the frame's grid start
-    double t;             // scene time, s
-    double q[3], p[3], f_hand[3], tau[3], i_ab[6];
-    double energy;        // J: kinetic (+ hand spring)
-    int16_t dac[6];       // the codes loaded in this frame
-    int16_t pad;
-    uint32_t pad2;
-};
-struct TickRec {          // one per ISR call
-    double t;             // scene time of the tick (irq), s
-    double q_fw[3];       // firmware joint angles (its snapshot)
-    double q_true[3];     // true joint angles of the sample the snapshot holds
-    double p_fw[3], f_fw[3], tau_fw[3];
-    int32_t pos_err[3];   // snapshot counts minus true counts (homed frame)
-    int32_t pos[3];       // the snapshot's positions (POS registers), counts
-    uint32_t status;
-    uint8_t err, err_axis, drive, pad;
-};
-struct LoadRec { int64_t edge; int32_t ch; int32_t code; };
 
 // ------------------------------------------------------------------ the testbench
 struct Bench {
@@ -176,9 +93,9 @@ struct Bench {
     struct Pend { uint64_t at_us; int ch; int code; };
     std::vector<Pend> pend;
     int16_t frame_codes[6] = {0, 0, 0, 0, 0, 0};
-    std::vector<LoadRec> loads;
-    std::vector<FrameRec> frames;
-    std::vector<int8_t> adc;      // A0 B0 A1 B1 A2 B2 per grid point of the scene (record bit 2)
+    hg_dev::RecordFile<LoadRec> loads;
+    hg_dev::RecordFile<FrameRec> frames;
+    hg_dev::RecordFile<int8_t> adc;       // A0 B0 A1 B1 A2 B2 per grid point of the scene (record bit 2)
     uint32_t skew = 0, frame = 0;  // clocks (from the RTL's DAC_SKEW / DAC_FRAME)
     // grid
     int64_t scene0_us = 0;        // grid point of scene time 0
@@ -214,7 +131,7 @@ struct Bench {
                 for (int i = 0; i < 6; ++i) r.i_ab[i] = o.i_ab[i];
                 r.energy = o.energy;
             }
-            frames.push_back(r);
+            frames.push(r);
         }
         // ADC words for the capture at the next edge (sample grid g), then one grid step
         int8_t a[3] = {0, 0, 0}, b[3] = {0, 0, 0};   // an axis that is not built has no signal
@@ -226,8 +143,8 @@ struct Bench {
         for (int i = 0; i < 3; ++i) {
             if (dropout[i]) a[i] = b[i] = 0;
             if (dynamic && (cfg->record & 4)) {
-                adc.push_back(a[i]);
-                adc.push_back(b[i]);
+                adc.push(a[i]);
+                adc.push(b[i]);
             }
             wa |= static_cast<uint32_t>(static_cast<uint8_t>(a[i])) << (8 * i);
             wb |= static_cast<uint32_t>(static_cast<uint8_t>(b[i])) << (8 * i);
@@ -243,18 +160,8 @@ struct Bench {
     int steps_per_us = 1;
 
     void homing_pose(uint64_t g) {  // raised-cosine sweep of every joint, ending at rest at q0
-        const double t = static_cast<double>(g) * 1e-6 - t_sweep0;
         double q[3], qd[3];
-        double s = 0, ds = 0;
-        if (t <= 0) s = 0;
-        else if (t < cfg->t_sweep_s) {
-            s = 0.5 * (1 - std::cos(kPi * t / cfg->t_sweep_s));
-            ds = 0.5 * kPi / cfg->t_sweep_s * std::sin(kPi * t / cfg->t_sweep_s);
-        } else s = 1;
-        for (int i = 0; i < 3; ++i) {
-            q[i] = cfg->q0[i] - cfg->sweep_rad * (1 - s);
-            qd[i] = cfg->sweep_rad * ds;
-        }
+        hg_dev::homing_pose(*cfg, t_sweep0, static_cast<double>(g) * 1e-6, q, qd);
         hg_plant_set_q(plant, q, qd);
     }
     double t_sweep0 = 100e-6;   // s after reset: the sweep starts
@@ -277,7 +184,7 @@ struct Bench {
             int code = static_cast<int>(top->dac_data);
             if (code >= 8192) code -= 16384;
             const int ch = static_cast<int>(top->dac_addr);
-            if (cfg->record & 2) loads.push_back({static_cast<int64_t>(edge), ch, code});
+            if (cfg->record & 2) loads.push({static_cast<int64_t>(edge), ch, code});
             // frame n of this load: edge = n*FRAME + ch*SKEW + LOAD
             const uint64_t st = edge - kLoadClocks - static_cast<uint64_t>(ch) * skew;
             const uint64_t n = frame ? st / frame : 0;
@@ -372,8 +279,8 @@ int main(int argc, char** argv) {
     }
     RunCfg cfg;
     std::string err;
-    const std::string ptext = slurp(argv[1]);
-    if (!parse_run(slurp(argv[2]), cfg, err)) {
+    const std::string ptext = hg_dev::slurp(argv[1]);
+    if (!hg_dev::parse_run(hg_dev::slurp(argv[2]), cfg, err, false)) {
         std::fprintf(stderr, "error: %s: %s\n", argv[2], err.c_str());
         return 2;
     }
@@ -390,6 +297,9 @@ int main(int argc, char** argv) {
     bench.plant = plant;
     bench.cfg = &cfg;
     bench.qtrue_ring.assign(Bench::kRing * 3, 0.0);
+    bench.frames.open(outdir + "/frames.bin");
+    bench.loads.open(outdir + "/loads.bin");
+    bench.adc.open(outdir + "/adc.bin");
     // integrator steps per grid point (dt from the plant config: 1e-6 / dt)
     {
         double dt = 1e-6;
@@ -430,16 +340,10 @@ int main(int argc, char** argv) {
     bench.grid(0);
 
     const auto w0 = std::chrono::steady_clock::now();
+    const std::clock_t c0 = std::clock();
     // ---------------------------------------------------------------- firmware bring-up
     hg_servo_cfg_t fw;
-    hg_servo_default_cfg(&fw);
-    fw.rate_hz = cfg.servo_hz;
-    fw.fpga_clk_hz = CLK_HZ;
-    for (int i = 0; i < 3; ++i) {
-        fw.enc[i].index_to_zero = static_cast<int32_t>(std::lround(-cfg.q_index[i] / (2 * kPi) * HG_ENC_COUNTS_PER_REV));
-        fw.motor[i].comm_offset = static_cast<uint32_t>(cfg.comm_err[i] & 1023);
-    }
-    if (cfg.pc_force_timeout_ticks >= 0) fw.pc_force_timeout = static_cast<uint32_t>(cfg.pc_force_timeout_ticks);
+    hg_dev::fw_config(cfg, CLK_HZ, &fw);
     static hg_servo_t s;
     const uint8_t init_err = hg_servo_init(&s, &fw);
     bench.skew = fpga_read32(HG_WORD(offsetof(hapgate_t, DAC_SKEW)));
@@ -453,6 +357,8 @@ int main(int argc, char** argv) {
     // scene time 0: the sweep and the settle are over; the plant is released there
     bench.scene0_us = static_cast<int64_t>(std::llround((bench.t_sweep0 + cfg.t_sweep_s + cfg.t_settle_s) * 1e6));
     const uint64_t end_us = static_cast<uint64_t>(bench.scene0_us) + static_cast<uint64_t>(std::llround(cfg.duration_s * 1e6));
+    const bool scripted = link && uart_link_scripted(link);   // a scene's scripted PC
+    if (scripted) uart_link_set_origin(link, static_cast<uint64_t>(bench.scene0_us));
     std::vector<TickRec> ticks;
     int64_t homed_isr = -1;
     bool enabled = false, hang = false, resumed = false;
@@ -474,8 +380,7 @@ int main(int argc, char** argv) {
             bench.dynamic = true;
         }
         if (g_now >= next_progress) {
-            std::fprintf(stderr, "progress %.6f\n", bench.scene_t(g_now));
-            std::fflush(stderr);
+            hg_dev::progress_line(bench.scene_t(g_now));
             next_progress += static_cast<uint64_t>(cfg.progress_s * 1e6);
         }
         for (size_t k = 0; k < faults.size(); ++k) {
@@ -514,78 +419,39 @@ int main(int argc, char** argv) {
             g_isr_s += now_s() - ti0;
             g_in_isr = false;
         }
-        TickRec r{};
-        r.t = bench.scene_t(tick_g);
-        r.status = s.status;
-        r.err = s.err;
-        r.err_axis = s.err_axis;
-        r.drive = s.enabled && s.err == HG_ERR_NONE;
         // the snapshot holds the sample of grid point tick_g - 1 (the one visible at the tick)
         const uint64_t gs = tick_g - 1;
-        for (int i = 0; i < 3; ++i) {
-            r.q_fw[i] = s.q[i];
-            r.q_true[i] = bench.qtrue_ring[(gs % Bench::kRing) * 3 + i];
-            r.p_fw[i] = s.p[i];
-            r.f_fw[i] = s.f[i];
-            r.tau_fw[i] = s.tau[i];
-            const double cpr = HG_ENC_COUNTS_PER_REV;
-            r.pos_err[i] = static_cast<int32_t>(std::lround((s.q[i] - r.q_true[i]) / (2 * kPi) * cpr));
-            r.pos[i] = s.pos[i];
-        }
+        const TickRec r = hg_dev::tick_record(s, bench.scene_t(tick_g), &bench.qtrue_ring[(gs % Bench::kRing) * 3]);
         ticks.push_back(r);
-        if (link && ticks.size() >= 65536) ticks.clear();  // serving: runs until a signal
+        if (link && !scripted && ticks.size() >= 65536) ticks.clear();  // serving: runs until a signal
         // ---- background loop: homing, then the scene and enable at scene time 0
         if (!enabled) {
             const uint32_t homed = HG_STAT_HOMED(0) | HG_STAT_HOMED(1) | HG_STAT_HOMED(2);
             if (homed_isr < 0 && (s.status & homed) == homed) {
                 homed_isr = static_cast<int64_t>(ticks.size()) - 1;
             } else if (homed_isr >= 0 && static_cast<int64_t>(tick_g) >= bench.scene0_us - 1000000 / static_cast<int64_t>(cfg.servo_hz)) {
-                for (uint32_t i = 0; i < 3; ++i)
-                    hg_enc_home(&s.cfg.enc[i], static_cast<int32_t>(fpga_read32(HG_REG_AXIS(i, HG_AX_IDX_POS))));
-                hg_scene_t sc{};
-                sc.type = static_cast<uint8_t>(cfg.env_kind);
-                for (int i = 0; i < 3; ++i) {
-                    sc.p0[i] = static_cast<hg_real>(cfg.env_p[i]);
-                    sc.n[i] = static_cast<hg_real>(cfg.env_n[i]);
-                }
-                sc.k = static_cast<hg_real>(cfg.env_k);
-                sc.b = static_cast<hg_real>(cfg.env_b);
-                sc.ki = static_cast<hg_real>(cfg.env_ki);
-                const int sr = hg_servo_set_scene(&s, &sc);
-                const int en = link ? 0 : hg_servo_enable(&s, true);  // with a PC link: the PC enables
-                if (sr != 0 || en != 0) {
-                    std::fprintf(stderr, "error: the firmware refused the scene (%d) or enable (%d)\n", sr, en);
-                    return 3;
-                }
+                const int rc = hg_dev::fw_home_scene_enable(&s, cfg, !link);  // with a PC link: the PC enables
+                if (rc != 0) return rc;
                 enabled = true;
                 enable_t = bench.scene_t(bench.edge / D);
             }
         }
     }
     const double wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - w0).count();
+    const double cpu_s = static_cast<double>(std::clock() - c0) / CLOCKS_PER_SEC;  // one core
 #if HG_TRACE
     bench.tfp->close();
 #endif
     // ---------------------------------------------------------------- outputs
-    auto dump = [&](const std::string& name, const void* data, size_t bytes) {
-        FILE* f = std::fopen((outdir + "/" + name).c_str(), "wb");
-        if (!f) { std::fprintf(stderr, "error: cannot write %s/%s\n", outdir.c_str(), name.c_str()); std::exit(3); }
-        if (bytes) std::fwrite(data, 1, bytes, f);
-        std::fclose(f);
-    };
-    dump("frames.bin", bench.frames.data(), bench.frames.size() * sizeof(FrameRec));
-    dump("ticks.bin", ticks.data(), ticks.size() * sizeof(TickRec));
-    dump("loads.bin", bench.loads.data(), bench.loads.size() * sizeof(LoadRec));
-    dump("adc.bin", bench.adc.data(), bench.adc.size());
+    bench.frames.close();
+    hg_dev::write_file(outdir, "ticks.bin", ticks.data(), ticks.size() * sizeof(TickRec));
+    bench.loads.close();
+    bench.adc.close();
     const double sim_s = static_cast<double>(end_us - static_cast<uint64_t>(bench.scene0_us)) * 1e-6;
-    std::printf("clk_hz=%d axis_mask=%d sim_s=%.9g wall_s=%.6g clocks=%llu frames=%zu ticks=%zu loads=%zu\n",
-                CLK_HZ, AXIS_MASK, sim_s, wall_s, static_cast<unsigned long long>(bench.edge), bench.frames.size(),
-                ticks.size(), bench.loads.size());
-    std::printf("init_err=%u fw_err=%u fw_err_axis=%u enabled_t=%.9g wdog_us=%u last_key_edge=%llu scene0_us=%lld "
-                "skew=%u frame=%u d=%llu\n",
-                init_err, s.err, s.err_axis, enable_t, wdog_us, static_cast<unsigned long long>(last_key_edge),
-                static_cast<long long>(bench.scene0_us), bench.skew, bench.frame, static_cast<unsigned long long>(D));
-    std::printf("frame_bytes=%zu tick_bytes=%zu\n", sizeof(FrameRec), sizeof(TickRec));
+    hg_dev::print_summary({CLK_HZ, AXIS_MASK, sim_s, wall_s, cpu_s, bench.edge, bench.frames.size(), ticks.size(),
+                           bench.loads.size(), init_err, s.err, s.err_axis, enable_t, wdog_us, last_key_edge,
+                           bench.scene0_us, bench.skew, bench.frame, D});
+    if (link) uart_link_summary(link, stdout);
     if (g_profile)
         std::printf("profile_plant_s=%.6g profile_firmware_s=%.6g profile_gateware_s=%.6g\n", g_plant_s,
                     g_isr_s - g_bus_in_isr_s, wall_s - g_plant_s - (g_isr_s - g_bus_in_isr_s));

@@ -84,6 +84,9 @@ struct hg_plant {
     double ia[3] = {0, 0, 0}, ib[3] = {0, 0, 0};
     double icmd_a[3] = {0, 0, 0}, icmd_b[3] = {0, 0, 0};
     double alpha = 0;                 // current-loop step factor
+    double alpha_us = 0;              // the same for 1 us (hg_plant_amp_us)
+    double decay[65] = {0};           // (1 - alpha_us)^n, n = 0..64
+    double mean_decay[65] = {0};      // mean over j = 1..n of (1 - alpha_us)^j
     double J[9], Jprev[9];
     bool have_prev = false, held = false;
     double tau[3] = {0, 0, 0}, f_hand[3] = {0, 0, 0};
@@ -199,7 +202,9 @@ void target(const Params& P, double t, double* pt, double* vt) {
 // tau = kt * 2/3 * (ia sin(te) + ib sin(te - 120) + ic sin(te - 240)), ic = -(ia + ib)
 //     = kt * 2/3 * (ia (sin te - sin(te - 240)) + ib (sin(te - 120) - sin(te - 240)))
 //     = kt * 2/3 * sqrt(3) * (ia cos(te - 120) - ib cos(te))   (sum to product)
-void motor_torque(const hg_plant* s, double* tau, double* th) {
+// (tau2: optionally the torques of the amplifier's present currents as well, same angles)
+void motor_torque_i(const hg_plant* s, const double* ia, const double* ib, double* tau, double* th,
+                    double* tau2 = nullptr) {
     const Params& P = s->P;
     constexpr double kS120 = 0.86602540378443864676, kSqrt3 = 1.7320508075688772935;
     for (int m = 0; m < 3; ++m) {
@@ -207,9 +212,12 @@ void motor_torque(const hg_plant* s, double* tau, double* th) {
         th[m] = te;
         double st, ct;
         sincos(te, &st, &ct);
-        tau[m] = P.kt * (2.0 / 3.0) * kSqrt3 * (s->ia[m] * (kS120 * st - 0.5 * ct) - s->ib[m] * ct);
+        tau[m] = P.kt * (2.0 / 3.0) * kSqrt3 * (ia[m] * (kS120 * st - 0.5 * ct) - ib[m] * ct);
+        if (tau2) tau2[m] = P.kt * (2.0 / 3.0) * kSqrt3 * (s->ia[m] * (kS120 * st - 0.5 * ct) - s->ib[m] * ct);
     }
 }
+
+void motor_torque(const hg_plant* s, double* tau, double* th) { motor_torque_i(s, s->ia, s->ib, tau, th); }
 
 bool parse(const char* text, Params& P, std::string& err) {
     std::map<std::string, std::vector<double>> kv;
@@ -348,6 +356,14 @@ hg_plant* hg_plant_new(const char* config_text, char* err, int errlen) {
         s->qd[i] = 0;
     }
     s->alpha = 1.0 - std::exp(-2 * kPi * P.bw_hz * P.dt);
+    s->alpha_us = 1.0 - std::exp(-2 * kPi * P.bw_hz * 1e-6);
+    s->decay[0] = 1.0;
+    for (int n = 1; n <= 64; ++n) s->decay[n] = s->decay[n - 1] * (1 - s->alpha_us);
+    for (int n = 1; n <= 64; ++n) {
+        double f = 0;
+        for (int j = 1; j <= n; ++j) f += s->decay[j];
+        s->mean_decay[n] = f / n;
+    }
     jac(P.arm, s->q, s->J);
     return s;
 }
@@ -376,10 +392,129 @@ void hg_plant_set_q(hg_plant* p, const double q[3], const double qd[3]) {
     }
 }
 
-void hg_plant_step(hg_plant* s, int n) {
+}  // extern "C"
+
+namespace {
+
+// The read-out of the present state (hg_plant_read) from its trigonometry and motor torques.
+void fill_out(const hg_plant* s, const Trig& kq, const double* tau, const double* th, hg_plant_out* o) {
     const Params& P = s->P;
-    const double dt = P.dt, m = P.m_link + P.m_handle;
-    double th[3];
+    o->t = s->t;
+    double J[9];
+    jac_t(P.arm, kq, J);
+    fk_t(P.arm, kq, o->p);
+    for (int i = 0; i < 3; ++i) {
+        o->q[i] = s->q[i];
+        o->qd[i] = s->qd[i];
+        o->f_hand[i] = s->f_hand[i];
+        o->tau[i] = tau[i];
+        o->theta_e[i] = th[i];
+        o->i_ab[2 * i] = s->ia[i];
+        o->i_ab[2 * i + 1] = s->ib[i];
+        o->v[i] = 0;
+        for (int c = 0; c < 3; ++c) o->v[i] += J[3 * i + c] * s->qd[c];
+    }
+    const double m = P.m_link + P.m_handle;
+    double e = 0;
+    for (int i = 0; i < 3; ++i) e += 0.5 * (m * o->v[i] * o->v[i] + P.j_rotor * s->qd[i] * s->qd[i]);
+    if (P.hand == 1) {
+        double pt[3], vt[3];
+        target(P, s->t, pt, vt);
+        for (int i = 0; i < 3; ++i) e += 0.5 * P.hand_k * (pt[i] - o->p[i]) * (pt[i] - o->p[i]);
+    }
+    o->energy = e;
+}
+
+// One semi-implicit Euler step of dt with the motor torques of phase currents (ia, ib); with
+// `out`, the read-out of the state before the step as well (its trigonometry shared).
+void mech_step(hg_plant* s, double dt, const double* ia, const double* ib, hg_plant_out* out = nullptr) {
+    const Params& P = s->P;
+    const double m = P.m_link + P.m_handle;
+    double th[3], tau_now[3];
+    motor_torque_i(s, ia, ib, s->tau, th, out ? tau_now : nullptr);
+    const Trig kq = trig(s->q);
+    if (out) fill_out(s, kq, tau_now, th, out);
+    jac_t(P.arm, kq, s->J);
+    double p[3], v[3] = {0, 0, 0}, pt[3], vt[3], fdev[3] = {0, 0, 0};
+    if (P.hand == 1) fk_t(P.arm, kq, p);
+    for (int r = 0; r < 3; ++r)
+        for (int c = 0; c < 3; ++c) v[r] += s->J[3 * r + c] * s->qd[c];
+    double tq[3];
+    for (int i = 0; i < 3; ++i) tq[i] = s->tau[i];
+    if (P.gravity) {
+        double g[3];
+        grad_u(P, s->q, g);
+        for (int i = 0; i < 3; ++i) tq[i] -= g[i];
+    }
+    if (P.hand == 1) {
+        target(P, s->t, pt, vt);
+        for (int i = 0; i < 3; ++i) fdev[i] = P.hand_k * (pt[i] - p[i]) + P.hand_b * (vt[i] - v[i]);
+        for (int i = 0; i < 3; ++i) s->f_hand[i] = -fdev[i];
+    }
+    const bool fixed = P.hand == 2;
+    if (fixed || s->held) {
+        if (fixed) {  // rigid grip: static equilibrium tau + J^T F_dev = 0, F_hand = -F_dev
+            double a[3][3], b[3];
+            for (int r = 0; r < 3; ++r) {
+                b[r] = tq[r];
+                for (int c = 0; c < 3; ++c) a[r][c] = s->J[3 * c + r];  // J^T
+            }
+            solve(a, b, 3);
+            for (int i = 0; i < 3; ++i) s->f_hand[i] = b[i];
+        }
+        if (s->held)
+            for (int i = 0; i < 3; ++i) s->q[i] += dt * s->qd[i];
+        s->have_prev = false;
+        s->t += dt;
+        return;
+    }
+    // joint-space dynamics with the linkage mass lumped at the endpoint:
+    // (J_r I + m J^T J) qdd = tau + J^T F_dev - m J^T (Jdot qd) - friction
+    double jdq[3] = {0, 0, 0};
+    if (s->have_prev)
+        for (int r = 0; r < 3; ++r)
+            for (int c = 0; c < 3; ++c) jdq[r] += (s->J[3 * r + c] - s->Jprev[3 * r + c]) / dt * s->qd[c];
+    double rhs[3];
+    for (int i = 0; i < 3; ++i) {
+        double acc = tq[i];
+        for (int r = 0; r < 3; ++r) acc += s->J[3 * r + i] * (fdev[r] - m * jdq[r]);
+        acc -= P.b_visc[i] * s->qd[i];
+        if (P.tau_c[i] != 0) acc -= P.tau_c[i] * std::tanh(s->qd[i] / P.coulomb_w);
+        rhs[i] = acc;
+    }
+    double M[3][3];
+    for (int r = 0; r < 3; ++r)
+        for (int c = 0; c < 3; ++c) {
+            double x = 0;
+            for (int k2 = 0; k2 < 3; ++k2) x += s->J[3 * k2 + r] * s->J[3 * k2 + c];
+            M[r][c] = m * x + (r == c ? P.j_rotor : 0.0);
+        }
+    // held joints (axes not simulated): qd = 0, the free ones solve the reduced system
+    int idx[3], nf = 0;
+    for (int i = 0; i < 3; ++i)
+        if (P.free_[i]) idx[nf++] = i;
+    double a[3][3], b[3];
+    for (int r = 0; r < nf; ++r) {
+        b[r] = rhs[idx[r]];
+        for (int c = 0; c < nf; ++c) a[r][c] = M[idx[r]][idx[c]];
+    }
+    if (nf) solve(a, b, nf);
+    // semi-implicit (symplectic) Euler
+    for (int r = 0; r < nf; ++r) s->qd[idx[r]] += dt * b[r];
+    for (int i = 0; i < 3; ++i) {
+        if (!P.free_[i]) s->qd[i] = 0;
+        s->q[i] += dt * s->qd[i];
+    }
+    std::memcpy(s->Jprev, s->J, sizeof s->J);
+    s->have_prev = true;
+    s->t += dt;
+}
+
+}  // namespace
+
+extern "C" {
+
+void hg_plant_step(hg_plant* s, int n) {
     for (int k = 0; k < n; ++k) {
         // amplifier: first-order current loop toward the (limited) commands, exact for a
         // command held over the step
@@ -387,84 +522,56 @@ void hg_plant_step(hg_plant* s, int n) {
             s->ia[i] += (s->icmd_a[i] - s->ia[i]) * s->alpha;
             s->ib[i] += (s->icmd_b[i] - s->ib[i]) * s->alpha;
         }
-        motor_torque(s, s->tau, th);
-        const Trig kq = trig(s->q);
-        jac_t(P.arm, kq, s->J);
-        double p[3], v[3] = {0, 0, 0}, pt[3], vt[3], fdev[3] = {0, 0, 0};
-        if (P.hand == 1) fk_t(P.arm, kq, p);
-        for (int r = 0; r < 3; ++r)
-            for (int c = 0; c < 3; ++c) v[r] += s->J[3 * r + c] * s->qd[c];
-        double tq[3];
-        for (int i = 0; i < 3; ++i) tq[i] = s->tau[i];
-        if (P.gravity) {
-            double g[3];
-            grad_u(P, s->q, g);
-            for (int i = 0; i < 3; ++i) tq[i] -= g[i];
-        }
-        if (P.hand == 1) {
-            target(P, s->t, pt, vt);
-            for (int i = 0; i < 3; ++i) fdev[i] = P.hand_k * (pt[i] - p[i]) + P.hand_b * (vt[i] - v[i]);
-            for (int i = 0; i < 3; ++i) s->f_hand[i] = -fdev[i];
-        }
-        const bool fixed = P.hand == 2;
-        if (fixed || s->held) {
-            if (fixed) {  // rigid grip: static equilibrium tau + J^T F_dev = 0, F_hand = -F_dev
-                double a[3][3], b[3];
-                for (int r = 0; r < 3; ++r) {
-                    b[r] = tq[r];
-                    for (int c = 0; c < 3; ++c) a[r][c] = s->J[3 * c + r];  // J^T
-                }
-                solve(a, b, 3);
-                for (int i = 0; i < 3; ++i) s->f_hand[i] = b[i];
-            }
-            if (s->held)
-                for (int i = 0; i < 3; ++i) s->q[i] += dt * s->qd[i];
-            s->have_prev = false;
-            s->t += dt;
-            continue;
-        }
-        // joint-space dynamics with the linkage mass lumped at the endpoint:
-        // (J_r I + m J^T J) qdd = tau + J^T F_dev - m J^T (Jdot qd) - friction
-        double jdq[3] = {0, 0, 0};
-        if (s->have_prev)
-            for (int r = 0; r < 3; ++r)
-                for (int c = 0; c < 3; ++c) jdq[r] += (s->J[3 * r + c] - s->Jprev[3 * r + c]) / dt * s->qd[c];
-        double rhs[3];
-        for (int i = 0; i < 3; ++i) {
-            double acc = tq[i];
-            for (int r = 0; r < 3; ++r) acc += s->J[3 * r + i] * (fdev[r] - m * jdq[r]);
-            acc -= P.b_visc[i] * s->qd[i];
-            if (P.tau_c[i] != 0) acc -= P.tau_c[i] * std::tanh(s->qd[i] / P.coulomb_w);
-            rhs[i] = acc;
-        }
-        double M[3][3];
-        for (int r = 0; r < 3; ++r)
-            for (int c = 0; c < 3; ++c) {
-                double x = 0;
-                for (int k2 = 0; k2 < 3; ++k2) x += s->J[3 * k2 + r] * s->J[3 * k2 + c];
-                M[r][c] = m * x + (r == c ? P.j_rotor : 0.0);
-            }
-        // held joints (axes not simulated): qd = 0, the free ones solve the reduced system
-        int idx[3], nf = 0;
-        for (int i = 0; i < 3; ++i)
-            if (P.free_[i]) idx[nf++] = i;
-        double a[3][3], b[3];
-        for (int r = 0; r < nf; ++r) {
-            b[r] = rhs[idx[r]];
-            for (int c = 0; c < nf; ++c) a[r][c] = M[idx[r]][idx[c]];
-        }
-        if (nf) solve(a, b, nf);
-        // semi-implicit (symplectic) Euler
-        for (int r = 0; r < nf; ++r) s->qd[idx[r]] += dt * b[r];
-        for (int i = 0; i < 3; ++i) {
-            if (!P.free_[i]) s->qd[i] = 0;
-            s->q[i] += dt * s->qd[i];
-        }
-        std::memcpy(s->Jprev, s->J, sizeof s->J);
-        s->have_prev = true;
-        s->t += dt;
+        mech_step(s, s->P.dt, s->ia, s->ib);
     }
 }
+
+void hg_plant_amp_us(hg_plant* s) {
+    for (int i = 0; i < 3; ++i) {
+        s->ia[i] += (s->icmd_a[i] - s->ia[i]) * s->alpha_us;
+        s->ib[i] += (s->icmd_b[i] - s->ib[i]) * s->alpha_us;
+    }
+}
+
+void hg_plant_amp(hg_plant* s, int n_us) {
+    if (n_us <= 0) return;
+    const double r = n_us <= 64 ? s->decay[n_us] : std::pow(1 - s->alpha_us, n_us);
+    for (int i = 0; i < 3; ++i) {
+        s->ia[i] = s->icmd_a[i] + (s->ia[i] - s->icmd_a[i]) * r;
+        s->ib[i] = s->icmd_b[i] + (s->ib[i] - s->icmd_b[i]) * r;
+    }
+}
+
+void hg_plant_held_us(hg_plant* s) {
+    hg_plant_amp_us(s);
+    for (int i = 0; i < 3; ++i) s->q[i] += 1e-6 * s->qd[i];
+    s->have_prev = false;
+    s->t += 1e-6;
+}
+
+void hg_plant_mech_read(hg_plant* s, int n_us, hg_plant_out* out) {
+    // the mean over the next n_us of the currents the amplifier reaches with today's commands
+    // (the 1 us updates that hg_plant_amp_us makes): cmd + (i0 - cmd) * mean_j (1 - alpha)^j
+    double f = 0;
+    if (n_us <= 64) {
+        f = s->mean_decay[n_us];
+    } else {
+        double r = 1;
+        for (int j = 1; j <= n_us; ++j) {
+            r *= 1 - s->alpha_us;
+            f += r;
+        }
+        f /= n_us;
+    }
+    double ia[3], ib[3];
+    for (int i = 0; i < 3; ++i) {
+        ia[i] = s->icmd_a[i] + (s->ia[i] - s->icmd_a[i]) * f;
+        ib[i] = s->icmd_b[i] + (s->ib[i] - s->icmd_b[i]) * f;
+    }
+    mech_step(s, n_us * 1e-6, ia, ib, out);
+}
+
+void hg_plant_mech(hg_plant* s, int n_us) { hg_plant_mech_read(s, n_us, nullptr); }
 
 void hg_plant_adc(hg_plant* s, int8_t a[3], int8_t b[3], uint8_t idx[3]) {
     hg_plant_adc_mask(s, 7, a, b, idx);
@@ -488,31 +595,10 @@ void hg_plant_adc_mask(hg_plant* s, int mask, int8_t a[3], int8_t b[3], uint8_t 
 }
 
 void hg_plant_read(const hg_plant* s, hg_plant_out* o) {
-    const Params& P = s->P;
-    o->t = s->t;
-    double J[9], th[3];
-    jac(P.arm, s->q, J);
-    fk(P.arm, s->q, o->p);
-    motor_torque(s, o->tau, th);
-    for (int i = 0; i < 3; ++i) {
-        o->q[i] = s->q[i];
-        o->qd[i] = s->qd[i];
-        o->f_hand[i] = s->f_hand[i];
-        o->theta_e[i] = th[i];
-        o->i_ab[2 * i] = s->ia[i];
-        o->i_ab[2 * i + 1] = s->ib[i];
-        o->v[i] = 0;
-        for (int c = 0; c < 3; ++c) o->v[i] += J[3 * i + c] * s->qd[c];
-    }
-    const double m = P.m_link + P.m_handle;
-    double e = 0;
-    for (int i = 0; i < 3; ++i) e += 0.5 * (m * o->v[i] * o->v[i] + P.j_rotor * s->qd[i] * s->qd[i]);
-    if (P.hand == 1) {
-        double pt[3], vt[3];
-        target(P, s->t, pt, vt);
-        for (int i = 0; i < 3; ++i) e += 0.5 * P.hand_k * (pt[i] - o->p[i]) * (pt[i] - o->p[i]);
-    }
-    o->energy = e;
+    double th[3], tau[3];
+    const Trig kq = trig(s->q);   // (one evaluation for both)
+    motor_torque(s, tau, th);
+    fill_out(s, kq, tau, th, o);
 }
 
 void hg_plant_q(const hg_plant* p, double q[3]) {
@@ -525,5 +611,11 @@ void hg_plant_jac(const hg_plant* p, const double q[3], double out[9]) { jac(p->
 void hg_plant_encode(const hg_plant* p, int axis, const double* lines, int n, int8_t* a, int8_t* b) {
     for (int k = 0; k < n; ++k) encode_one(p->P, axis, lines[k], 0, 0, &a[k], &b[k]);
 }
+
+void hg_plant_encode1(const hg_plant* p, int axis, double lines, double za, double zb, int8_t* a, int8_t* b) {
+    encode_one(p->P, axis, lines, p->P.noise[axis] * za, p->P.noise[axis] * zb, a, b);
+}
+
+double hg_plant_noise_lsb(const hg_plant* p, int axis) { return p->P.noise[axis]; }
 
 }  // extern "C"

@@ -22,6 +22,15 @@ void hg_plant_free(hg_plant* p);
 void hg_plant_set_dac(hg_plant* p, int ch, int code);
 // Advance by n integrator steps (dt each). Forces on the hand follow the hand model.
 void hg_plant_step(hg_plant* p, int n);
+// Model fidelity's multirate plant (tb/native/device/README.md "Model fidelity"): the amplifier's
+// current loop advanced by 1 us toward the DAC commands, and the mechanics by one step of n_us
+// with the mean current the loop reaches over it if the commands hold (exact between DAC updates).
+void hg_plant_amp_us(hg_plant* p);
+// n_us of it at once (commands held: the exact solution of the 1 us recursion, up to rounding).
+void hg_plant_amp(hg_plant* p, int n_us);
+void hg_plant_mech(hg_plant* p, int n_us);
+// While held (the homing sweep): 1 us of the current loop and of the kinematic pose, no torques.
+void hg_plant_held_us(hg_plant* p);
 // Hold (1) or release (0) the joints kinematically: q follows hg_plant_set_q (homing sweep).
 void hg_plant_hold(hg_plant* p, int on);
 void hg_plant_set_q(hg_plant* p, const double q[3], const double qd[3]);
@@ -43,6 +52,8 @@ typedef struct {
     double theta_e[3];  // true electrical angle per motor, rad
 } hg_plant_out;
 void hg_plant_read(const hg_plant* p, hg_plant_out* o);
+// hg_plant_mech with the read-out of the state before the step (shared trigonometry).
+void hg_plant_mech_read(hg_plant* p, int n_us, hg_plant_out* o);
 // Joint angles only (cheap; every grid point).
 void hg_plant_q(const hg_plant* p, double q[3]);
 
@@ -52,6 +63,11 @@ void hg_plant_jac(const hg_plant* p, const double q[3], double out[9]);
 // Encoder signal model alone (for the cross-check against hapgate.golden.encsig): codes of axis
 // `axis` for positions in lines (n samples), noise-free (noise_lsb ignored).
 void hg_plant_encode(const hg_plant* p, int axis, const double* lines, int n, int8_t* a, int8_t* b);
+
+// One sample of axis `axis` at `lines` with the given standard-normal noise draws (scaled by the
+// axis's noise_lsb), and that noise level (model fidelity draws its noise per sample index).
+void hg_plant_encode1(const hg_plant* p, int axis, double lines, double za, double zb, int8_t* a, int8_t* b);
+double hg_plant_noise_lsb(const hg_plant* p, int axis);
 
 #ifdef __cplusplus
 }

@@ -58,7 +58,58 @@ struct UartLink {
     double worst_lag_s = 0;
     // counters
     uint64_t bytes_in = 0, bytes_out = 0, bytes_lost = 0;
+    // scripted PC (script = PATH): bursts at scene times, relative to grid point origin_us
+    struct Burst { uint64_t t_us; std::string bytes; };
+    std::deque<Burst> script;
+    bool scripted = false;
+    uint64_t origin_us = 0;
 };
+
+namespace {
+
+[[noreturn]] void cfg_fail(const char* path, int line, const std::string& why) {
+    std::fprintf(stderr, "error: %s: line %d: %s\n", path, line, why.c_str());
+    std::exit(2);
+}
+
+int hex_digit(char c) {
+    if (c >= '0' && c <= '9') return c - '0';
+    if (c >= 'a' && c <= 'f') return c - 'a' + 10;
+    if (c >= 'A' && c <= 'F') return c - 'A' + 10;
+    return -1;
+}
+
+void read_script(UartLink* u, const std::string& path) {
+    std::ifstream in(path);
+    if (!in) {
+        std::fprintf(stderr, "error: %s: cannot read\n", path.c_str());
+        std::exit(2);
+    }
+    std::string line;
+    int n = 0;
+    uint64_t last = 0;
+    while (std::getline(in, line)) {
+        ++n;
+        if (line.empty() || line[0] == '#') continue;
+        std::istringstream ls(line);
+        std::string t, hex, extra;
+        if (!(ls >> t >> hex) || (ls >> extra)) cfg_fail(path.c_str(), n, "expected T_US HEX");
+        char* end = nullptr;
+        const unsigned long long tu = std::strtoull(t.c_str(), &end, 10);
+        if (*end || t[0] == '-' || tu < last) cfg_fail(path.c_str(), n, "T_US " + t + ": expected a non-decreasing whole number");
+        if (hex.size() % 2) cfg_fail(path.c_str(), n, "HEX: an even number of hex digits");
+        UartLink::Burst b{tu, {}};
+        for (size_t i = 0; i < hex.size(); i += 2) {
+            const int hi = hex_digit(hex[i]), lo = hex_digit(hex[i + 1]);
+            if (hi < 0 || lo < 0) cfg_fail(path.c_str(), n, "HEX: not a hex digit");
+            b.bytes.push_back(static_cast<char>(hi * 16 + lo));
+        }
+        last = tu;
+        u->script.push_back(std::move(b));
+    }
+}
+
+}  // namespace
 
 UartLink* uart_link_open(const char* cfg_path, hg_servo_t* s, uint32_t servo_hz) {
     auto* u = new UartLink;
@@ -73,16 +124,18 @@ UartLink* uart_link_open(const char* cfg_path, hg_servo_t* s, uint32_t servo_hz)
         ++n;
         const auto eq = line.find('=');
         if (line.empty() || line[0] == '#') continue;
-        auto fail = [&](const std::string& why) {
-            std::fprintf(stderr, "error: %s: line %d: %s\n", cfg_path, n, why.c_str());
-            std::exit(2);
-        };
+        auto fail = [&](const std::string& why) { cfg_fail(cfg_path, n, why); };
         if (eq == std::string::npos) fail("expected key = value");
         std::string key = line.substr(0, eq), val;
         key.erase(key.find_last_not_of(" \t") + 1);
         std::istringstream vs(line.substr(eq + 1));
         vs >> val;
         if (key == "fd") u->fd = std::atoi(val.c_str());
+        else if (key == "script") {
+            read_script(u, val);
+            u->scripted = true;
+            u->realtime = false;
+        }
         else if (key == "baud") {
             const long b = std::atol(val.c_str());
             if (b < 1200 || b > 12000000) fail("baud " + val + ": expected 1200..12000000");
@@ -92,22 +145,40 @@ UartLink* uart_link_open(const char* cfg_path, hg_servo_t* s, uint32_t servo_hz)
             u->realtime = val == "realtime";
         } else fail("unknown key " + key);
     }
-    if (u->fd < 0 || fcntl(u->fd, F_GETFD) < 0) {
-        std::fprintf(stderr, "error: %s: fd %d is not open\n", cfg_path, u->fd);
+    if (u->scripted && u->fd >= 0) {
+        std::fprintf(stderr, "error: %s: fd and script exclude each other\n", cfg_path);
         std::exit(2);
     }
-    fcntl(u->fd, F_SETFL, fcntl(u->fd, F_GETFL) | O_NONBLOCK);
+    if (!u->scripted) {
+        if (u->fd < 0 || fcntl(u->fd, F_GETFD) < 0) {
+            std::fprintf(stderr, "error: %s: fd %d is not open\n", cfg_path, u->fd);
+            std::exit(2);
+        }
+        fcntl(u->fd, F_SETFL, fcntl(u->fd, F_GETFL) | O_NONBLOCK);
+    }
     u->servo = s;
     u->byte_us = 10.0 * 1e6 / u->baud;
     u->poll_us = u->byte_us >= 2 ? static_cast<uint64_t>(u->byte_us) : 1;
     hg_link_init(&u->link, s);
     u->link.cfg.baud = u->baud;
     (void)servo_hz;
+    if (u->scripted) return u;       // ends with the run, like any scene
     std::signal(SIGINT, on_signal);
     std::signal(SIGTERM, on_signal);
     prctl(PR_SET_PDEATHSIG, SIGTERM);  // a server never outlives the process that started it
     if (getppid() == 1) g_stop = 1;
     return u;
+}
+
+bool uart_link_scripted(const UartLink* u) { return u->scripted; }
+void uart_link_set_origin(UartLink* u, uint64_t g0_us) { u->origin_us = g0_us; }
+
+void uart_link_summary(const UartLink* u, FILE* out) {
+    const hg_link_stats_t& st = u->link.st;
+    std::fprintf(out, "link_good=%u link_bad=%u link_timeouts=%u link_bytes_in=%llu link_bytes_out=%llu\n",
+                 st.good, st.bad_framing + st.bad_crc + st.bad_version + st.bad_type + st.bad_len,
+                 st.timeouts, static_cast<unsigned long long>(u->bytes_in),
+                 static_cast<unsigned long long>(u->bytes_out));
 }
 
 static void queue_tx(UartLink* u, const uint8_t* b, size_t n, double g) {
@@ -156,7 +227,16 @@ void uart_link_service(UartLink* u, uint64_t g_us) {
         std::fflush(stderr);
         std::_Exit(0);
     }
-    if (g_us >= u->next_read_us) {  // the PC's bytes, at most a FIFO's worth ahead
+    if (u->scripted) {  // the scripted PC's bursts, due at their scene times
+        while (!u->script.empty() && u->origin_us + u->script.front().t_us <= g_us) {
+            for (const char c : u->script.front().bytes) {
+                u->rx_free_us = std::max(u->rx_free_us, g) + u->byte_us;
+                u->rx.push_back({u->rx_free_us, static_cast<uint8_t>(c)});
+                ++u->bytes_in;
+            }
+            u->script.pop_front();
+        }
+    } else if (g_us >= u->next_read_us) {  // the PC's bytes, at most a FIFO's worth ahead
         u->next_read_us = g_us + u->poll_us;
         if (u->rx.size() < 64) {
             uint8_t buf[64];
@@ -188,7 +268,10 @@ void uart_link_service(UartLink* u, uint64_t g_us) {
         flush = flush || u->tx.front().b == 0;
         u->tx.pop_front();
     }
-    if (flush || u->out.size() >= 256) {
+    if (u->scripted) {                 // nobody listens: count what the firmware sent
+        u->bytes_out += u->out.size();
+        u->out.clear();
+    } else if (flush || u->out.size() >= 256) {
         const ssize_t w = write(u->fd, u->out.data(), u->out.size());
         const size_t done = w > 0 ? static_cast<size_t>(w) : 0;
         u->bytes_out += done;

@@ -3,7 +3,7 @@
 // through the Verilated RTL and writes the per-sample outputs. The path for 10^7..10^9 samples
 // (cocotb pays ~15 us of Python per clock). Driven by models/hapgate/native.py.
 //
-// usage: interp_harness IN OUT N_SAMPLES COLMASK [CAL_MU [OBS_CFG]]
+// usage: interp_harness IN OUT N_SAMPLES COLMASK [CAL_MU]
 //   IN : N_SAMPLES records of AXES x {int8 a, int8 b, uint8 flags}; flags bit0 index,
 //        bit1 fault clear, bit2 home arm (pulses applied with that sample), bit3 calibration
 //        enable, bit4 calibration freeze (levels captured with that sample; CAL = 1 builds).
@@ -12,9 +12,9 @@
 //        faults u8, overspeed_count u16, cal_ofs_a i16, cal_ofs_b i16, cal_gain_a u16,
 //        cal_gain_b u16, cal_phase i16, cal_gear u8, cal_updates u16, vel_obs i32
 //        (COLMASK bit k: column k).
-//   CAL_MU: the calibration adaptation shift of every axis (default 6).
-//   OBS_CFG: the velocity observer's settings of every axis, bw | type3 << 4 (default 0x16;
-//        VEL_OBS = 1 builds; vel_obs reads 0 otherwise).
+//   CAL_MU: the calibration adaptation shift of every axis (default 6) in bits 3:0; with bit 13
+//        set, bits 12:8 are the velocity observer's settings of every axis, bw | type3 << 4
+//        (VEL_OBS = 1 builds; default bw 6, type III; vel_obs reads 0 otherwise).
 // Prints "samples=N clocks=C seconds=S" on stdout.
 #include <array>
 #include <chrono>
@@ -68,7 +68,8 @@ void put(std::vector<uint8_t>& buf, T value, int bytes) {
 
 int main(int argc, char** argv) {
     if (argc < 5 || argc > 7) {
-        std::fprintf(stderr, "usage: %s IN OUT N_SAMPLES COLMASK [CAL_MU [OBS_CFG]]\n", argv[0]);
+        std::fprintf(stderr, "usage: %s IN OUT N_SAMPLES COLMASK [CAL_MU [HARM_TABLE]]\n",
+                     argv[0]);
         return 2;
     }
     const uint64_t n = std::strtoull(argv[3], nullptr, 10);
@@ -95,24 +96,60 @@ int main(int argc, char** argv) {
     top->adc_a = top->adc_b = 0;
     top->enc_index = top->ctl_fault_clear = top->ctl_home_arm = 0;
     top->ctl_cal_en = top->ctl_cal_freeze = 0;
+    top->ctl_harm_en = top->cfg_harm_we = 0;
+    top->cfg_harm_addr = top->cfg_harm_data = 0;
     {
-        const unsigned mu = (argc >= 6) ? static_cast<unsigned>(std::strtoul(argv[5], nullptr, 0)) & 15U : 6U;
-        const unsigned oc = (argc == 7) ? static_cast<unsigned>(std::strtoul(argv[6], nullptr, 0)) : 0x16U;
-        uint32_t mus = 0, bws = 0, t3s = 0;
+        const unsigned mv = (argc >= 6) ? static_cast<unsigned>(std::strtoul(argv[5], nullptr, 0)) : 6U;
+        const unsigned mu = mv & 15U;
+        const unsigned oc = ((mv >> 13) & 1U) ? ((mv >> 8) & 31U) : 0x16U;
+        uint32_t bws = 0, t3s = 0;
         for (int ax = 0; ax < AXES; ++ax) {
-            mus |= mu << (4 * ax);
             bws |= (oc & 15U) << (4 * ax);
             t3s |= ((oc >> 4) & 1U) << ax;
         }
-        top->cfg_cal_mu = mus;
         top->cfg_obs_bw = bws;
         top->cfg_obs_type3 = t3s;
+        uint32_t mus = 0;
+        for (int ax = 0; ax < AXES; ++ax) mus |= mu << (4 * ax);
+        top->cfg_cal_mu = mus;
     }
     top->eval();
     for (int i = 0; i < 4; ++i) {
         top->clk = 1; top->eval();
         top->clk = 0; top->eval();
     }
+    // harmonic table (HARM = 1 builds): AXES x 256 signed bytes, written through the table
+    // port, then every entry read back (two clocks each), all while in reset (no sample in flight)
+    unsigned harm_bad = 0;
+    if (argc == 7) {
+        std::vector<uint8_t> tab(256 * AXES);
+        FILE* ft = std::fopen(argv[6], "rb");
+        if (!ft || std::fread(tab.data(), 1, tab.size(), ft) != tab.size()) {
+            std::fprintf(stderr, "error: cannot read %zu bytes of %s\n", tab.size(), argv[6]);
+            return 2;
+        }
+        std::fclose(ft);
+        for (int ax = 0; ax < AXES; ++ax) {
+            for (unsigned e = 0; e < 256; ++e) {
+                top->cfg_harm_we = 1U << ax;
+                top->cfg_harm_addr = e;
+                top->cfg_harm_data = tab[256 * ax + e];
+                top->clk = 1; top->eval();
+                top->clk = 0; top->eval();
+            }
+        }
+        top->cfg_harm_we = 0;
+        for (unsigned e = 0; e < 256; ++e) {
+            top->cfg_harm_addr = e;
+            for (int i = 0; i < 2; ++i) {
+                top->clk = 1; top->eval();
+                top->clk = 0; top->eval();
+            }
+            for (int ax = 0; ax < AXES; ++ax)
+                if (field(top->m_harm_rdata, 8 * ax, 8) != tab[256 * ax + e]) ++harm_bad;
+        }
+    }
+
     top->rst = 0;
     top->eval();
 
@@ -134,7 +171,7 @@ int main(int argc, char** argv) {
                 ibuf_len = r * rec_in;
                 ibuf_pos = 0;
             }
-            uint32_t a = 0, b = 0, idx = 0, clr = 0, arm = 0, cen = 0, cfr = 0;
+            uint32_t a = 0, b = 0, idx = 0, clr = 0, arm = 0, cen = 0, cfr = 0, hen = 0;
             for (int ax = 0; ax < AXES; ++ax) {
                 const uint8_t* r = &ibuf[ibuf_pos + 3 * ax];
                 a |= static_cast<uint32_t>(r[0]) << (8 * ax);
@@ -144,6 +181,7 @@ int main(int argc, char** argv) {
                 arm |= static_cast<uint32_t>((r[2] >> 2) & 1U) << ax;
                 cen |= static_cast<uint32_t>((r[2] >> 3) & 1U) << ax;
                 cfr |= static_cast<uint32_t>((r[2] >> 4) & 1U) << ax;
+                hen |= static_cast<uint32_t>((r[2] >> 5) & 1U) << ax;
             }
             ibuf_pos += rec_in;
             top->adc_a = a;
@@ -153,6 +191,7 @@ int main(int argc, char** argv) {
             top->ctl_home_arm = arm;
             top->ctl_cal_en = cen;
             top->ctl_cal_freeze = cfr;
+            top->ctl_harm_en = hen;
             ++fed;
         } else {
             top->ctl_fault_clear = 0;
@@ -211,7 +250,8 @@ int main(int argc, char** argv) {
         std::fprintf(stderr, "error: writing %s failed\n", argv[2]);
         return 3;
     }
-    std::printf("samples=%llu clocks=%llu seconds=%.6f\n", static_cast<unsigned long long>(got),
-                static_cast<unsigned long long>(clocks), secs);
+    std::printf("samples=%llu clocks=%llu seconds=%.6f harm_readback_bad=%u\n",
+                static_cast<unsigned long long>(got), static_cast<unsigned long long>(clocks),
+                secs, harm_bad);
     return 0;
 }

@@ -1,0 +1,184 @@
+// SPDX-License-Identifier: Apache-2.0
+// Shared by device_harness.cpp and model_harness.cpp: run configuration, records, firmware
+// bring-up (harness_common.h).
+#include "harness_common.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <fstream>
+#include <sstream>
+
+extern "C" {
+#include "hg_fpga_regs.h"
+#include "hg_hal.h"
+}
+
+namespace hg_dev {
+
+bool parse_run(const std::string& text, RunCfg& c, std::string& err, bool model_keys) {
+    std::istringstream in(text);
+    std::string line;
+    while (std::getline(in, line)) {
+        const auto eq = line.find('=');
+        if (line.empty() || line[0] == '#' || eq == std::string::npos) continue;
+        std::string key = line.substr(0, eq);
+        key.erase(key.find_last_not_of(" \t") + 1);
+        std::istringstream vs(line.substr(eq + 1));
+        std::vector<double> v;
+        double x;
+        while (vs >> x) v.push_back(x);
+        auto need = [&](size_t n) {
+            if (v.size() != n) err = key + ": expected " + std::to_string(n) + " values";
+            return v.size() == n;
+        };
+        if (key == "duration_s" && need(1)) c.duration_s = v[0];
+        else if (key == "servo_hz" && need(1)) c.servo_hz = static_cast<uint32_t>(v[0]);
+        else if (key == "env_kind" && need(1)) c.env_kind = static_cast<int>(v[0]);
+        else if (key == "env_point" && need(3)) std::copy(v.begin(), v.end(), c.env_p);
+        else if (key == "env_normal" && need(3)) std::copy(v.begin(), v.end(), c.env_n);
+        else if (key == "env_k" && need(1)) c.env_k = v[0];
+        else if (key == "env_b" && need(1)) c.env_b = v[0];
+        else if (key == "env_ki" && need(1)) c.env_ki = v[0];
+        else if (key == "q0" && need(3)) std::copy(v.begin(), v.end(), c.q0);
+        else if (key == "qd0" && need(3)) std::copy(v.begin(), v.end(), c.qd0);
+        else if (key == "q_index" && need(3)) std::copy(v.begin(), v.end(), c.q_index);
+        else if (key == "sweep_rad" && need(1)) c.sweep_rad = v[0];
+        else if (key == "t_sweep_s" && need(1)) c.t_sweep_s = v[0];
+        else if (key == "t_settle_s" && need(1)) c.t_settle_s = v[0];
+        else if (key == "pc_force_timeout_ticks" && need(1)) c.pc_force_timeout_ticks = static_cast<int64_t>(v[0]);
+        else if (key == "comm_err" && need(3)) for (int i = 0; i < 3; ++i) c.comm_err[i] = static_cast<int>(v[i]);
+        else if (key == "hold_pos_homed" && need(3)) for (int i = 0; i < 3; ++i) c.hold_pos_homed[i] = static_cast<uint32_t>(static_cast<int64_t>(v[i]));
+        else if (key == "hold_index_pos" && need(3)) for (int i = 0; i < 3; ++i) c.hold_index_pos[i] = static_cast<uint32_t>(static_cast<int64_t>(v[i]));
+        else if (key == "hold_index_count" && need(3)) for (int i = 0; i < 3; ++i) c.hold_index_count[i] = static_cast<uint32_t>(v[i]);
+        else if (key == "record" && need(1)) c.record = static_cast<uint32_t>(v[0]);
+        else if (key == "progress_s" && need(1)) c.progress_s = v[0];
+        else if (key == "fault" && need(3)) c.faults.push_back({v[0], static_cast<int>(v[1]), static_cast<int>(v[2])});
+        else if (model_keys && key == "mech_us" && need(1)) c.mech_us = static_cast<int>(v[0]);
+        else if (model_keys && key == "axis_mask" && need(1)) c.axis_mask = static_cast<int>(v[0]);
+        else if (model_keys && key == "clk_hz" && need(1)) c.clk_hz = static_cast<uint32_t>(v[0]);
+        else if (model_keys && key == "asin_lut") c.asin_lut = v;
+        else if (model_keys && key == "sine_rom") c.sine_rom = v;
+        else if (model_keys && key == "reg" && need(5)) c.regs.insert(c.regs.end(), v.begin(), v.end());
+        else if (model_keys && key == "interp" && need(6)) {
+            c.lut_bits = static_cast<int>(v[0]); c.vel_log2w = static_cast<int>(v[1]);
+            c.amp_min = static_cast<int>(v[2]); c.amp_max = static_cast<int>(v[3]);
+            c.loss_samples = static_cast<int>(v[4]); c.coarse = static_cast<int>(v[5]);
+        }
+        else if (err.empty()) err = "unknown key " + key;
+        if (!err.empty()) return false;
+    }
+    return true;
+}
+
+std::string slurp(const char* path) {
+    std::ifstream f(path);
+    std::stringstream ss;
+    ss << f.rdbuf();
+    return ss.str();
+}
+
+TickRec tick_record(const hg_servo_t& s, double t, const double q_true[3]) {
+    TickRec r{};
+    r.t = t;
+    r.status = s.status;
+    r.err = s.err;
+    r.err_axis = s.err_axis;
+    r.drive = s.enabled && s.err == HG_ERR_NONE;
+    for (int i = 0; i < 3; ++i) {
+        r.q_fw[i] = s.q[i];
+        r.q_true[i] = q_true[i];
+        r.p_fw[i] = s.p[i];
+        r.f_fw[i] = s.f[i];
+        r.tau_fw[i] = s.tau[i];
+        const double cpr = HG_ENC_COUNTS_PER_REV;
+        r.pos_err[i] = static_cast<int32_t>(std::lround((s.q[i] - r.q_true[i]) / (2 * kPi) * cpr));
+        r.pos[i] = s.pos[i];
+    }
+    return r;
+}
+
+void write_file(const std::string& outdir, const std::string& name, const void* data, size_t bytes) {
+    FILE* f = std::fopen((outdir + "/" + name).c_str(), "wb");
+    if (!f) { std::fprintf(stderr, "error: cannot write %s/%s\n", outdir.c_str(), name.c_str()); std::exit(3); }
+    if (bytes) std::fwrite(data, 1, bytes, f);
+    if (std::fclose(f) != 0) { std::fprintf(stderr, "error: writing %s/%s failed\n", outdir.c_str(), name.c_str()); std::exit(3); }
+}
+
+void write_records(const std::string& outdir, const std::vector<FrameRec>& frames,
+                   const std::vector<TickRec>& ticks, const std::vector<LoadRec>& loads,
+                   const std::vector<int8_t>& adc) {
+    auto dump = [&](const std::string& name, const void* data, size_t bytes) {
+        write_file(outdir, name, data, bytes);
+    };
+    dump("frames.bin", frames.data(), frames.size() * sizeof(FrameRec));
+    dump("ticks.bin", ticks.data(), ticks.size() * sizeof(TickRec));
+    dump("loads.bin", loads.data(), loads.size() * sizeof(LoadRec));
+    dump("adc.bin", adc.data(), adc.size());
+}
+
+void homing_pose(const RunCfg& cfg, double t_sweep0, double t_abs, double q[3], double qd[3]) {
+    const double t = t_abs - t_sweep0;
+    double s = 0, ds = 0;
+    if (t <= 0) s = 0;
+    else if (t < cfg.t_sweep_s) {
+        s = 0.5 * (1 - std::cos(kPi * t / cfg.t_sweep_s));
+        ds = 0.5 * kPi / cfg.t_sweep_s * std::sin(kPi * t / cfg.t_sweep_s);
+    } else s = 1;
+    for (int i = 0; i < 3; ++i) {
+        q[i] = cfg.q0[i] - cfg.sweep_rad * (1 - s);
+        qd[i] = cfg.sweep_rad * ds;
+    }
+}
+
+void print_summary(const Summary& s) {
+    std::printf("clk_hz=%u axis_mask=%d sim_s=%.9g wall_s=%.6g cpu_s=%.6g clocks=%llu frames=%zu ticks=%zu loads=%zu\n",
+                s.clk_hz, s.axis_mask, s.sim_s, s.wall_s, s.cpu_s, static_cast<unsigned long long>(s.clocks), s.frames,
+                s.ticks, s.loads);
+    std::printf("init_err=%u fw_err=%u fw_err_axis=%u enabled_t=%.9g wdog_us=%u last_key_edge=%llu scene0_us=%lld "
+                "skew=%u frame=%u d=%llu\n",
+                s.init_err, s.fw_err, s.fw_err_axis, s.enabled_t, s.wdog_us,
+                static_cast<unsigned long long>(s.last_key_edge), static_cast<long long>(s.scene0_us), s.skew,
+                s.frame, static_cast<unsigned long long>(s.d));
+    std::printf("frame_bytes=%zu tick_bytes=%zu\n", sizeof(FrameRec), sizeof(TickRec));
+}
+
+void progress_line(double t) {
+    std::fprintf(stderr, "progress %.6f\n", t);
+    std::fflush(stderr);
+}
+
+void fw_config(const RunCfg& cfg, uint32_t clk_hz, hg_servo_cfg_t* fw) {
+    hg_servo_default_cfg(fw);
+    fw->rate_hz = cfg.servo_hz;
+    fw->fpga_clk_hz = clk_hz;
+    for (int i = 0; i < 3; ++i) {
+        fw->enc[i].index_to_zero = static_cast<int32_t>(std::lround(-cfg.q_index[i] / (2 * kPi) * HG_ENC_COUNTS_PER_REV));
+        fw->motor[i].comm_offset = static_cast<uint32_t>(cfg.comm_err[i] & 1023);
+    }
+    if (cfg.pc_force_timeout_ticks >= 0) fw->pc_force_timeout = static_cast<uint32_t>(cfg.pc_force_timeout_ticks);
+}
+
+int fw_home_scene_enable(hg_servo_t* s, const RunCfg& cfg, bool enable) {
+    for (uint32_t i = 0; i < 3; ++i)
+        hg_enc_home(&s->cfg.enc[i], static_cast<int32_t>(fpga_read32(HG_REG_AXIS(i, HG_AX_IDX_POS))));
+    hg_scene_t sc{};
+    sc.type = static_cast<uint8_t>(cfg.env_kind);
+    for (int i = 0; i < 3; ++i) {
+        sc.p0[i] = static_cast<hg_real>(cfg.env_p[i]);
+        sc.n[i] = static_cast<hg_real>(cfg.env_n[i]);
+    }
+    sc.k = static_cast<hg_real>(cfg.env_k);
+    sc.b = static_cast<hg_real>(cfg.env_b);
+    sc.ki = static_cast<hg_real>(cfg.env_ki);
+    const int sr = hg_servo_set_scene(s, &sc);
+    const int en = enable ? hg_servo_enable(s, true) : 0;
+    if (sr != 0 || en != 0) {
+        std::fprintf(stderr, "error: the firmware refused the scene (%d) or enable (%d)\n", sr, en);
+        return 3;
+    }
+    return 0;
+}
+
+}  // namespace hg_dev
