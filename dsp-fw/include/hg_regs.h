@@ -139,6 +139,28 @@ extern "C" {
 #define HAPGATE__CLK_KHZ__KHZ_bw 32
 #define HAPGATE__CLK_KHZ__KHZ_reset 0xbb80
 
+// reg - hapgate::VEL_CTRL
+#define HAPGATE__VEL_CTRL__SEL_bm 0x7
+#define HAPGATE__VEL_CTRL__SEL_bp 0
+#define HAPGATE__VEL_CTRL__SEL_bw 3
+#define HAPGATE__VEL_CTRL__SEL_reset 0x0
+#define HAPGATE__VEL_CTRL__TYPE3_bm 0x70
+#define HAPGATE__VEL_CTRL__TYPE3_bp 4
+#define HAPGATE__VEL_CTRL__TYPE3_bw 3
+#define HAPGATE__VEL_CTRL__TYPE3_reset 0x7
+#define HAPGATE__VEL_CTRL__BW0_bm 0xf00
+#define HAPGATE__VEL_CTRL__BW0_bp 8
+#define HAPGATE__VEL_CTRL__BW0_bw 4
+#define HAPGATE__VEL_CTRL__BW0_reset 0x6
+#define HAPGATE__VEL_CTRL__BW1_bm 0xf000
+#define HAPGATE__VEL_CTRL__BW1_bp 12
+#define HAPGATE__VEL_CTRL__BW1_bw 4
+#define HAPGATE__VEL_CTRL__BW1_reset 0x6
+#define HAPGATE__VEL_CTRL__BW2_bm 0xf0000
+#define HAPGATE__VEL_CTRL__BW2_bp 16
+#define HAPGATE__VEL_CTRL__BW2_bw 4
+#define HAPGATE__VEL_CTRL__BW2_reset 0x6
+
 // reg - hapgate::axis_t::POS
 #define HAPGATE__AXIS_T__POS__VALUE_bm 0xffffffff
 #define HAPGATE__AXIS_T__POS__VALUE_bp 0
@@ -291,7 +313,8 @@ typedef struct __attribute__ ((__packed__)) {
     uint32_t DAC_SKEW;
     uint32_t DAC_FRAME;
     uint32_t CLK_KHZ;
-    uint8_t RESERVED_30_3f[0x10];
+    uint32_t VEL_CTRL;
+    uint8_t RESERVED_34_3f[0xc];
     hapgate__axis_t__stride40_t AXIS[3];
 } hapgate_t;
 

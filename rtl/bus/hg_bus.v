@@ -12,7 +12,9 @@ module hg_bus #(
     parameter integer VEL_BITS     = 32,         // in_vel: sign extension of its low VEL_BITS bits
     parameter integer SKEW_CLOCKS  = 96,         // DAC channel skew in clocks (read-only info)
     parameter integer FRAME_CLOCKS = 768,        // DAC frame in clocks (read-only info)
-    parameter integer ADDR_BITS    = 8           // word-address lines decoded
+    parameter integer ADDR_BITS    = 8,          // word-address lines decoded
+    parameter integer VEL_OBS      = 0,          // 1: the interpolator has the velocity observer
+    parameter integer VEL_SEL_RST  = 0           // 1: VEL_CTRL.SEL resets to 7
 ) (
     input  wire                 clk,
     input  wire                 rst,
@@ -48,6 +50,9 @@ module hg_bus #(
     output wire [2:0]           ctl_cal_en,
     output wire [2:0]           ctl_cal_freeze,
     output wire [11:0]          cfg_cal_mu,
+    input  wire [95:0]          in_vel_obs,      // observer velocity (see hg_regfile)
+    output wire [11:0]          cfg_obs_bw,
+    output wire [2:0]           cfg_obs_type3,
     output wire                 wdog_expired,
     output wire                 irq,
     output wire                 tick,
@@ -72,7 +77,8 @@ module hg_bus #(
 
     hg_regfile #(
         .CLK_HZ(CLK_HZ), .SAMPLE_HZ(SAMPLE_HZ), .VEL_LOG2W(VEL_LOG2W), .VEL_BITS(VEL_BITS),
-        .SKEW_CLOCKS(SKEW_CLOCKS), .FRAME_CLOCKS(FRAME_CLOCKS), .ADDR_BITS(ADDR_BITS)
+        .SKEW_CLOCKS(SKEW_CLOCKS), .FRAME_CLOCKS(FRAME_CLOCKS), .ADDR_BITS(ADDR_BITS),
+        .VEL_OBS(VEL_OBS), .VEL_SEL_RST(VEL_SEL_RST)
     ) u_regs (
         .clk(clk), .rst(rst),
         .s_raddr(raddr), .s_rdata(rdata), .s_req(req), .s_we(we), .s_addr(addr),
@@ -84,6 +90,7 @@ module hg_bus #(
         .in_cal_ofs(in_cal_ofs), .in_cal_gain(in_cal_gain), .in_cal_phase(in_cal_phase),
         .in_cal_stat(in_cal_stat), .ctl_cal_en(ctl_cal_en), .ctl_cal_freeze(ctl_cal_freeze),
         .cfg_cal_mu(cfg_cal_mu),
+        .in_vel_obs(in_vel_obs), .cfg_obs_bw(cfg_obs_bw), .cfg_obs_type3(cfg_obs_type3),
         .ctl_global_en(ctl_global_en), .ctl_axis_en(ctl_axis_en),
         .ctl_fault_clear(ctl_fault_clear), .ctl_home_arm(ctl_home_arm),
         .ctl_torque(ctl_torque), .ctl_offset(ctl_offset), .ctl_mode(ctl_mode),

@@ -14,7 +14,9 @@ module hg_regfile #(
                                                  // VEL_BITS bits (the interpolator's: 19)
     parameter integer SKEW_CLOCKS  = 96,         // DAC channel skew in clocks (read-only info)
     parameter integer FRAME_CLOCKS = 768,        // DAC frame in clocks (read-only info)
-    parameter integer ADDR_BITS    = 8           // decoded word-address bits (7..30; the map spans 64)
+    parameter integer ADDR_BITS    = 8,          // decoded word-address bits (7..30; the map spans 64)
+    parameter integer VEL_OBS      = 0,          // 1: the interpolator has the velocity observer
+    parameter integer VEL_SEL_RST  = 0           // 1: VEL_CTRL.SEL resets to 7 (every axis the observer's)
 ) (
     input  wire                 clk,
     input  wire                 rst,
@@ -30,6 +32,7 @@ module hg_regfile #(
     input  wire [95:0]          in_pos,
     input  wire [95:0]          in_pos_homed,
     input  wire [95:0]          in_vel,          // counts per 2**VEL_LOG2W samples
+    input  wire [95:0]          in_vel_obs,      // the observer's, same unit (VEL_OBS = 1)
     input  wire [95:0]          in_index_pos,
     input  wire [47:0]          in_index_count,
     input  wire [47:0]          in_overspeed_count,
@@ -53,6 +56,8 @@ module hg_regfile #(
     output wire [2:0]           ctl_cal_en,      // AXIS[i].CAL_CTRL.EN
     output wire [2:0]           ctl_cal_freeze,  // AXIS[i].CAL_CTRL.FREEZE
     output wire [11:0]          cfg_cal_mu,      // AXIS[i].CAL_CTRL.MU, 4 bits per axis
+    output wire [11:0]          cfg_obs_bw,      // VEL_CTRL.BW0..2, 4 bits per axis
+    output wire [2:0]           cfg_obs_type3,   // VEL_CTRL.TYPE3, bit per axis
     output wire                 wdog_expired,    // sticky: all torque to zero
     output wire                 irq,             // servo tick pending (level)
     output reg                  tick             // one clock after each servo tick (observation)
@@ -90,6 +95,10 @@ module hg_regfile #(
                      R_POS_HOMED = 4'h4, R_FLAGS = 4'h5, R_CAL_CTRL = 4'h6, R_CAL_STAT = 4'h7,
                      R_TORQUE = 4'h8, R_OFFSET = 4'h9, R_MODE = 4'hA, R_TQ_LIMIT = 4'hB,
                      R_CAL_OFS = 4'hC, R_CAL_GAIN = 4'hD, R_CAL_PHASE = 4'hE;
+    localparam [5:0] A_VEL_CTRL = 6'h0C;
+    localparam [2:0] VEL_SEL_R  = (VEL_SEL_RST != 0) ? 3'b111 : 3'b000;
+    // VEL_CTRL {BW2, BW1, BW0, 1'b0, TYPE3, 1'b0, SEL}: BW = 6, TYPE3 = 1 on every axis
+    localparam [19:0] VEL_CTRL_RST = {4'd6, 4'd6, 4'd6, 1'b0, 3'b111, 1'b0, VEL_SEL_R};
 
     generate
         if (CLK_HZ < 1_000_000 || CLK_HZ % 1_000_000 != 0 || CLK_HZ / 100 > 16_777_215)
@@ -110,6 +119,10 @@ module hg_regfile #(
         if (VEL_BITS < 2 || VEL_BITS > 32) begin : g_bad_vel_bits
             hg_regfile_VEL_BITS_must_be_2_to_32 u_stop ();
         end
+        if ((VEL_OBS != 0 && VEL_OBS != 1) || (VEL_SEL_RST != 0 && VEL_SEL_RST != 1))
+        begin : g_bad_vel_obs
+            hg_regfile_VEL_OBS_and_VEL_SEL_RST_must_be_0_or_1 u_stop ();
+        end
     endgenerate
 
     // ---------------------------------------------------------------- decode
@@ -126,7 +139,7 @@ module hg_regfile #(
             if (a[ADDR_BITS-1:6] != {(ADDR_BITS - 6){1'b0}})
                 mapped = 1'b0;
             else if (a[5:4] == 2'b00)
-                mapped = (a[3:0] <= A_CLK[3:0]);
+                mapped = (a[3:0] <= A_VEL_CTRL[3:0]);
             else
                 mapped = (a[3:0] <= R_CAL_PHASE);  // 0x0..0xE: all but word 0xF
         end
@@ -143,6 +156,7 @@ module hg_regfile #(
     reg [5:0]  mode_q;
     reg [47:0] tq_lim_q;
     reg [23:0] cal_ctrl_q;          // per axis {MU, 2'b00, FREEZE, EN}
+    reg [19:0] vel_ctrl_q;          // VEL_CTRL[19:0] (bits 3 and 7 read 0)
     reg        snap_req;            // CTRL.SNAP written this clock
     reg        cfg_err_set;
 
@@ -170,6 +184,7 @@ module hg_regfile #(
             mode_q          <= 6'b11_11_11;  // OFF
             tq_lim_q        <= 48'd0;
             cal_ctrl_q      <= 24'h60_60_60;  // MU = 6
+            vel_ctrl_q      <= VEL_CTRL_RST;
         end else begin
             ctl_fault_clear <= fault_clr_w;
             ctl_home_arm    <= (wr && glob_w && wa[3:0] == A_CTRL[3:0]) ? s_wdata[7:5] : 3'b000;
@@ -184,6 +199,7 @@ module hg_regfile #(
                     A_TICK_DIV[3:0]: if (tick_ok) tick_div_q <= s_wdata[23:0];
                     A_SCRATCH[3:0]:  scratch_q <= s_wdata;
                     A_WDOG_TO[3:0]:  if (wd_ok) wd_timeout_q <= s_wdata[19:0];
+                    A_VEL_CTRL[3:0]: vel_ctrl_q <= s_wdata[19:0] & 20'hFFF77;
                     default: ;
                 endcase
             end
@@ -209,6 +225,8 @@ module hg_regfile #(
     assign ctl_cal_en     = {cal_ctrl_q[16], cal_ctrl_q[8], cal_ctrl_q[0]};
     assign ctl_cal_freeze = {cal_ctrl_q[17], cal_ctrl_q[9], cal_ctrl_q[1]};
     assign cfg_cal_mu     = {cal_ctrl_q[23:20], cal_ctrl_q[15:12], cal_ctrl_q[7:4]};
+    assign cfg_obs_bw     = vel_ctrl_q[19:8];
+    assign cfg_obs_type3  = vel_ctrl_q[6:4];
 
     // ---------------------------------------------------------------- servo tick and snapshot
     // A tick every tick_div_q clocks, exactly; a TICK_DIV write restarts the period (the first
@@ -239,6 +257,21 @@ module hg_regfile #(
     end
     assign irq = irq_tick_q;
 
+    // the velocity each axis reports: the window FIR's, or the observer's (VEL_CTRL.SEL)
+    wire [95:0] vel_src;
+    generate
+        if (VEL_OBS != 0) begin : g_vel_sel
+            genvar va;
+            for (va = 0; va < 3; va = va + 1) begin : g_ax
+                assign vel_src[32*va +: 32] = vel_ctrl_q[va] ? in_vel_obs[32*va +: 32]
+                                                             : in_vel[32*va +: 32];
+            end
+        end else begin : g_vel_fir
+            assign vel_src = in_vel;
+            wire unused_vel_obs = &{1'b0, in_vel_obs, vel_ctrl_q[2:0]};
+        end
+    endgenerate
+
     // the snapshot: all axes, all words, in one clock
     reg [95:0] sn_pos, sn_homed, sn_idx;           // axis 0 in the low bits
     reg [3*VEL_BITS-1:0] sn_vel;                   // (the bits above VEL_BITS are its sign)
@@ -246,9 +279,9 @@ module hg_regfile #(
     genvar gv;
     generate
         for (gv = 0; gv < 3; gv = gv + 1) begin : g_vel_n
-            assign in_vel_n[VEL_BITS*gv +: VEL_BITS] = in_vel[32*gv +: VEL_BITS];
+            assign in_vel_n[VEL_BITS*gv +: VEL_BITS] = vel_src[32*gv +: VEL_BITS];
             if (VEL_BITS < 32) begin : g_unused_hi
-                wire unused_vel_sign = &{1'b0, in_vel[32*gv + VEL_BITS +: 32 - VEL_BITS]};
+                wire unused_vel_sign = &{1'b0, vel_src[32*gv + VEL_BITS +: 32 - VEL_BITS]};
             end
         end
     endgenerate
@@ -400,7 +433,8 @@ module hg_regfile #(
                     A_WDOG_TO[3:0]:  s_rdata = {12'd0, wd_timeout_q};
                     A_SKEW[3:0]:     s_rdata = {16'd0, SKEW_C};
                     A_FRAME[3:0]:    s_rdata = {16'd0, FRAME_C};
-                    default:         s_rdata = CLK_KHZ;
+                    A_CLK[3:0]:      s_rdata = CLK_KHZ;
+                    default:         s_rdata = {12'd0, vel_ctrl_q};
                 endcase
             end else begin
                 case (ra[3:0])

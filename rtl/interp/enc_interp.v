@@ -33,7 +33,8 @@ module enc_interp #(
     parameter integer ANGLE_REG    = 0,         // 1: a register after abs/compare/select (latency + 1)
     parameter integer HARM         = 0,         // 1 (needs ANGLE = 1): harmonic correction table
                                                 // (latency + 1); RATIO_FILE then has 2 more bits
-    parameter integer HARM_LOG2    = 6          // HARM = 1: 2**HARM_LOG2 entries per line (4..8)
+    parameter integer HARM_LOG2    = 6,         // HARM = 1: 2**HARM_LOG2 entries per line (4..8)
+    parameter integer VEL_OBS      = 0          // 1: build the tracking velocity observer (vel_observer)
 ) (
     input  wire        clk,
     input  wire        rst,
@@ -57,11 +58,16 @@ module enc_interp #(
     input  wire [7:0]  cfg_harm_addr,
     input  wire [7:0]  cfg_harm_data,
     output wire [7:0]  m_harm_rdata,
+    // velocity observer settings (VEL_OBS = 1): levels read at each sample's observer update,
+    // LATENCY - 2 clocks after its capture
+    input  wire [3:0]  cfg_obs_bw,        // bandwidth code s: x = 2**-s (2..8)
+    input  wire        cfg_obs_type3,     // 1: with the acceleration state
     // results, one per sample
     output reg         m_valid,
     output reg  [31:0] m_pos,             // position, counts (2**(LUT_BITS+3) per line), wraps
     output reg  [31:0] m_pos_homed,       // m_pos - home (home = 0 until homed)
     output reg  [31:0] m_vel,             // pos[n] - pos[n-W], counts per W samples (0 while n < W)
+    output reg  [31:0] m_vel_obs,         // the observer's velocity, same unit (0 with VEL_OBS = 0)
     output reg  [31:0] m_index_pos,       // start of the quadrant latched at the last index edge
     output reg  [15:0] m_index_count,     // index rising edges seen (wraps)
     output reg  [15:0] m_overspeed_count, // two-quadrant steps seen (saturates)
@@ -132,6 +138,9 @@ module enc_interp #(
         end
         if ((SQ_RAM != 0 && SQ_RAM != 1) || (HOLD_C != 0 && HOLD_C != 1)) begin : g_bad_fit
             enc_interp_SQ_RAM_and_HOLD_C_must_be_0_or_1 u_stop ();
+        end
+        if (VEL_OBS != 0 && VEL_OBS != 1) begin : g_bad_vel_obs
+            enc_interp_VEL_OBS_must_be_0_or_1 u_stop ();
         end
     endgenerate
 
@@ -575,12 +584,31 @@ module enc_interp #(
         end
     end
 
+    reg ovs_c;
     always @(posedge clk) begin
         if (vC) begin
             pos_c       <= pos_next;
             pos_homed_c <= pos_next - home_next;
+            ovs_c       <= overspeed;
         end
     end
+
+    // ---------------------------------------------------------------- velocity observer (VEL_OBS = 1)
+    // Updated with each sample's position at stage D (flags: the sticky faults after that sample);
+    // its velocity after the update is registered beside the FIR's at stage E.
+    wire [31:0] obs_vel;
+    generate
+        if (VEL_OBS != 0) begin : g_obs
+            vel_observer #(.VEL_LOG2W(VEL_LOG2W)) u_obs (
+                .clk(clk), .rst(rst), .s_valid(vc), .s_pos(pos_c), .s_hold(flags[2]),
+                .s_ovs(ovs_c), .cfg_bw(cfg_obs_bw), .cfg_type3(cfg_obs_type3),
+                .m_vel(obs_vel)
+            );
+        end else begin : g_noobs
+            assign obs_vel = 32'd0;
+            wire unused_obs = &{1'b0, cfg_obs_bw, cfg_obs_type3, ovs_c};
+        end
+    endgenerate
 
     // ---------------------------------------------------------------- stage D: velocity delay line
     reg [DW-1:0]        hist [0:W-1];        // pos of the last W samples (low DW bits)
@@ -652,6 +680,7 @@ module enc_interp #(
             m_pos             <= pos_d;
             m_pos_homed       <= pos_homed_d;
             m_vel             <= full_d ? {{(32 - DW){vdiff[DW-1]}}, vdiff} : 32'd0;
+            m_vel_obs         <= obs_vel;
             m_index_pos       <= index_pos_d;
             m_index_count     <= index_count_d;
             m_overspeed_count <= ovs_count_d;

@@ -28,7 +28,8 @@ module enc_interp3 #(
     parameter         RATIO_FILE   = "atan.hex", // ANGLE = 1: the ratio table
     parameter integer ANGLE_REG    = 0,          // 1: register after the angle select (latency + 1)
     parameter integer HARM         = 0,          // 1 (ANGLE = 1): harmonic correction table
-    parameter integer HARM_LOG2    = 6           // HARM = 1: 2**HARM_LOG2 entries per line
+    parameter integer HARM_LOG2    = 6,          // HARM = 1: 2**HARM_LOG2 entries per line
+    parameter integer VEL_OBS      = 0           // 1: tracking velocity observer in every axis
 ) (
     input  wire                 clk,
     input  wire                 rst,
@@ -46,10 +47,13 @@ module enc_interp3 #(
     input  wire [7:0]           cfg_harm_addr,   // entry (write and read-back), shared
     input  wire [7:0]           cfg_harm_data,   // signed, 1/4 count
     output wire [8*AXES-1:0]    m_harm_rdata,    // read-back of entry cfg_harm_addr per axis
+    input  wire [4*AXES-1:0]    cfg_obs_bw,      // observer bandwidth code per axis (VEL_OBS = 1)
+    input  wire [AXES-1:0]      cfg_obs_type3,   // observer acceleration state per axis
     output wire                 m_valid,
     output wire [32*AXES-1:0]   m_pos,
     output wire [32*AXES-1:0]   m_pos_homed,
     output wire [32*AXES-1:0]   m_vel,
+    output wire [32*AXES-1:0]   m_vel_obs,       // observer velocity (0 with VEL_OBS = 0)
     output wire [32*AXES-1:0]   m_index_pos,
     output wire [16*AXES-1:0]   m_index_count,
     output wire [16*AXES-1:0]   m_overspeed_count,
@@ -90,7 +94,8 @@ module enc_interp3 #(
                 .CAL_LINES_LOG2(CAL_LINES_LOG2), .CAL_NLOG(CAL_NLOG), .COARSE(COARSE),
                 .SQ_RAM(SQ_RAM), .HOLD_C(HOLD_C),
                 .ANGLE(ANGLE), .RATIO_BITS(RATIO_BITS), .RATIO_FILE(RATIO_FILE),
-                .ANGLE_REG(ANGLE_REG), .HARM(HARM), .HARM_LOG2(HARM_LOG2)
+                .ANGLE_REG(ANGLE_REG), .HARM(HARM), .HARM_LOG2(HARM_LOG2),
+                .VEL_OBS(VEL_OBS)
             ) u_axis (
                 .clk(clk), .rst(rst),
                 .s_valid(adc_strobe),
@@ -99,6 +104,8 @@ module enc_interp3 #(
                 .m_valid(valid[i]),
                 .m_pos(m_pos[32*i +: 32]), .m_pos_homed(m_pos_homed[32*i +: 32]),
                 .m_vel(m_vel[32*i +: 32]), .m_index_pos(m_index_pos[32*i +: 32]),
+                .m_vel_obs(m_vel_obs[32*i +: 32]), .cfg_obs_bw(cfg_obs_bw[4*i +: 4]),
+                .cfg_obs_type3(cfg_obs_type3[i]),
                 .m_index_count(m_index_count[16*i +: 16]),
                 .m_overspeed_count(m_overspeed_count[16*i +: 16]),
                 .m_homed(m_homed[i]), .m_faults(m_faults[3*i +: 3]), .m_fault(m_fault[i]),

@@ -20,6 +20,8 @@ module hapgate_top #(
     parameter integer CAL_LINES_LOG2 = 3,         // CAL = 1: calibration block 2**N lines
     parameter integer CAL_NLOG      = 14,         // CAL = 1: blocks of 2**N samples ignored
     parameter integer COARSE        = 0,          // 1: plain quadrature, fine angle zeroed (Z-width)
+    parameter integer VEL_OBS       = 0,          // 1: tracking velocity observer beside the FIR
+    parameter integer VEL_OBS_SEL   = 0,          // 1: VEL_CTRL.SEL resets to 7 (VEL = the observer)
     parameter integer LINES_LOG2    = 10,         // encoder lines per revolution = 2**LINES_LOG2
     parameter integer POLE_PAIRS    = 2,          // motor electrical cycles per revolution
     parameter integer SKEW_NS       = 2000,       // DAC channel-to-channel skew
@@ -108,6 +110,9 @@ module hapgate_top #(
     wire [2:0]  home_arm;
     wire [2:0]  cal_en, cal_freeze;
     wire [11:0] cal_mu;
+    wire [95:0] vel_obs;
+    wire [11:0] obs_bw;
+    wire [2:0]  obs_type3;
     wire [47:0] cal_phase;
     wire        cal_valid;
 
@@ -116,7 +121,9 @@ module hapgate_top #(
     localparam integer NAX = ((AXIS_MASK >> 0) & 1) + ((AXIS_MASK >> 1) & 1) + ((AXIS_MASK >> 2) & 1);
     wire [8*NAX-1:0]  c_adc_a, c_adc_b;
     wire [NAX-1:0]    c_index, c_arm, c_homed, c_fault;
-    wire [32*NAX-1:0] c_pos, c_pos_homed, c_vel, c_index_pos;
+    wire [32*NAX-1:0] c_pos, c_pos_homed, c_vel, c_index_pos, c_vel_obs;
+    wire [4*NAX-1:0]  c_obs_bw;
+    wire [NAX-1:0]    c_obs_type3;
     wire [16*NAX-1:0] c_index_count, c_overspeed_count;
     wire [3*NAX-1:0]  c_faults;
     wire [NAX-1:0]    c_cal_en, c_cal_freeze;
@@ -154,7 +161,7 @@ module hapgate_top #(
         .LUT_FILE(ASIN_FILE), .VEL_LOG2W(VEL_LOG2W), .AMP_MIN(AMP_MIN), .AMP_MAX(AMP_MAX),
         .LOSS_SAMPLES(LOSS_SAMPLES), .CAL(CAL), .CAL_LUT_FILE(CAL_LUT_FILE),
         .CAL_LINES_LOG2(CAL_LINES_LOG2), .CAL_NLOG(CAL_NLOG), .COARSE(COARSE),
-        .SQ_RAM(SQ_RAM), .HOLD_C(HOLD_C)
+        .SQ_RAM(SQ_RAM), .HOLD_C(HOLD_C), .VEL_OBS(VEL_OBS)
     ) u_interp (
         .clk(clk), .rst(rst), .adc_strobe(adc_strobe), .adc_a(c_adc_a), .adc_b(c_adc_b),
         .enc_index(c_index), .ctl_fault_clear({NAX{fault_clear}}), .ctl_home_arm(c_arm),
@@ -168,7 +175,8 @@ module hapgate_top #(
         .m_cal_gear(c_cal_gear), .m_cal_updates(c_cal_updates),
         // harmonic correction (enc_interp HARM = 1) not built in the top: tied off
         .ctl_harm_en({NAX{1'b0}}), .cfg_harm_we({NAX{1'b0}}), .cfg_harm_addr(8'd0),
-        .cfg_harm_data(8'd0), .m_harm_rdata(harm_rdata)
+        .cfg_harm_data(8'd0), .m_harm_rdata(harm_rdata),
+        .m_vel_obs(c_vel_obs), .cfg_obs_bw(c_obs_bw), .cfg_obs_type3(c_obs_type3)
     );
     wire unused_cal_valid = &{1'b0, cal_valid, harm_rdata};  // (the registers read the live state)
     wire [95:0] cal_ofs_w, cal_gain_w, cal_stat_w;
@@ -187,6 +195,9 @@ module hapgate_top #(
                 assign c_cal_en[J]                 = cal_en[ax];
                 assign c_cal_freeze[J]             = cal_freeze[ax];
                 assign c_cal_mu[4*J +: 4]          = cal_mu[4*ax +: 4];
+                assign c_obs_bw[4*J +: 4]          = obs_bw[4*ax +: 4];
+                assign c_obs_type3[J]              = obs_type3[ax];
+                assign vel_obs[32*ax +: 32]        = c_vel_obs[32*J +: 32];
                 assign pos[32*ax +: 32]            = c_pos[32*J +: 32];
                 assign pos_homed[32*ax +: 32]      = c_pos_homed[32*J +: 32];
                 assign vel[32*ax +: 32]            = c_vel[32*J +: 32];
@@ -203,7 +214,9 @@ module hapgate_top #(
                                                   c_cal_gear[8*J +: 8]};
             end else begin : g_held
                 wire unused_in = &{1'b0, adc_a[8*ax +: 8], adc_b[8*ax +: 8], enc_index[ax],
-                                   home_arm[ax], cal_en[ax], cal_freeze[ax], cal_mu[4*ax +: 4]};
+                                   home_arm[ax], cal_en[ax], cal_freeze[ax], cal_mu[4*ax +: 4],
+                                   obs_bw[4*ax +: 4], obs_type3[ax]};
+                assign vel_obs[32*ax +: 32]        = 32'd0;
                 assign pos[32*ax +: 32]            = hold_pos_homed[32*ax +: 32] +
                                                      hold_index_pos[32*ax +: 32];
                 assign pos_homed[32*ax +: 32]      = hold_pos_homed[32*ax +: 32];
@@ -247,8 +260,10 @@ module hapgate_top #(
 
     hg_bus #(
         .CLK_HZ(CLK_HZ), .SAMPLE_HZ(SAMPLE_HZ), .VEL_LOG2W(VEL_LOG2W),
-        .VEL_BITS(LUT_BITS + VEL_LOG2W + 4),  // the interpolator's stored velocity bits
-        .SKEW_CLOCKS(SKEW_CLOCKS), .FRAME_CLOCKS(FRAME_CLOCKS), .ADDR_BITS(BUS_ADDR_BITS)
+        .VEL_BITS(VEL_OBS != 0 ? 32 : LUT_BITS + VEL_LOG2W + 4),  // the interpolator's
+        //                                       stored velocity bits (the observer's: all 32)
+        .SKEW_CLOCKS(SKEW_CLOCKS), .FRAME_CLOCKS(FRAME_CLOCKS), .ADDR_BITS(BUS_ADDR_BITS),
+        .VEL_OBS(VEL_OBS), .VEL_SEL_RST(VEL_OBS_SEL)
     ) u_bus (
         .clk(clk), .rst(rst),
         .bus_ce_n(bus_ce_n), .bus_re_n(bus_re_n), .bus_we_n(bus_we_n), .bus_addr(bus_addr),
@@ -260,6 +275,7 @@ module hapgate_top #(
         .in_cal_ofs(cal_ofs_w), .in_cal_gain(cal_gain_w), .in_cal_phase(cal_phase),
         .in_cal_stat(cal_stat_w), .ctl_cal_en(cal_en), .ctl_cal_freeze(cal_freeze),
         .cfg_cal_mu(cal_mu),
+        .in_vel_obs(vel_obs), .cfg_obs_bw(obs_bw), .cfg_obs_type3(obs_type3),
         .ctl_global_en(global_en), .ctl_axis_en(axis_en), .ctl_fault_clear(fault_clear),
         .ctl_home_arm(home_arm), .ctl_torque(torque), .ctl_offset(offset), .ctl_mode(mode),
         .ctl_tq_limit(tq_limit), .wdog_expired(wdog_expired), .irq(irq), .tick(tick),

@@ -50,6 +50,7 @@ class Inputs:
         d.in_pos.value = pack("pos", 32)
         d.in_pos_homed.value = pack("pos_homed", 32)
         d.in_vel.value = pack("vel", 32)
+        d.in_vel_obs.value = pack("vel_obs", 32)   # (VEL_OBS = 0 here: VEL must stay the FIR's)
         d.in_index_pos.value = pack("index_pos", 32)
         d.in_index_count.value = pack("index_count", 16)
         d.in_overspeed_count.value = pack("overspeed_count", 16)
@@ -85,7 +86,8 @@ def random_axes(rng: random.Random) -> list[AxisInputs]:
                        cal_ofs_a=rng.randint(-512, 511), cal_ofs_b=rng.randint(-512, 511),
                        cal_gain_a=rng.randint(8192, 32767), cal_gain_b=rng.randint(8192, 32767),
                        cal_phase=rng.randint(-2048, 2047), cal_gear=rng.getrandbits(8),
-                       cal_updates=rng.getrandbits(16)) for _ in range(3)]
+                       cal_updates=rng.getrandbits(16),
+                       vel_obs=rng.randint(-(2**17), 2**17 - 1)) for _ in range(3)]
 
 
 async def setup(dut, watch: tuple[str, ...] = ("tick", "wdog_expired")

@@ -43,6 +43,7 @@ async def stream(dut, sc: encsig.Scenario, gaps: np.ndarray | None = None,
     b = sc.b.astype(np.int64) & 0xFF
     idx = sc.index.astype(np.int64)
     cols: dict[str, list[int]] = {c: [] for c in native.COLUMNS}
+    no_obs = not tbutil.model_config().get("vel_obs", False)
     sent: list[float] = []
     lat: list[float] = []
     k = 0
@@ -62,6 +63,7 @@ async def stream(dut, sc: encsig.Scenario, gaps: np.ndarray | None = None,
             cols["faults"].append(dut.m_faults.value.to_unsigned())
             cols["overspeed_count"].append(dut.m_overspeed_count.value.to_unsigned())
             assert dut.m_fault.value == (cols["faults"][-1] != 0)
+            assert no_obs is False or dut.m_vel_obs.value.to_signed() == 0  # VEL_OBS = 0: 0
         dut.ctl_fault_clear.value = 0
         dut.ctl_home_arm.value = 0
         if k < n and wait == 0:

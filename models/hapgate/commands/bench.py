@@ -10,7 +10,7 @@ from ..base import toolenv
 from ..base.paths import ROOT
 from ..base.report import table, write_csv
 from ..runners import cosim
-from . import bench_calib, bench_commutation, bench_host, bench_interp
+from . import bench_calib, bench_commutation, bench_host, bench_interp, bench_velobs
 
 
 def main(args: argparse.Namespace) -> int:
@@ -27,6 +27,8 @@ def main(args: argparse.Namespace) -> int:
     ok &= bench_interp.run(args.quick)
     print()
     ok &= bench_calib.run(args.quick)
+    print()
+    ok &= bench_velobs.run(args.quick)
     print()
     ok &= bench_commutation.run(args.quick)
     print()

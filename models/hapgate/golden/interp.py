@@ -77,6 +77,7 @@ class InterpConfig:
     angle_reg: bool = False    # register after the angle select (RTL ANGLE_REG): latency + 1
     harm: bool = False         # harmonic correction table (RTL HARM; needs ratio): latency + 1
     harm_log2: int = 6         # harmonic table 2**harm_log2 entries per line (RTL HARM_LOG2)
+    vel_obs: bool = False      # build the tracking velocity observer (RTL VEL_OBS; golden.velobs)
 
     @property
     def fine_bits(self) -> int:
@@ -119,6 +120,8 @@ class InterpConfig:
             p.update({"HARM": 1, "HARM_LOG2": self.harm_log2})
         if self.angle_reg:
             p["ANGLE_REG"] = 1
+        if self.vel_obs:
+            p["VEL_OBS"] = 1
         return p
 
     @property
@@ -144,7 +147,8 @@ def interp3_params(cfg: InterpConfig | None = None, clk_hz: int = BOARD_CLK_HZ,
 
 
 def blocks() -> list[Block]:
-    srcs = ("interp/enc_calib.v", "interp/ratio_div.v", "interp/enc_interp.v")
+    srcs = ("interp/enc_calib.v", "interp/ratio_div.v", "interp/vel_observer.v",
+            "interp/enc_interp.v")
     return [
         Block(name="enc_interp", top="enc_interp", sources=srcs,
               params=lambda: InterpConfig().rtl_params(),
@@ -166,6 +170,15 @@ def blocks() -> list[Block]:
               params=lambda: InterpConfig(angle_reg=True).rtl_params(),
               lint_synth=(),   # the same code is synthesised in enc_interp_ratio
               doc="one axis, the paper's angle stage with its register stage (ANGLE_REG = 1)"),
+        Block(name="enc_interp_obs", top="enc_interp", sources=srcs,
+              params=lambda: InterpConfig(vel_obs=True).rtl_params(),
+              # (Verilator and Icarus only: the observer's synthesis is the next block's)
+              lint_synth=(),
+              doc="one axis with the tracking velocity observer (VEL_OBS = 1, vel_observer.v)"),
+        Block(name="vel_observer", top="vel_observer", sources=("interp/vel_observer.v",),
+              # (its synth_ice40 costs 10-25 CPU-s: run by `make bench`, not `make lint`)
+              params=lambda: {"VEL_LOG2W": 8}, lint_synth=(),
+              doc="the tracking velocity observer alone (type II/III loop, one axis)"),
         Block(name="enc_interp3", top="enc_interp3",
               sources=srcs + ("interp/sample_strobe.v", "interp/enc_interp3.v"),
               params=interp3_params,

@@ -14,7 +14,9 @@ refused). The hapgate-specific hardware behaviour is written out here:
   the restarting clock; STATUS.WDOG is sticky until CTRL.FAULT_CLR;
 - STATUS.CFG_ERR one clock after a refused write; BUS_ERR at an unmapped access; PROTO_ERR at a
   dropped access; all three cleared by CTRL.FAULT_CLR;
-- VEL reads floor(v * SAMPLE_HZ / 2**VEL_LOG2W) of the snapshot's window difference v.
+- VEL reads floor(v * SAMPLE_HZ / 2**VEL_LOG2W) of the snapshot's window difference v, or of the
+  observer's velocity when the FPGA has the observer (`vel_obs`) and bit i of VEL_CTRL.SEL was
+  set before the snapshot's edge (`vel_sel_reset`: SEL resets to 7, hapgate_top VEL_OBS_SEL).
 
 Time is counted in clock edges (integers). Every register updates at an edge from the values
 before it. `access(word, we, wdata, edge)` applies an access that the bus slave committed at
@@ -41,6 +43,7 @@ class AxisInputs:
     pos: int = 0
     pos_homed: int = 0
     vel: int = 0             # counts per 2**VEL_LOG2W samples (signed)
+    vel_obs: int = 0         # the tracking observer's velocity, same unit (VEL_OBS = 1)
     index_pos: int = 0
     index_count: int = 0
     overspeed_count: int = 0
@@ -73,6 +76,8 @@ class RegModel:
     reset_edge: int = 0                  # the last edge that sampled rst high
     sample_hz: int = 1_000_000
     vel_log2w: int = 8
+    vel_obs: bool = False                # the interpolator has the observer (VEL_OBS = 1)
+    vel_sel_reset: bool = False          # VEL_CTRL.SEL resets to 7 (hapgate_top VEL_OBS_SEL)
     inputs: Inputs = _zero_inputs
     input_edges: list[int] = field(default_factory=list)  # sorted edges where inputs(e) changes
     # state
@@ -101,6 +106,8 @@ class RegModel:
     # ------------------------------------------------------------------ state
     def reset(self, edge: int) -> None:
         self.stored = {r.name: r.reset for r in self.rm.registers}
+        if self.vel_sel_reset:
+            self.stored["VEL_CTRL"] |= self.regs["VEL_CTRL"].field("SEL").mask
         self.snap = [AxisInputs() for _ in range(3)]
         self.seq = 0
         self.sticky = {"CFG_ERR": False, "BUS_ERR": False, "PROTO_ERR": False}
@@ -130,6 +137,8 @@ class RegModel:
               access_word: int | None = None, proto: bool = False) -> None:
         """Apply everything that happens at edge e (all from the values before e)."""
         timeout_pre = self._field("WDOG_TIMEOUT", "US")
+        sel_pre = [self.vel_obs and (self._field("VEL_CTRL", "SEL") >> i) & 1 == 1
+                   for i in range(3)]
         ins = self.inputs(e)
         for i in range(3):  # index seen: sticky on a non-zero index count
             if ins[i].index_count != 0:
@@ -154,6 +163,9 @@ class RegModel:
             self.next_tick = e + self._field("TICK_DIV", "DIV")
         if snap:
             self.snap = [AxisInputs(**vars(a)) for a in ins]
+            for i in range(3):
+                if sel_pre[i]:
+                    self.snap[i].vel = self.snap[i].vel_obs
             self.seq = (self.seq + 1) & 0xFFFFFFFF
         if e == self.snap_at:
             self.snap_at = NEVER

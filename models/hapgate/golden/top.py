@@ -55,6 +55,7 @@ class TopConfig:
     comm: CommutationConfig = field(default_factory=CommutationConfig)
     lines_log2: int = 10
     dac_twr_ns: int = DAC_TWR_NS   # the DAC's minimum write pulse: sets the strobe's clocks
+    vel_obs_sel: bool = False    # VEL_CTRL.SEL resets to 7: every axis reports the observer
 
     def __post_init__(self) -> None:
         if self.comm.clk_hz != self.clk_hz:
@@ -91,11 +92,14 @@ class TopConfig:
                 "BUS_ADDR_BITS": 8,
                 **({"CAL": 1, "CAL_LUT_FILE": interp.write_cal_lut(i),
                     "CAL_LINES_LOG2": i.cal_lines_log2, "CAL_NLOG": i.cal_nlog} if i.cal else {}),
-                **({"COARSE": 1} if i.coarse else {})}
+                **({"COARSE": 1} if i.coarse else {}),
+                **({"VEL_OBS": 1} if i.vel_obs else {}),
+                **({"VEL_OBS_SEL": 1} if self.vel_obs_sel else {})}
 
 
 def blocks() -> list[Block]:
-    srcs = ("interp/enc_calib.v", "interp/ratio_div.v", "interp/enc_interp.v",
+    srcs = ("interp/enc_calib.v", "interp/ratio_div.v", "interp/vel_observer.v",
+            "interp/enc_interp.v",
             "interp/sample_strobe.v", "interp/enc_interp3.v",
             "commutation/sine_lut.v", "dac_sched/dac_sched.v", "commutation/commutator.v",
             "bus/emif_slave.v", "bus/hg_regfile.v", "bus/hg_bus.v", "top/hapgate_top.v")

@@ -30,6 +30,7 @@ from .sim import _locked
 
 HARNESS = TB / "native" / "interp" / "interp_harness.cpp"
 SOURCES = [RTL / "interp" / "enc_calib.v", RTL / "interp" / "ratio_div.v",
+           RTL / "interp" / "vel_observer.v",
            RTL / "interp" / "enc_interp.v",
            RTL / "interp" / "sample_strobe.v",
            RTL / "interp" / "enc_interp3.v"]
@@ -39,10 +40,12 @@ COLUMNS = ("pos", "pos_homed", "vel", "index_pos", "index_count", "homed", "faul
 CAL_COLUMNS = ("cal_ofs_a", "cal_ofs_b", "cal_gain_a", "cal_gain_b", "cal_phase", "cal_gear",
                "cal_updates")
 ALL_COLUMNS = COLUMNS + CAL_COLUMNS
+# every column of the harness, in its order: + the velocity observer's (VEL_OBS = 1 builds)
+HARNESS_COLUMNS = ALL_COLUMNS + ("vel_obs",)
 COLUMN_DTYPES = {"pos": "<i4", "pos_homed": "<i4", "vel": "<i4", "index_pos": "<i4",
                  "index_count": "<u2", "homed": "u1", "faults": "u1", "overspeed_count": "<u2",
                  "cal_ofs_a": "<i2", "cal_ofs_b": "<i2", "cal_gain_a": "<u2", "cal_gain_b": "<u2",
-                 "cal_phase": "<i2", "cal_gear": "u1", "cal_updates": "<u2"}
+                 "cal_phase": "<i2", "cal_gear": "u1", "cal_updates": "<u2", "vel_obs": "<i4"}
 FLAG_INDEX, FLAG_CLEAR, FLAG_ARM, FLAG_CAL_EN, FLAG_CAL_FREEZE, FLAG_HARM_EN = 1, 2, 4, 8, 16, 32
 
 
@@ -148,7 +151,8 @@ def run_interp(a: np.ndarray, b: np.ndarray, index: np.ndarray | None = None,
                arm_at: Sequence[Sequence[int]] | None = None,
                cal_en: np.ndarray | bool = False, cal_freeze: np.ndarray | bool = False,
                cal_mu: int = 6, harm_table: np.ndarray | None = None,
-               harm_en: np.ndarray | bool = False) -> NativeRun:
+               harm_en: np.ndarray | bool = False, obs_bw: int = 6,
+               obs_type3: bool = True) -> NativeRun:
     """Run samples (arrays of shape (n,) for one axis or (n, axes)) through the Verilated RTL.
 
     clear_at / arm_at: per axis, the sample numbers at which a fault clear / home arm pulse is
@@ -157,16 +161,17 @@ def run_interp(a: np.ndarray, b: np.ndarray, index: np.ndarray | None = None,
     (cfg.cal builds). harm_table: the harmonic correction table (cfg.harm builds; shape (HN,)
     for every axis or (axes, HN), signed 1/4 counts), written through the table port and read
     back before the run (`stats["harm_readback_bad"]` counts the entries that differed);
-    harm_en: its enable level per sample or constant."""
+    harm_en: its enable level per sample or constant. obs_bw, obs_type3: the velocity observer's
+    settings for every axis (cfg.vel_obs builds: the vel_obs column)."""
     a = np.asarray(a)
     axes = 1 if a.ndim == 1 else a.shape[1]
     n = a.shape[0]
     if n == 0:
         raise ValueError("no samples")
-    unknown = set(columns) - set(ALL_COLUMNS)
+    unknown = set(columns) - set(HARNESS_COLUMNS)
     if unknown:
-        raise ValueError(f"unknown columns {sorted(unknown)}; known: {', '.join(ALL_COLUMNS)}")
-    cols = [c for c in ALL_COLUMNS if c in columns]
+        raise ValueError(f"unknown columns {sorted(unknown)}; known: {', '.join(HARNESS_COLUMNS)}")
+    cols = [c for c in HARNESS_COLUMNS if c in columns]
     exe = build_interp(cfg, clk_hz=clk_hz, axes=axes)
     rec = np.zeros((n, axes, 3), dtype=np.uint8)
     rec[:, :, 0] = _as_2d(a, n, axes, "int8").view(np.uint8)
@@ -178,12 +183,15 @@ def run_interp(a: np.ndarray, b: np.ndarray, index: np.ndarray | None = None,
     flags |= _levels(cal_freeze, n, axes) * FLAG_CAL_FREEZE
     flags |= _levels(harm_en, n, axes) * FLAG_HARM_EN
     rec[:, :, 2] = flags
-    mask = sum(1 << ALL_COLUMNS.index(c) for c in cols)
+    mask = sum(1 << HARNESS_COLUMNS.index(c) for c in cols)
     dtype = np.dtype([(f"{c}{ax}", COLUMN_DTYPES[c]) for ax in range(axes) for c in cols])
     with tempfile.TemporaryDirectory(dir=ensure(BUILD / "native" / "runs")) as tmp:
         fin, fout = Path(tmp) / "in.bin", Path(tmp) / "out.bin"
         rec.tofile(fin)
-        argv = [str(exe), str(fin), str(fout), str(n), str(mask), str(cal_mu)]
+        # CAL_MU carries the observer's settings in bits 13:8 (bit 13: present)
+        obs_cfg = (obs_bw & 15) | (int(obs_type3) << 4)
+        argv = [str(exe), str(fin), str(fout), str(n), str(mask),
+                str((cal_mu & 15) | obs_cfg << 8 | 1 << 13)]
         if harm_table is not None:
             h2 = np.atleast_2d(np.asarray(harm_table, dtype=np.int64))
             ht = np.broadcast_to(h2, (axes, h2.shape[1]))

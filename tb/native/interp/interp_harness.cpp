@@ -10,8 +10,11 @@
 //   OUT: N_SAMPLES records of AXES x the selected columns, in this order and size:
 //        pos i32, pos_homed i32, vel i32, index_pos i32, index_count u16, homed u8,
 //        faults u8, overspeed_count u16, cal_ofs_a i16, cal_ofs_b i16, cal_gain_a u16,
-//        cal_gain_b u16, cal_phase i16, cal_gear u8, cal_updates u16 (COLMASK bit k: column k).
-//   CAL_MU: the calibration adaptation shift of every axis (default 6).
+//        cal_gain_b u16, cal_phase i16, cal_gear u8, cal_updates u16, vel_obs i32
+//        (COLMASK bit k: column k).
+//   CAL_MU: the calibration adaptation shift of every axis (default 6) in bits 3:0; with bit 13
+//        set, bits 12:8 are the velocity observer's settings of every axis, bw | type3 << 4
+//        (VEL_OBS = 1 builds; default bw 6, type III; vel_obs reads 0 otherwise).
 // Prints "samples=N clocks=C seconds=S" on stdout.
 #include <array>
 #include <chrono>
@@ -52,9 +55,9 @@ inline uint64_t field(const VlWide<N>& v, int lo, int width) {
 struct Column {
     int bytes;
 };
-constexpr int kNCol = 15;
+constexpr int kNCol = 16;
 constexpr Column kColumns[kNCol] = {{4}, {4}, {4}, {4}, {2}, {1}, {1}, {2},
-                                   {2}, {2}, {2}, {2}, {2}, {1}, {2}};
+                                   {2}, {2}, {2}, {2}, {2}, {1}, {2}, {4}};
 
 template <typename T>
 void put(std::vector<uint8_t>& buf, T value, int bytes) {
@@ -96,7 +99,16 @@ int main(int argc, char** argv) {
     top->ctl_harm_en = top->cfg_harm_we = 0;
     top->cfg_harm_addr = top->cfg_harm_data = 0;
     {
-        const unsigned mu = (argc >= 6) ? static_cast<unsigned>(std::strtoul(argv[5], nullptr, 0)) & 15U : 6U;
+        const unsigned mv = (argc >= 6) ? static_cast<unsigned>(std::strtoul(argv[5], nullptr, 0)) : 6U;
+        const unsigned mu = mv & 15U;
+        const unsigned oc = ((mv >> 13) & 1U) ? ((mv >> 8) & 31U) : 0x16U;
+        uint32_t bws = 0, t3s = 0;
+        for (int ax = 0; ax < AXES; ++ax) {
+            bws |= (oc & 15U) << (4 * ax);
+            t3s |= ((oc >> 4) & 1U) << ax;
+        }
+        top->cfg_obs_bw = bws;
+        top->cfg_obs_type3 = t3s;
         uint32_t mus = 0;
         for (int ax = 0; ax < AXES; ++ax) mus |= mu << (4 * ax);
         top->cfg_cal_mu = mus;
@@ -215,7 +227,8 @@ int main(int argc, char** argv) {
                     field(top->m_index_count, 16 * ax, 16), field(top->m_homed, ax, 1),
                     field(top->m_faults, 3 * ax, 3),        field(top->m_overspeed_count, 16 * ax, 16),
                     cs[7 * ax + 0], cs[7 * ax + 1], cs[7 * ax + 2], cs[7 * ax + 3],
-                    cs[7 * ax + 4], cs[7 * ax + 5], cs[7 * ax + 6]};
+                    cs[7 * ax + 4], cs[7 * ax + 5], cs[7 * ax + 6],
+                    field(top->m_vel_obs, 32 * ax, 32)};
                 for (int c = 0; c < kNCol; ++c)
                     if (mask & (1U << c)) put(obuf, v[c], kColumns[c].bytes);
             }
