@@ -122,7 +122,7 @@ def test_kind_sources_narrow_the_key(tmp_path: Path) -> None:
     ("[sweep]\njob = 'selftest'\nfoo = 1\n", "sweep.foo"),
     ("[sweep]\njob = 'zwidth'\nbase = 'b.toml'\n[fixed]\n'run.position' = 'coarse'\n",
      "run.position"),
-    ("[sweep]\njob = 'zwidth'\nbase = 'b.toml'\n[fixed]\nvelocity = 'observer'\n", "velocity"),
+    ("[sweep]\njob = 'zwidth'\nbase = 'b.toml'\n[fixed]\nvelocity = 'kalman'\n", "velocity"),
     ("[sweep]\njob = 'calib_mc'\n[fixed]\nengine = 'spice'\n", "fixed.engine"),
     ("[sweep]\njob = 'calib_mc'\n[fixed]\ntravel_lines = 300\n", "fixed.travel_lines"),
     ("[sweep\n", "line 1"),

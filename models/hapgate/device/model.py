@@ -95,6 +95,9 @@ def supported(scene: Any) -> None:
                       "where it needs them; use fidelity \"rtl\"")
     if runner._coarse(scene):
         raise _refuse(scene, "run.position", "\"quadrature\" needs fidelity \"rtl\"")
+    if runner._observer(scene):
+        raise _refuse(scene, "run.velocity", "\"observer\" needs fidelity \"rtl\" (the model "
+                      "reports the window FIR's velocity)")
     if runner.scripted_pc(scene):
         raise _refuse(scene, "pc" if getattr(scene, "pc", None) is not None else "fault",
                       "the scripted PC's link is simulated with the gateware only; use "

@@ -33,6 +33,7 @@ HARNESS = [HERE / "device_harness.cpp", HERE / "harness_common.cpp", HERE / "pla
            HERE / "uart_link.cpp"]
 FW = ROOT / "dsp-fw"
 MIN_CLK_HZ = 6_000_000       # lowest clock of the grid-aligned bus (README): D >= 6 clocks per us
+OBS_MIN_CLK_HZ = 12_000_000  # run.velocity = "observer": its extra clock of latency, with margin
 FULL_CLK_HZ = 48_000_000     # the shipped default
 SAMPLE_HZ = 1_000_000
 K_MAX_TEST = 50_000.0        # N/m: HG_SCENE_K_MAX_TEST of a firmware.test_limits build
@@ -73,7 +74,7 @@ def choose_clock(scene: Any) -> int:
     """The scene's clock, or (clk_hz = 0) the lowest at which the recorded outputs are
     bit-identical to the 48 MHz build: MIN_CLK_HZ, whole MHz, and a whole number of clocks per
     servo tick (README, "Why any clock gives the same result")."""
-    clk = int(scene.run.clk_hz) or MIN_CLK_HZ
+    clk = int(scene.run.clk_hz) or (OBS_MIN_CLK_HZ if _observer(scene) else MIN_CLK_HZ)
     if clk % SAMPLE_HZ or clk < MIN_CLK_HZ:
         raise DeviceError(f"clk_hz {clk}: the virtual device needs a whole number of MHz "
                           f">= {MIN_CLK_HZ // 1_000_000} MHz")
@@ -87,11 +88,13 @@ def axis_mask(scene: Any) -> int:
 
 
 def build(clk_hz: int, mask: int = 7, trace: bool = False, test_limits: bool = False,
-          coarse: bool = False) -> Path:
+          coarse: bool = False, vel_obs: bool = False) -> Path:
     """Verilate the top (HG_SIM, AXIS_MASK) with the harness, plant and firmware (cached).
     test_limits: the firmware built with HG_SCENE_K_MAX_TEST (scene key firmware.test_limits);
-    coarse: plain quadrature, the interpolator's fine angle zeroed (run.position)."""
-    cfg = TopConfig(clk_hz=clk_hz, interp=InterpConfig(coarse=coarse))
+    coarse: plain quadrature, the interpolator's fine angle zeroed (run.position);
+    vel_obs: the tracking velocity observer built and reported as VEL (run.velocity)."""
+    cfg = TopConfig(clk_hz=clk_hz, interp=InterpConfig(coarse=coarse, vel_obs=vel_obs),
+                    vel_obs_sel=vel_obs)
     block = blocks()[0]
     srcs = [ROOT / "rtl" / s for s in block.sources]
     params = cfg.rtl_params() | {"AXIS_MASK": mask}
@@ -169,6 +172,10 @@ def plant_config(scene: Any, q0: np.ndarray) -> str:
         path = np.asarray(hand.path if hand.path else [[0.0, *kinematics.fk(q0)]], dtype=float)
         lines.append(f"hand_path = {_vec(path)}")
     return "\n".join(lines) + "\n"
+
+
+def _observer(scene: Any) -> bool:
+    return getattr(scene.run, "velocity", "fir") == "observer"
 
 
 def _coarse(scene: Any) -> bool:
@@ -338,7 +345,7 @@ def simulate(scene: Any, clk_hz: int | None = None, mask: int | None = None,
     m = axis_mask(scene) if mask is None else int(mask)
     trace = bool(scene.run.trace)
     exe = build(clk, m, trace, bool(getattr(scene.firmware, "test_limits", False)),
-                _coarse(scene))
+                _coarse(scene), _observer(scene))
     q0 = start_pose(scene)
     built = [f"interpolator axis {i}" for i in range(3) if m >> i & 1]
     built += ["commutator + DAC scheduler", "bus + register file", "firmware (dsp-fw)",

@@ -76,6 +76,7 @@ class RunCfg:
     qd0_deg_s: tuple[float, float, float] = (0.0, 0.0, 0.0)   # initial joint speeds, deg/s
     name: str | None = None          # output folder name (resolved on load: the file's stem)
     position: str = "interpolated"   # "quadrature": the interpolator's fine angle zeroed (COARSE)
+    velocity: str = "fir"            # "observer": VEL reports the tracking observer (VEL_OBS)
 
 
 @dataclass(frozen=True)
@@ -442,7 +443,8 @@ class _Validator:
                                                f"|deg/s| <= {QD_MAX_DEG_S:.0f} (the firmware's "
                                                "qd_max, 100 rad/s)"),
             "name": name,
-            "position": lambda x, k: self.str_(x, k, ("interpolated", "quadrature"))})
+            "position": lambda x, k: self.str_(x, k, ("interpolated", "quadrature")),
+            "velocity": lambda x, k: self.str_(x, k, ("fir", "observer"))})
         for a, w in enumerate(kw.get("qd0_deg_s", ())):   # type: ignore[arg-type]
             if w != 0 and a not in kw.get("axes", RunCfg.axes):   # type: ignore[operator]
                 raise self.fail(f"run.qd0_deg_s[{a}]", f"axis {a} is not simulated (its joint "

@@ -49,11 +49,11 @@ DECAY = 0.5
 SCENE_KEYS = ("env.k", "env.b", "run.servo_hz", "run.duration_s", "hand.k", "hand.b",
               "run.clk_hz", "run.position")
 # The velocity the firmware's wall damping uses: a job parameter `velocity` (a grid axis of a
-# spec, default "fir") mapped to the scene overrides that select it. HOOK for the window-FIR vs
-# observer comparison (issue 13's observer, not on main yet): when the observer lands, set
-# "observer" to the scene overrides that switch the firmware/gateware to it (e.g.
-# {"firmware.velocity": "observer"}); until then a spec asking for it is refused at load.
-VELOCITY_SCENE: dict[str, dict[str, Any] | None] = {"fir": {}, "observer": None}
+# spec, default "fir") mapped to the scene overrides that select it: "observer" builds the
+# gateware with the tracking observer (VEL_OBS = 1) and VEL_CTRL.SEL reset to it (scene key
+# run.velocity), so the unchanged firmware's VEL reads are the observer's.
+VELOCITY_SCENE: dict[str, dict[str, Any] | None] = {"fir": {},
+                                                    "observer": {"run.velocity": "observer"}}
 
 
 def geometry(scene: Any) -> dict[str, Any]:
