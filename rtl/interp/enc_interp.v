@@ -643,15 +643,13 @@ module enc_interp #(
             end
         end else begin : g_copy_d
             always @(posedge clk) begin
-                if (vc) begin  // (held between samples: a simulator then skips the copies too)
-                    pos_d         <= pos_c;
-                    pos_homed_d   <= pos_homed_c;
-                    index_pos_d   <= index_pos_c;
-                    index_count_d <= index_count_c;
-                    ovs_count_d   <= ovs_count_c;
-                    homed_d       <= homed_q;
-                    flags_d       <= flags;
-                end
+                pos_d         <= pos_c;
+                pos_homed_d   <= pos_homed_c;
+                index_pos_d   <= index_pos_c;
+                index_count_d <= index_count_c;
+                ovs_count_d   <= ovs_count_c;
+                homed_d       <= homed_q;
+                flags_d       <= flags;
             end
         end
     endgenerate

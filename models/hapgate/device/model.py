@@ -24,6 +24,7 @@ from ..golden import encsig, interp, regmap
 from ..golden.commutation import CommutationConfig
 from ..golden.interp import InterpConfig
 from ..golden.sine import quarter_table
+from ..golden.top import TopConfig
 from ..runners import cosim
 from ..runners.sim import _locked
 from . import runner
@@ -81,6 +82,9 @@ def _refuse(scene: Any, key: str, msg: str) -> SceneError:
     return SceneError(f"{scene.source}: {key}: {msg}")
 
 
+MODEL_LOAD_CLOCKS = 9    # model_harness.cpp kLoadClocks: frame start -> channel 0 load
+
+
 def supported(scene: Any) -> None:
     """Refuse what the model does not simulate faithfully (SceneError naming the file and key,
     the command's exit 2, nothing written): a waveform trace, the ADC record, quadrature-only
@@ -95,6 +99,11 @@ def supported(scene: Any) -> None:
                       "where it needs them; use fidelity \"rtl\"")
     if runner._coarse(scene):
         raise _refuse(scene, "run.position", "\"quadrature\" needs fidelity \"rtl\"")
+    clk = runner.choose_clock(scene)
+    if TopConfig(clk_hz=clk).comm.load_clocks + 1 != MODEL_LOAD_CLOCKS:
+        raise _refuse(scene, "run.clk_hz", f"{clk / 1e6:g} MHz: the DAC write strobe (the "
+                      "DAC's t_WCS) moves the loads there; the model has the schedule of "
+                      f"{MODEL_LOAD_CLOCKS} clocks (clk_hz <= 20 MHz); use fidelity \"rtl\"")
     if runner._observer(scene):
         raise _refuse(scene, "run.velocity", "\"observer\" needs fidelity \"rtl\" (the model "
                       "reports the window FIR's velocity)")

@@ -104,6 +104,7 @@ def build(clk_hz: int, mask: int = 7, trace: bool = False, test_limits: bool = F
     return native.verilate_harness(
         "device_harness", block.top, srcs, params, HARNESS,
         cflags=(f"-std=c++17 -DCLK_HZ={clk_hz} -DAXIS_MASK={mask} -DHG_TRACE={int(trace)} "
+                f"-DHG_LOAD_CLOCKS={cfg.comm.load_clocks + 1} "
                 f"-I{HERE} -I{FW / 'include'}" + "".join(f" -D{d}" for d in defs)),
         ldflags="fw/libhgfw.a -lm",
         inputs=[HERE / "plant.h", HERE / "uart_link.h", HERE / "harness_common.h", *fw_srcs],

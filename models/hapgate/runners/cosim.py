@@ -78,7 +78,8 @@ def build(cfg: TopConfig = TopConfig()) -> Path:
     fw_srcs = sorted((FW / "src").glob("*.c")) + sorted((FW / "include").glob("*.h"))
     return native.verilate_harness(
         "cosim_harness", block.top, [HERE / "public.vlt", *srcs], cfg.rtl_params(), HARNESS,
-        cflags=f"-std=c++17 -DCLK_HZ={cfg.clk_hz} -I{HERE} -I{FW / 'include'}",
+        cflags=(f"-std=c++17 -DCLK_HZ={cfg.clk_hz} -DHG_LOAD_CLOCKS={cfg.comm.load_clocks + 1} "
+                f"-DHG_WR_CYCLES={cfg.comm.wr_cycles} -I{HERE} -I{FW / 'include'}"),
         ldflags="fw/libhgfw.a -lm",          # relative to the build directory (make runs there)
         inputs=[HERE / "cosim.h", *fw_srcs], prepare=_fw_lib)
 

@@ -46,7 +46,12 @@ constexpr double kAdcR = 110.0;          // ADC amplitude (codes)
 constexpr int kPolePairs = 2;
 constexpr double kL = 0.05;              // arm lengths (KINEMATICS.md default), m
 constexpr double kDacFs = 8191.0;        // DAC code at full scale (14-bit, symmetric)
-constexpr int kLoadClocks = 9;           // frame start -> channel 0 load (rtl/top/README.md)
+#if !defined(HG_LOAD_CLOCKS) || !defined(HG_WR_CYCLES)
+#error "HG_LOAD_CLOCKS and HG_WR_CYCLES (from the top's configuration) must be defined"
+#endif
+// frame start -> channel 0 load (the commutator's load latency + the output stage's register,
+// rtl/top/README.md; longer where the DAC's t_WCS needs a longer strobe)
+constexpr int kLoadClocks = HG_LOAD_CLOCKS;
 constexpr double kWallK = 2000.0;        // N/m (20 N/cm)
 
 double deg(double x) { return x * kPi / 180.0; }
@@ -577,7 +582,7 @@ int main(int argc, char** argv) {
 
     // ---------------------------------------------------------------- safety reaction
     // per channel: the first load at or after the cause from which on every load is zero
-    const uint64_t bound = frame + 1 + 1;  // FRAME + WR_CYCLES + 1 (rtl/top/README.md)
+    const uint64_t bound = frame + HG_WR_CYCLES + 1;  // FRAME + WR_CYCLES + 1 (rtl/top/README.md)
     int64_t reaction = -1;
     bool nonzero_before = false;
     if (cause_edge) {

@@ -57,7 +57,10 @@ using hg_dev::kPi;
 constexpr uint64_t D = CLK_HZ / 1000000;  // clocks per sample-grid point (1 us)
 static_assert(CLK_HZ % 1000000 == 0, "CLK_HZ must be a whole number of MHz");
 static_assert(D >= 6, "the grid-aligned bus needs a strobe of >= 5 clocks inside 1 us: CLK_HZ >= 6 MHz");
-constexpr int kLoadClocks = 9;             // frame start -> channel 0 load (rtl/top/README.md)
+#ifndef HG_LOAD_CLOCKS
+#error "HG_LOAD_CLOCKS (frame start -> channel 0 load, from the top's configuration) must be defined"
+#endif
+constexpr int kLoadClocks = HG_LOAD_CLOCKS;  // frame start -> channel 0 load (rtl/top/README.md)
 constexpr uint64_t kDacDelayUs = 2;        // a word reaches the amplifier 2 us after its slot start
 
 // Cost split (HG_PROFILE=1 in the environment): wall time in the plant, in the firmware's own
