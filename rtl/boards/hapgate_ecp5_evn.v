@@ -16,6 +16,7 @@ module hapgate_ecp5_evn #(
     input  wire        clk,            // 12 MHz board clock
     input  wire        rst_n,          // push button, active low, asynchronous
     output wire        adc_strobe,
+    output wire        adc_clk,        // the converters' sample clock (CLK pins)
     input  wire [23:0] adc_a,
     input  wire [23:0] adc_b,
     input  wire [2:0]  enc_index,
@@ -80,7 +81,7 @@ module hapgate_ecp5_evn #(
         .CLK_HZ(CLK_HZ), .ASIN_FILE(ASIN_FILE), .SINE_FILE(SINE_FILE)
     ) u_top (
         .clk(core_clk), .rst(rst),
-        .adc_strobe(adc_strobe), .adc_a(adc_a), .adc_b(adc_b), .enc_index(enc_index),
+        .adc_strobe(adc_strobe), .adc_clk(adc_clk), .adc_a(adc_a), .adc_b(adc_b), .enc_index(enc_index),
         .dac_data(dac_data), .dac_addr(dac_addr), .dac_wr_n(dac_wr_n),
         .bus_ce_n(bus_ce_n), .bus_re_n(bus_re_n), .bus_we_n(bus_we_n), .bus_addr(bus_addr),
         .bus_data_in(bus_data), .bus_data_out(data_out), .bus_data_oe(data_oe),

@@ -18,7 +18,8 @@ module hapgate_ice40_hx8k #(
 ) (
     input  wire        clk,
     input  wire        rst_n,          // header pin with pull-up, active low, asynchronous
-    output wire        adc_strobe,     // converter sample clock (one clock high per sample)
+    output wire        adc_strobe,     // sample marker (one clock high per sample; test point)
+    output wire        adc_clk,        // the converters' sample clock (CLK pins)
     input  wire [23:0] adc_d,          // A and B converters of each axis share 8 lines
     output wire        adc_oe_a_n,
     output wire        adc_oe_b_n,
@@ -64,10 +65,11 @@ module hapgate_ice40_hx8k #(
 
     hapgate_top #(
         .CLK_HZ(CLK_HZ), .ASIN_FILE(ASIN_FILE), .SINE_FILE(SINE_FILE), .SERIAL_MUL(SERIAL_MUL),
-        .SQ_RAM(SQ_RAM), .HOLD_C(HOLD_C), .LATCH_RAM(LATCH_RAM)
+        .SQ_RAM(SQ_RAM), .HOLD_C(HOLD_C), .LATCH_RAM(LATCH_RAM),
+        .ADC_CAPTURE_LEAD(1)   // adc_pair_mux takes the B words one clock before the core
     ) u_top (
         .clk(clk), .rst(rst),
-        .adc_strobe(adc_strobe), .adc_a(adc_a), .adc_b(adc_b), .enc_index(index),
+        .adc_strobe(adc_strobe), .adc_clk(adc_clk), .adc_a(adc_a), .adc_b(adc_b), .enc_index(index),
         .dac_data(dac_data), .dac_addr(dac_addr), .dac_wr_n(dac_wr_n),
         .bus_ce_n(bus_ce_n), .bus_re_n(bus_re_n), .bus_we_n(bus_we_n), .bus_addr(bus_addr),
         .bus_data_in(bus_data), .bus_data_out(data_out), .bus_data_oe(data_oe),

@@ -30,6 +30,18 @@ module hapgate_top #(
     parameter integer WR_CYCLES     = 1,          // DAC write strobe length, clocks (at least
                                                   // DAC_TWR_NS: the longer of the two is used)
     parameter integer DAC_TWR_NS    = 50,         // DAC's minimum write pulse (DAC7625 t_WCS)
+    // ---- ADC sample clock (adc_clk; rtl/top/README.md, "Converter timing"): the 8-bit ADC's
+    // figures (HI1175 / CXD1175A class; the stated conservative ones are marked) and the FPGA's
+    parameter integer ADC_CLK       = 1,          // 1: drive adc_clk (0: held low, no checks)
+    parameter integer ADC_FMAX_HZ   = 20_000_000, // maximum conversion rate (HI1175: 20 MSPS)
+    parameter integer ADC_TPW_NS    = 23,         // clock high and low, minimum (CXD1175A)
+    parameter integer ADC_TPW_MAX_NS = 1100,      // clock high and low, maximum (CXD1175A)
+    parameter integer ADC_TOD_NS    = 50,         // output delay after a clock edge, max (stated)
+    parameter integer ADC_TH_NS     = 0,          // output hold after a clock edge, min (stated)
+    parameter integer ADC_IO_NS     = 25,         // FPGA clock-to-pin of adc_clk + board + input setup
+    parameter integer ADC_IH_NS     = 5,          // FPGA input hold (+ skew) the data must cover
+    parameter integer ADC_CAPTURE_LEAD = 0,       // clocks before the core's capture edge at which
+                                                  // the board takes the pins (HX8K adapter: 1)
     parameter integer ADDR_BITS     = 8,          // sine ROM: 2**ADDR_BITS quarter-wave entries
     parameter integer MAG_BITS      = 13,         // sine ROM entry width
     parameter integer FS            = 8191,       // sine ROM full scale
@@ -48,6 +60,7 @@ module hapgate_top #(
     input  wire                     rst,
     // ADCs and encoders (axis 0 in the low bits)
     output wire                     adc_strobe,     // words captured at the end of this cycle
+    output reg                      adc_clk,        // the converters' sample clock (SAMPLE_HZ)
     input  wire [23:0]              adc_a,
     input  wire [23:0]              adc_b,
     input  wire [2:0]               enc_index,
@@ -99,6 +112,64 @@ module hapgate_top #(
             hapgate_top_HOLD_C_needs_CLK_HZ_at_least_2_SAMPLE_HZ u_stop ();
         end
     endgenerate
+
+    // ---------------------------------------------------------------- ADC sample clock
+    // The converters' clock (rtl/top/README.md, "Converter timing"): SAMPLE_HZ, ADC_HI clocks
+    // high, rising ADC_Q clocks before the core's capture edge (the edge that ends the adc_strobe
+    // clock; the board takes the pins ADC_CAPTURE_LEAD clocks before it), so every pin capture
+    // sits between two of its edges: ADC_SU clocks after the last one (>= t_OD + the IO budget)
+    // and ADC_HO clocks before the next (>= the input hold - t_H). A part may change its outputs
+    // after either edge; both count. The word captured at strobe n is the conversion of ADC
+    // clock cycle n - 3 (2.5-clock pipeline; cycle n starts with the rise ADC_Q clocks before
+    // capture n). The counter mirrors sample_strobe's (same reset, same period); the clock
+    // stays low from reset to its first rise (no runt pulse).
+    localparam integer ADC_DIV  = CLK_HZ / SAMPLE_HZ;
+    localparam integer ADC_HI   = ADC_DIV / 2;
+    localparam integer ADC_Q    = ADC_CAPTURE_LEAD + ADC_HI / 2;
+    localparam integer ADC_SU   = ADC_Q - ADC_CAPTURE_LEAD;
+    localparam integer ADC_HO   = ADC_HI - ADC_Q + ADC_CAPTURE_LEAD;
+    localparam integer ADC_CW   = (ADC_DIV > 2) ? $clog2(ADC_DIV) : 1;
+    localparam integer ADC_PH0_I  = (ADC_Q + ADC_DIV - 1) % ((ADC_DIV > 0) ? ADC_DIV : 1);
+    localparam integer ADC_LAST_I = ADC_DIV - 1;
+    localparam [ADC_CW-1:0] ADC_PH0  = ADC_PH0_I[ADC_CW-1:0];   // phase after reset
+    localparam [ADC_CW-1:0] ADC_LAST = ADC_LAST_I[ADC_CW-1:0];
+    localparam [ADC_CW-1:0] ADC_FALL = ADC_HI[ADC_CW-1:0];
+    generate
+        if (ADC_CLK != 0) begin : g_adc_checks
+            if (ADC_DIV < 2 || ADC_DIV > 2000 || ADC_CAPTURE_LEAD < 0 ||
+                ADC_CAPTURE_LEAD >= ADC_DIV / 2) begin : g_adc_div
+                hapgate_top_ADC_CLK_needs_2_to_2000_clocks_per_sample u_stop ();
+            end
+            if (SAMPLE_HZ > ADC_FMAX_HZ) begin : g_adc_rate
+                hapgate_top_SAMPLE_HZ_above_the_ADC_maximum_conversion_rate u_stop ();
+            end
+            if (ADC_HI * 1_000_000 < ADC_TPW_NS * CLK_KHZ) begin : g_adc_pw
+                hapgate_top_ADC_clock_high_or_low_shorter_than_ADC_TPW_NS u_stop ();
+            end
+            if ((ADC_DIV - ADC_HI) * 1_000_000 > ADC_TPW_MAX_NS * CLK_KHZ) begin : g_adc_pw_max
+                hapgate_top_ADC_clock_low_longer_than_ADC_TPW_MAX_NS u_stop ();
+            end
+            if (ADC_SU < 1 || ADC_SU * 1_000_000 < (ADC_TOD_NS + ADC_IO_NS) * CLK_KHZ) begin : g_adc_su
+                hapgate_top_ADC_capture_earlier_than_t_OD_plus_the_IO_budget u_stop ();
+            end
+            if (ADC_HO < 1 || ADC_HO * 1_000_000 < (ADC_IH_NS - ADC_TH_NS) * CLK_KHZ) begin : g_adc_ho
+                hapgate_top_ADC_capture_later_than_the_next_edge_allows u_stop ();
+            end
+        end
+    endgenerate
+
+    reg [ADC_CW-1:0] adc_ph;   // clocks since the ADC clock's rising phase
+    wire [ADC_CW-1:0] adc_ph_next = (adc_ph == ADC_LAST) ? {ADC_CW{1'b0}} : adc_ph + 1'b1;
+    always @(posedge clk) begin
+        if (rst || ADC_CLK == 0) begin
+            adc_ph  <= ADC_PH0;
+            adc_clk <= 1'b0;
+        end else begin
+            adc_ph  <= adc_ph_next;
+            if (adc_ph_next == {ADC_CW{1'b0}}) adc_clk <= 1'b1;
+            else if (adc_ph_next == ADC_FALL) adc_clk <= 1'b0;
+        end
+    end
 
     // ---------------------------------------------------------------- interpolators
     wire        m_valid;

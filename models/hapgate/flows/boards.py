@@ -13,6 +13,7 @@ the fmax spread (min / median / max) is reported.
 from __future__ import annotations
 
 import json
+import os
 import statistics
 import subprocess
 import time
@@ -113,6 +114,7 @@ class PnrResult:
     fmax_mhz: float
     seconds: float
     detail: str = ""
+    cpu_s: float = 0.0         # CPU seconds of nextpnr and the packer (child processes)
 
 
 def synthesize(board: Board) -> Finding:
@@ -136,6 +138,7 @@ def place_route(board: Board, seed: int) -> tuple[PnrResult, dict[str, int]]:
     """nextpnr (one seed) + bitstream; utilisation from nextpnr's report."""
     wd = BUILD / "pnr" / board.name
     t0 = time.perf_counter()
+    c0 = _child_cpu()
     mhz = board.clk_hz / 1e6
     cons = RTL / "boards" / board.constraints
     rel = "../../../rtl/boards/" + board.constraints  # yowasp: relative to the work directory
@@ -153,8 +156,13 @@ def place_route(board: Board, seed: int) -> tuple[PnrResult, dict[str, int]]:
                             cwd=wd, capture_output=True, text=True)
         if pk.returncode != 0 or not (wd / f"{tag}.{board.bitstream}").stat().st_size:
             problems.append(f"bitstream: {pk.stderr.strip()[-500:]}")
-    return (PnrResult(seed, not problems, fmax, time.perf_counter() - t0, "\n".join(problems)),
-            res)
+    return (PnrResult(seed, not problems, fmax, time.perf_counter() - t0, "\n".join(problems),
+                      _child_cpu() - c0), res)
+
+
+def _child_cpu() -> float:
+    t = os.times()
+    return t.children_user + t.children_system
 
 
 def judge(board: Board, returncode: int, stderr: str, report: dict | None
@@ -212,7 +220,34 @@ def pnr(board: Board, seeds: int = 1) -> Finding:
     detail = spread + "".join(f"\nseed {r.seed}: {r.detail}" for r in runs if not r.ok)
     res["pnr_s_per_seed"] = round(statistics.mean(r.seconds for r in runs))
     res["synth_s"] = round(syn.seconds)
+    write_seed_report(board, runs, syn.seconds)
     return Finding("nextpnr", board.name, ok, time.perf_counter() - t0, detail, res)
+
+
+def seed_summary(fmax: list[float]) -> tuple[float, float, float]:
+    """(min, median, max) of the per-seed fmax figures."""
+    if not fmax:
+        raise ValueError("no seeds")
+    return min(fmax), statistics.median(fmax), max(fmax)
+
+
+def write_seed_report(board: Board, runs: list[PnrResult], synth_s: float) -> Path:
+    """build/reports/pnr_seeds_BOARD.csv: one row per seed (fmax, verdict, wall and CPU
+    seconds) and a summary row (min / median / max fmax against the target)."""
+    from ..base.report import write_csv
+
+    f = [r.fmax_mhz for r in runs]
+    lo, med, hi = seed_summary(f)
+    mhz = board.clk_hz / 1e6
+    rows: list[list[object]] = [[board.name, r.seed, f"{r.fmax_mhz:.2f}", f"{mhz:g}",
+                                 f"{r.fmax_mhz / mhz - 1:+.1%}", "ok" if r.ok else "FAIL",
+                                 f"{r.seconds:.0f}", f"{r.cpu_s:.0f}"] for r in runs]
+    rows.append([board.name, f"min/median/max over {len(runs)}",
+                 f"{lo:.2f}/{med:.2f}/{hi:.2f}", f"{mhz:g}", f"{lo / mhz - 1:+.1%}",
+                 "ok" if all(r.ok for r in runs) else "FAIL", f"synth {synth_s:.0f}", ""])
+    return write_csv(f"pnr_seeds_{board.name}.csv",
+                     ["board", "seed", "fmax_mhz", "target_mhz", "slack", "result", "wall_s",
+                      "cpu_s"], rows)
 
 
 def gate_netlist(board: Board, params: Params) -> Path:
