@@ -116,18 +116,27 @@ module hapgate_top #(
     // ---------------------------------------------------------------- ADC sample clock
     // The converters' clock (rtl/top/README.md, "Converter timing"): SAMPLE_HZ, ADC_HI clocks
     // high, rising ADC_Q clocks before the core's capture edge (the edge that ends the adc_strobe
-    // clock; the board takes the pins ADC_CAPTURE_LEAD clocks before it), so every pin capture
-    // sits between two of its edges: ADC_SU clocks after the last one (>= t_OD + the IO budget)
-    // and ADC_HO clocks before the next (>= the input hold - t_H). A part may change its outputs
-    // after either edge; both count. The word captured at strobe n is the conversion of ADC
-    // clock cycle n - 3 (2.5-clock pipeline; cycle n starts with the rise ADC_Q clocks before
-    // capture n). The counter mirrors sample_strobe's (same reset, same period); the clock
-    // stays low from reset to its first rise (no runt pulse).
+    // clock), so every pin read sits inside one phase of it: ADC_SU clocks after its last edge
+    // (>= t_OD + the IO budget) and ADC_HO clocks before its next (>= the input hold - t_H).
+    // A part may change its outputs after either edge; both count. With ADC_CAPTURE_LEAD = 0
+    // the pins are read at the core's capture edge, centred in a 50 % clock. With a lead (the
+    // HX8K pair adapter) they are read twice per sample, at LEAD and LEAD + ADC_S clocks before
+    // it (B and A words): both reads in the high phase, so the A and B words of a sample come
+    // from the same converter cycle whichever edge the part's outputs follow. The word taken
+    // for sample n is the conversion of ADC clock cycle n - 3 (2.5-clock pipeline; cycle n
+    // starts with the rise ADC_Q clocks before capture n). The counter mirrors sample_strobe's
+    // (same reset, same period); the clock stays low from reset to its first rise (no runt).
     localparam integer ADC_DIV  = CLK_HZ / SAMPLE_HZ;
-    localparam integer ADC_HI   = ADC_DIV / 2;
-    localparam integer ADC_Q    = ADC_CAPTURE_LEAD + ADC_HI / 2;
-    localparam integer ADC_SU   = ADC_Q - ADC_CAPTURE_LEAD;
-    localparam integer ADC_HO   = ADC_HI - ADC_Q + ADC_CAPTURE_LEAD;
+    localparam integer ADC_S    = ADC_DIV - ADC_DIV / 2;               // A read -> B read
+    localparam integer ADC_M    = (ADC_DIV - ADC_S - 1) / 2;           // lead: margin each side
+    localparam integer ADC_HI   = (ADC_CAPTURE_LEAD == 0) ? ADC_DIV / 2 : ADC_S + 2 * ADC_M;
+    localparam integer ADC_Q    = (ADC_CAPTURE_LEAD == 0) ? ADC_HI / 2
+                                                          : ADC_CAPTURE_LEAD + ADC_S + ADC_M;
+    localparam integer ADC_SU   = (ADC_CAPTURE_LEAD == 0) ? ADC_Q : ADC_M;
+    localparam integer ADC_HO   = (ADC_CAPTURE_LEAD == 0) ? ADC_HI - ADC_Q : ADC_M;
+    localparam integer ADC_LO   = ADC_DIV - ADC_HI;
+    localparam integer ADC_PW   = (ADC_HI < ADC_LO) ? ADC_HI : ADC_LO;   // shorter phase
+    localparam integer ADC_PWX  = (ADC_HI < ADC_LO) ? ADC_LO : ADC_HI;   // longer phase
     localparam integer ADC_CW   = (ADC_DIV > 2) ? $clog2(ADC_DIV) : 1;
     localparam integer ADC_PH0_I  = (ADC_Q + ADC_DIV - 1) % ((ADC_DIV > 0) ? ADC_DIV : 1);
     localparam integer ADC_LAST_I = ADC_DIV - 1;
@@ -137,17 +146,17 @@ module hapgate_top #(
     generate
         if (ADC_CLK != 0) begin : g_adc_checks
             if (ADC_DIV < 2 || ADC_DIV > 2000 || ADC_CAPTURE_LEAD < 0 ||
-                ADC_CAPTURE_LEAD >= ADC_DIV / 2) begin : g_adc_div
-                hapgate_top_ADC_CLK_needs_2_to_2000_clocks_per_sample u_stop ();
+                ADC_CAPTURE_LEAD > ADC_M) begin : g_adc_div
+                hapgate_top_ADC_CLK_needs_2_to_2000_clocks_per_sample_and_a_lead_of_at_most_ADC_M u_stop ();
             end
             if (SAMPLE_HZ > ADC_FMAX_HZ) begin : g_adc_rate
                 hapgate_top_SAMPLE_HZ_above_the_ADC_maximum_conversion_rate u_stop ();
             end
-            if (ADC_HI * 1_000_000 < ADC_TPW_NS * CLK_KHZ) begin : g_adc_pw
+            if (ADC_PW < 1 || ADC_PW * 1_000_000 < ADC_TPW_NS * CLK_KHZ) begin : g_adc_pw
                 hapgate_top_ADC_clock_high_or_low_shorter_than_ADC_TPW_NS u_stop ();
             end
-            if ((ADC_DIV - ADC_HI) * 1_000_000 > ADC_TPW_MAX_NS * CLK_KHZ) begin : g_adc_pw_max
-                hapgate_top_ADC_clock_low_longer_than_ADC_TPW_MAX_NS u_stop ();
+            if (ADC_PWX * 1_000_000 > ADC_TPW_MAX_NS * CLK_KHZ) begin : g_adc_pw_max
+                hapgate_top_ADC_clock_high_or_low_longer_than_ADC_TPW_MAX_NS u_stop ();
             end
             if (ADC_SU < 1 || ADC_SU * 1_000_000 < (ADC_TOD_NS + ADC_IO_NS) * CLK_KHZ) begin : g_adc_su
                 hapgate_top_ADC_capture_earlier_than_t_OD_plus_the_IO_budget u_stop ();

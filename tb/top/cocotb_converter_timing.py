@@ -5,11 +5,12 @@ simulation time (rtl/top/README.md, "Converter timing"):
   >= t_WR, data and address stable from before the strobe falls to after it rises, setup to
   the latching edge and hold;
 - the ADC sample clock adc_clk (HI1175 / CXD1175A class): high and low between t_PW and t_PW
-  max, one period per sample, and every pin capture (the core's, or the board adapter's
-  ADC_CAPTURE_LEAD clocks before it) at least t_OD + the IO budget after an edge of either
-  polarity and the input hold before the next; an ADC model with the part's 2.5-clock pipeline
-  (samples on the falling edge, output register on the rising edge, outputs invalid from t_H
-  to t_OD after it) shows that capture n holds the conversion of ADC clock cycle n - 3.
+  max, one period per sample, and every pin read (the core's capture edge, or the board
+  adapter's two reads per sample ADC_CAPTURE_LEAD clocks before it) at least t_OD + the IO
+  budget after an edge of either polarity and the input hold before the next; an ADC model
+  with the part's 2.5-clock pipeline (samples on the falling edge, output register on the
+  rising edge, outputs invalid from t_H to t_OD after it) shows that every read for sample n
+  (A and B) holds the conversion of ADC clock cycle n - 3.
 
 The figures come from hapgate.golden.converters (the datasheets), never from the RTL; the
 judges are plain Python there. HG_CONV_REPORT: a JSON file the measured figures are written to
@@ -92,29 +93,25 @@ class AdcModel:
         return before[-1] if before else None
 
 
-def pin_captures(strobes: list[int]) -> list[int]:
-    """The instants the pins are taken: the core's capture edge (one clock after the strobe
-    rises) or, with the HX8K adapter (LEAD > 0), its B capture LEAD clocks before that and its A
-    capture half a period earlier still."""
-    out = []
-    for s in strobes:
-        c = s + PERIOD - LEAD * PERIOD
-        out.append(c)
-        if LEAD:
-            out.append(c - (CFG.div - CFG.div // 2) * PERIOD)
-    return sorted(out)
+def pin_reads(strobes: list[int]) -> list[list[int]]:
+    """The instants the pins are taken, one list per read of a sample: the core's capture edge
+    (one clock after the strobe rises) or, with the HX8K adapter (LEAD > 0), its B read LEAD
+    clocks before that and its A read ADC_S = DIV - DIV // 2 clocks earlier still."""
+    b = [s + PERIOD - LEAD * PERIOD for s in strobes]
+    return [b, [t - (CFG.div - CFG.div // 2) * PERIOD for t in b]] if LEAD else [b]
 
 
 def check_adc(dut, model: AdcModel, strobes: list[int], report: dict[str, object]) -> None:
-    caps = pin_captures(strobes)
+    reads = pin_reads(strobes)
+    caps = sorted(t for r in reads for t in r)
     v = cv.judge_adc(model.rises, model.falls, caps, CFG.div * PERIOD, ADC, IO)
-    core = [s + PERIOD for s in strobes]
-    align = cv.adc_alignment_problems(model.rises, core, [model.code_at(c - LEAD * PERIOD)
-                                                          for c in core], ADC, MOD)
+    align = [p for r in reads
+             for p in cv.adc_alignment_problems(model.rises, r, [model.code_at(t) for t in r],
+                                                ADC, MOD)]
     report.update(adc_high_ps=v.high_ps, adc_low_ps=v.low_ps, adc_periods_ps=sorted(v.periods_ps),
                   adc_setup_ps=v.setup_ps, adc_hold_ps=v.hold_ps, adc_problems=v.problems,
                   adc_alignment=align, adc_captures=len(caps), lead=LEAD)
-    dut._log.info("CLK %d Hz, ADC clock high %s low %s ps, period %s ps; %d pin captures "
+    dut._log.info("CLK %d Hz, ADC clock high %s low %s ps, period %s ps; %d pin reads "
                   "(lead %d): >= %.1f ns after an edge (need %d), >= %.1f ns before the next "
                   "(need %d); alignment problems %d", CLK_HZ, v.high_ps, v.low_ps,
                   sorted(v.periods_ps), len(caps), LEAD, v.setup_ps / 1000,

@@ -105,8 +105,11 @@ def test_adc_plan_judges() -> None:
         tc = 10**12 // clk
         rises = [k * p.div * tc for k in range(20)]
         falls = [r + p.hi * tc for r in rises]
-        caps = [r + p.q * tc for r in rises]
-        assert not cv.judge_adc(rises, falls, caps, p.div * tc).problems
+        caps = [r + (p.q - lead) * tc for r in rises]                 # the B (or only) read
+        if lead:                                                      # the adapter's A read,
+            caps += [c - p.s * tc for c in caps]                      # in the same high phase
+            assert all(r < c < r + p.hi * tc for r in rises[:1] for c in (caps[0], caps[20]))
+        assert not cv.judge_adc(rises, falls, sorted(caps), p.div * tc).problems
         early = [r + 50_000 for r in rises]                  # 50 ns after the rise
         assert any("t_OD" in s for s in cv.judge_adc(rises, falls, early, p.div * tc).problems)
     tc = 20_834

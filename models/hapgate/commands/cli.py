@@ -72,13 +72,23 @@ def cmd_pnr(args: argparse.Namespace) -> int:
     if args.seeds < 1:
         print(f"error: --seeds must be >= 1, got {args.seeds}", file=sys.stderr)
         return 2
+    from ..flows import stage
+
     for name in args.board:
-        if name not in boards.BOARDS:
-            print(f"error: unknown board {name!r}; known: {', '.join(boards.BOARDS)}",
+        if name not in boards.BOARDS and name != stage.TARGET:
+            print(f"error: unknown board {name!r}; known: {', '.join(boards.BOARDS)} "
+                  f"(and {stage.TARGET}: the interpolator axis alone on a UP5K)",
                   file=sys.stderr)
             return 2
     rows, ok = [], True
-    for name in args.board or list(boards.BOARDS):
+    if stage.TARGET in args.board:   # per-stage timing: a table, not a fit / timing verdict
+        srows, path = stage.run_all(args.seeds)
+        print(table(stage.HEADERS, srows))
+        print(f"written {path}")
+        ok = all(r[1] == args.seeds for r in srows)   # every seed placed and routed
+        if args.board == [stage.TARGET]:
+            return 0 if ok else 1
+    for name in [b for b in args.board if b != stage.TARGET] or list(boards.BOARDS):
         b = boards.BOARDS[name]
         f = boards.pnr(b, seeds=args.seeds)
         ok &= f.ok
@@ -137,7 +147,8 @@ def main(argv: list[str] | None = None) -> int:
         sp.add_argument("block", nargs="*", help="blocks (default: all)")
         sp.add_argument("--no-synth", action="store_true", help="skip the Yosys checks")
         sp.set_defaults(fn=fn)
-    pp = sub.add_parser("pnr", help="synthesize and place-and-route the board tops (nextpnr)")
+    pp = sub.add_parser("pnr", help="synthesize and place-and-route the board tops (nextpnr); "
+                        "up5k-interp: one interpolator axis alone on a UP5K, angle-stage variants")
     pp.add_argument("board", nargs="*", help="boards (default: all)")
     pp.add_argument("--seeds", type=int, default=1,
                     help="place and route with seeds 1..N, report the fmax spread")

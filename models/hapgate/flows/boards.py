@@ -134,8 +134,14 @@ def synthesize(board: Board) -> Finding:
                    ys.stderr[-2000:] if ys.returncode else "")
 
 
-def place_route(board: Board, seed: int) -> tuple[PnrResult, dict[str, int]]:
-    """nextpnr (one seed) + bitstream; utilisation from nextpnr's report."""
+PNR_TIMEOUT_S = 3600   # nextpnr wall seconds per seed before it counts as a failure: router1
+                       # can livelock on the HX8K at ~74 % (seed 2: rips up the same arc forever)
+
+
+def place_route(board: Board, seed: int, timeout_s: float = PNR_TIMEOUT_S
+                ) -> tuple[PnrResult, dict[str, int]]:
+    """nextpnr (one seed) + bitstream; utilisation from nextpnr's report. A run longer than
+    `timeout_s` wall seconds is stopped and fails ("did not finish")."""
     wd = BUILD / "pnr" / board.name
     t0 = time.perf_counter()
     c0 = _child_cpu()
@@ -144,14 +150,20 @@ def place_route(board: Board, seed: int) -> tuple[PnrResult, dict[str, int]]:
     rel = "../../../rtl/boards/" + board.constraints  # yowasp: relative to the work directory
     assert (wd / rel).resolve() == cons.resolve()
     tag = f"s{seed}"
-    pr = subprocess.run([*board.pnr, "--json", "design.json", board.constraint_opt, rel,
-                         board.layout_opt, f"{tag}.{board.layout}", "--freq", f"{mhz:g}",
-                         "--report", f"{tag}.report.json", "--seed", str(seed), "-q",
-                         "-l", f"{tag}.nextpnr.log"], cwd=wd, capture_output=True, text=True)
     rep_path = wd / f"{tag}.report.json"
+    rep_path.unlink(missing_ok=True)
+    try:
+        pr = subprocess.run([*board.pnr, "--json", "design.json", board.constraint_opt, rel,
+                             board.layout_opt, f"{tag}.{board.layout}", "--freq", f"{mhz:g}",
+                             "--report", f"{tag}.report.json", "--seed", str(seed), "-q",
+                             "-l", f"{tag}.nextpnr.log"], cwd=wd, capture_output=True,
+                            text=True, timeout=timeout_s)
+        rc, err = pr.returncode, pr.stderr
+    except subprocess.TimeoutExpired:
+        rc, err = -1, f"did not finish within {timeout_s:g} s (see {tag}.nextpnr.log)"
     report = json.loads(rep_path.read_text()) if rep_path.exists() else None
-    fmax, res, problems = judge(board, pr.returncode, pr.stderr, report)
-    if pr.returncode == 0:
+    fmax, res, problems = judge(board, rc, err, report)
+    if rc == 0:
         pk = subprocess.run([*board.pack, f"{tag}.{board.layout}", f"{tag}.{board.bitstream}"],
                             cwd=wd, capture_output=True, text=True)
         if pk.returncode != 0 or not (wd / f"{tag}.{board.bitstream}").stat().st_size:
@@ -197,9 +209,10 @@ def judge(board: Board, returncode: int, stderr: str, report: dict | None
     return fmax, res, problems
 
 
-def pnr(board: Board, seeds: int = 1) -> Finding:
+def pnr(board: Board, seeds: int = 1, timeout_s: float = PNR_TIMEOUT_S) -> Finding:
     """Synthesize and place-and-route `board` with seeds 1..N; resources of seed 1 and the
-    fmax spread in the Finding."""
+    fmax spread (over the seeds that finished) in the Finding; the per-seed table in
+    build/reports/pnr_seeds_BOARD.csv."""
     t0 = time.perf_counter()
     syn = synthesize(board)
     if not syn.ok:
@@ -207,10 +220,10 @@ def pnr(board: Board, seeds: int = 1) -> Finding:
     runs = []
     res: dict[str, int] = {}
     for seed in range(1, seeds + 1):
-        r, rs = place_route(board, seed)
+        r, rs = place_route(board, seed, timeout_s)
         runs.append(r)
         res = res or rs
-    f = [r.fmax_mhz for r in runs]
+    f = [r.fmax_mhz for r in runs if r.fmax_mhz > 0] or [0.0]
     mhz = board.clk_hz / 1e6
     spread = (f"fmax {min(f):.1f} MHz (target {mhz:g}, slack {min(f) / mhz - 1:+.0%})"
               if len(f) == 1 else
@@ -236,13 +249,13 @@ def write_seed_report(board: Board, runs: list[PnrResult], synth_s: float) -> Pa
     seconds) and a summary row (min / median / max fmax against the target)."""
     from ..base.report import write_csv
 
-    f = [r.fmax_mhz for r in runs]
+    f = [r.fmax_mhz for r in runs if r.fmax_mhz > 0] or [0.0]   # the seeds that finished
     lo, med, hi = seed_summary(f)
     mhz = board.clk_hz / 1e6
     rows: list[list[object]] = [[board.name, r.seed, f"{r.fmax_mhz:.2f}", f"{mhz:g}",
                                  f"{r.fmax_mhz / mhz - 1:+.1%}", "ok" if r.ok else "FAIL",
                                  f"{r.seconds:.0f}", f"{r.cpu_s:.0f}"] for r in runs]
-    rows.append([board.name, f"min/median/max over {len(runs)}",
+    rows.append([board.name, f"min/median/max over {len(f)} of {len(runs)}",
                  f"{lo:.2f}/{med:.2f}/{hi:.2f}", f"{mhz:g}", f"{lo / mhz - 1:+.1%}",
                  "ok" if all(r.ok for r in runs) else "FAIL", f"synth {synth_s:.0f}", ""])
     return write_csv(f"pnr_seeds_{board.name}.csv",

@@ -94,9 +94,10 @@ DAC_PARTS = {"dac7625": DAC7625, "ad7836": AD7836}
 @dataclass(frozen=True)
 class AdcPlan:
     """The ADC clock at one CLK_HZ (clocks), as hapgate_top.v derives it: `div` clocks per
-    sample, `hi` high, rising `q` clocks before the core's capture edge; the board takes the
-    pins `lead` clocks before the core's capture edge, `su` clocks after the last clock edge
-    and `ho` clocks before the next."""
+    sample, `hi` high, rising `q` clocks before the core's capture edge. The board reads the
+    pins `lead` clocks before the core's capture edge (and, with a lead: the HX8K pair adapter,
+    also `s` clocks before that: the A words), each read `su` clocks after the clock's last
+    edge and `ho` clocks before its next. With a lead both reads sit in the high phase."""
     clk_hz: int
     sample_hz: int
     lead: int
@@ -105,32 +106,43 @@ class AdcPlan:
     q: int
     su: int
     ho: int
+    s: int
+    m: int
 
     @property
-    def period_ps(self) -> int:
-        return 10**12 // self.clk_hz
+    def lo(self) -> int:
+        return self.div - self.hi
 
 
 def adc_plan(clk_hz: int, sample_hz: int = 1_000_000, lead: int = 0) -> AdcPlan:
     div = clk_hz // sample_hz
-    hi = div // 2
-    q = lead + hi // 2
-    return AdcPlan(clk_hz, sample_hz, lead, div, hi, q, q - lead, hi - q + lead)
+    s = div - div // 2
+    m = (div - s - 1) // 2
+    if lead == 0:
+        hi = div // 2
+        q = hi // 2
+        su, ho = q, hi - q
+    else:
+        hi = s + 2 * m
+        q = lead + s + m
+        su = ho = m
+    return AdcPlan(clk_hz, sample_hz, lead, div, hi, q, su, ho, s, m)
 
 
 def adc_refusals(plan: AdcPlan, part: AdcPart = HI1175, io: IoBudget = IoBudget()) -> list[str]:
     """Why hapgate_top.v refuses this clock (its g_adc_* checks, same integer arithmetic);
     empty: the clock is accepted."""
     khz = plan.clk_hz // 1000
+    pw, pwx = min(plan.hi, plan.lo), max(plan.hi, plan.lo)
     out = []
-    if plan.div < 2 or plan.div > 2000 or plan.lead < 0 or plan.lead >= plan.div // 2:
-        out.append("needs 2 to 2000 clocks per sample")
+    if plan.div < 2 or plan.div > 2000 or plan.lead < 0 or plan.lead > plan.m:
+        out.append("needs 2 to 2000 clocks per sample (and a lead of at most m)")
     if plan.sample_hz > part.fmax_hz:
         out.append("sample rate above the ADC's maximum conversion rate")
-    if plan.hi * 1_000_000 < part.tpw_ns * khz:
+    if pw < 1 or pw * 1_000_000 < part.tpw_ns * khz:
         out.append("clock high or low shorter than t_PW")
-    if (plan.div - plan.hi) * 1_000_000 > part.tpw_max_ns * khz:
-        out.append("clock low longer than t_PW max")
+    if pwx * 1_000_000 > part.tpw_max_ns * khz:
+        out.append("clock high or low longer than t_PW max")
     if plan.su < 1 or plan.su * 1_000_000 < (part.tod_ns + io.out_in_ns) * khz:
         out.append("capture earlier than t_OD + the IO budget after an edge")
     if plan.ho < 1 or plan.ho * 1_000_000 < (io.in_hold_ns - part.th_ns) * khz:
