@@ -60,7 +60,7 @@ def test_nextpnr_exit_code_decides() -> None:
 
 def test_command_exits_1_and_names_the_failure(monkeypatch: pytest.MonkeyPatch,
                                                capsys: pytest.CaptureFixture[str]) -> None:
-    def fake_pnr(board: boards.Board, seeds: int = 1) -> Finding:
+    def fake_pnr(board: boards.Board, seeds: int = 1, timeout_s: float = 0.0) -> Finding:
         fmax, res, problems = boards.judge(board, 0, "", REPORT)
         return Finding("nextpnr", board.name, not problems, 0.0,
                        f"fmax {fmax:.1f} MHz\nseed 1: " + "\n".join(problems), res)
@@ -71,3 +71,5 @@ def test_command_exits_1_and_names_the_failure(monkeypatch: pytest.MonkeyPatch,
     assert "FAIL" in out.out and "ICESTORM_LC 5881/7680 (77%)" in out.out
     assert "fit: ICESTORM_LC 5881/7680 = 76.6% > 75%" in out.err
     assert cli.main(["pnr", "no-such-board"]) == 2
+    assert cli.main(["pnr", "ice40-hx8k", "--timeout", "0"]) == 2
+    assert "up5k-interp" in capsys.readouterr().err   # the unknown-board message names it

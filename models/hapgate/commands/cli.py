@@ -72,6 +72,9 @@ def cmd_pnr(args: argparse.Namespace) -> int:
     if args.seeds < 1:
         print(f"error: --seeds must be >= 1, got {args.seeds}", file=sys.stderr)
         return 2
+    if args.timeout <= 0:
+        print(f"error: --timeout must be > 0, got {args.timeout:g}", file=sys.stderr)
+        return 2
     from ..flows import stage
 
     for name in args.board:
@@ -90,7 +93,7 @@ def cmd_pnr(args: argparse.Namespace) -> int:
             return 0 if ok else 1
     for name in [b for b in args.board if b != stage.TARGET] or list(boards.BOARDS):
         b = boards.BOARDS[name]
-        f = boards.pnr(b, seeds=args.seeds)
+        f = boards.pnr(b, seeds=args.seeds, timeout_s=args.timeout)
         ok &= f.ok
         r = f.resources
         util = ", ".join(f"{k} {v}/{r[k + '/avail']} ({v / r[k + '/avail']:.0%})"
@@ -152,6 +155,9 @@ def main(argv: list[str] | None = None) -> int:
     pp.add_argument("board", nargs="*", help="boards (default: all)")
     pp.add_argument("--seeds", type=int, default=1,
                     help="place and route with seeds 1..N, report the fmax spread")
+    pp.add_argument("--timeout", type=float, default=3600.0,
+                    help="wall seconds per nextpnr run before the seed counts as failed "
+                         "(router1 can livelock on a full HX8K)")
     pp.set_defaults(fn=cmd_pnr)
     fp = sub.add_parser("fusesoc", help="fusesoc with the pinned tools (hapgate.core)")
     fp.add_argument("args", nargs=argparse.REMAINDER, help="fusesoc arguments")
