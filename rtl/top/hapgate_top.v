@@ -38,7 +38,7 @@ module hapgate_top #(
     parameter integer ADC_TPW_MAX_NS = 1100,      // clock high and low, maximum (CXD1175A)
     parameter integer ADC_TOD_NS    = 50,         // output delay after a clock edge, max (stated)
     parameter integer ADC_TH_NS     = 0,          // output hold after a clock edge, min (stated)
-    parameter integer ADC_IO_NS     = 25,         // FPGA clock-to-pin of adc_clk + board + input setup
+    parameter integer ADC_IO_NS     = 25,         // FPGA adc_clk to pin + board + input setup
     parameter integer ADC_IH_NS     = 5,          // FPGA input hold (+ skew) the data must cover
     parameter integer ADC_CAPTURE_LEAD = 0,       // clocks before the core's capture edge at which
                                                   // the board takes the pins (HX8K adapter: 1)
@@ -147,7 +147,8 @@ module hapgate_top #(
         if (ADC_CLK != 0) begin : g_adc_checks
             if (ADC_DIV < 2 || ADC_DIV > 2000 || ADC_CAPTURE_LEAD < 0 ||
                 ADC_CAPTURE_LEAD > ADC_M) begin : g_adc_div
-                hapgate_top_ADC_CLK_needs_2_to_2000_clocks_per_sample_and_a_lead_of_at_most_ADC_M u_stop ();
+                hapgate_top_ADC_CLK_needs_2_to_2000_clocks_per_sample_and_a_lead_le_ADC_M
+                    u_stop ();
             end
             if (SAMPLE_HZ > ADC_FMAX_HZ) begin : g_adc_rate
                 hapgate_top_SAMPLE_HZ_above_the_ADC_maximum_conversion_rate u_stop ();
@@ -158,10 +159,12 @@ module hapgate_top #(
             if (ADC_PWX * 1_000_000 > ADC_TPW_MAX_NS * CLK_KHZ) begin : g_adc_pw_max
                 hapgate_top_ADC_clock_high_or_low_longer_than_ADC_TPW_MAX_NS u_stop ();
             end
-            if (ADC_SU < 1 || ADC_SU * 1_000_000 < (ADC_TOD_NS + ADC_IO_NS) * CLK_KHZ) begin : g_adc_su
+            if (ADC_SU < 1 ||
+                ADC_SU * 1_000_000 < (ADC_TOD_NS + ADC_IO_NS) * CLK_KHZ) begin : g_adc_su
                 hapgate_top_ADC_capture_earlier_than_t_OD_plus_the_IO_budget u_stop ();
             end
-            if (ADC_HO < 1 || ADC_HO * 1_000_000 < (ADC_IH_NS - ADC_TH_NS) * CLK_KHZ) begin : g_adc_ho
+            if (ADC_HO < 1 ||
+                ADC_HO * 1_000_000 < (ADC_IH_NS - ADC_TH_NS) * CLK_KHZ) begin : g_adc_ho
                 hapgate_top_ADC_capture_later_than_the_next_edge_allows u_stop ();
             end
         end
