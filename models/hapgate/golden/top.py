@@ -64,8 +64,6 @@ class TopConfig:
         wr = max(self.comm.wr_cycles, dac_wr_clocks(self.clk_hz, self.dac_twr_ns))
         if wr != self.comm.wr_cycles:  # as hapgate_top.v: never shorter than the DAC's t_WCS
             object.__setattr__(self, "comm", replace(self.comm, wr_cycles=wr))
-        if self.comm.count_bits != self.count_bits:
-            raise ValueError("commutation count_bits must be lut_bits + 3 + lines_log2")
         i = self.interp
         if i.harm and not i.ratio:
             raise ValueError("TopConfig: the harmonic table (harm) needs the ratio stage (ratio)")
@@ -76,6 +74,8 @@ class TopConfig:
         if i.harm and self.clk_hz < 2 * self.sample_hz:
             raise ValueError("TopConfig: the harmonic table's read-back (HARM_DATA) needs "
                              f"clk_hz >= 2 * sample_hz; got {self.clk_hz}")
+        if self.comm.count_bits != self.count_bits:
+            raise ValueError("commutation count_bits must be lut_bits + 3 + lines_log2")
 
     @property
     def count_bits(self) -> int:
