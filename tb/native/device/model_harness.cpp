@@ -70,8 +70,8 @@ struct Grid {
     std::vector<Pend> pend;                 // DAC words on their way, in arrival order
     size_t pend_head = 0;
     int64_t amp_g = 0;                      // the amplifier's currents are those of this grid point
-    std::vector<FrameRec> frames;
-    std::vector<int8_t> adc;
+    RecordFile<FrameRec> frames;            // written as the run goes (harness_common.h)
+    RecordFile<int8_t> adc;
     int steps_per_us = 1;
     // the multirate plant's steps: q between two step boundaries is linear (semi-implicit Euler
     // moves q by dt * qd_new); step m covers the grid points (g0, g0 + k], m = (g - 1) / 16
@@ -107,6 +107,8 @@ struct Axis {
     // event mode (after the release): faults as (sample, bits) events; clears as samples
     std::vector<std::pair<int64_t, int>> fault_ev;
     int64_t dropout_from = kNever;          // first sample with A = B = 0
+    bool simple = false;                    // no fault event, no clear after n_exact (fault_bits)
+    void update_simple() { simple = built && fault_ev.empty() && (clear_at.empty() || clear_at.back() <= n_exact); }
     int64_t qm_ref = 0;                     // absolute measured quadrant of sample n_exact
     // hold values (an axis that is not built)
     uint32_t hold_pos_homed = 0, hold_index_pos = 0, hold_index_count = 0;
@@ -199,6 +201,7 @@ void exact_sample(int i, int64_t n, int a, int b, bool idx) {
                                              static_cast<uint16_t>(x.ovs_count), static_cast<uint8_t>(x.faults),
                                              static_cast<uint8_t>(x.homed)};
     x.n_exact = n;
+    x.update_simple();
 }
 
 // Sign bits of sample n with the zero code held (look back over zero codes, at most 64 samples).
@@ -226,7 +229,7 @@ int64_t qm_of(int i, int64_t n, int q) {
     return q + 4 * static_cast<int64_t>(std::llround((x4 - q - 0.5) / 4.0));
 }
 
-int fault_bits(int i, int64_t n) {
+int fault_bits_slow(int i, int64_t n) {
     const Axis& x = AX[i];
     if (!x.built) return 0;
     if (n <= x.n_exact) return n >= 0 ? x.hist[static_cast<size_t>(n & (kRing - 1))].faults : 0;
@@ -238,6 +241,14 @@ int fault_bits(int i, int64_t n) {
     for (const auto& e : x.fault_ev)
         if (e.first <= n && e.first >= last_clear) bits |= e.second;
     return bits;
+}
+
+// The fault bits of sample n: after the release, with no fault event and no clear pending, the
+// exact counter's bits (the common case, one compare); else the event lists.
+inline int fault_bits(int i, int64_t n) {
+    const Axis& x = AX[i];
+    if (x.simple && n > x.n_exact) return x.faults;
+    return fault_bits_slow(i, n);
 }
 
 int32_t pos_of(int i, int64_t n) {                // POS of sample n
@@ -252,7 +263,7 @@ int32_t pos_of(int i, int64_t n) {                // POS of sample n
         if (!drop && (a == 127 || a == -128 || b == 127 || b == -128)) {  // clipping, seen where evaluated
             bool have = false;
             for (const auto& e : x.fault_ev) have = have || (e.first <= n && (e.second & 2));
-            if (!have) x.fault_ev.push_back({n, 2});
+            if (!have) { x.fault_ev.push_back({n, 2}); x.update_simple(); }
         }
         signs(i, m, a, b, &sa, &sb);
         const int q = (sa << 1) | (sa ^ sb);
@@ -394,7 +405,7 @@ struct Frame { int64_t k; int64_t code[6]; int next_ch; };
 std::vector<Frame> frames_open;                   // latched frames whose loads are still due
 int64_t next_latch_k = 0;                 // frame 0: the commutator's reset frame (zero torque)
 int16_t frame_codes[6] = {0, 0, 0, 0, 0, 0};
-std::vector<LoadRec> loads;
+RecordFile<LoadRec> loads;
 uint32_t skew_clk = 0, frame_clk = 0;
 
 void latch(int64_t k) {
@@ -439,18 +450,24 @@ void latch(int64_t k) {
     frames_open.push_back(f);
 }
 
+// The edge where channel c of frame k is presented to the output stage.
+inline int64_t present_edge(int64_t k, int c) {
+    return k * frame_clk + c * static_cast<int64_t>(skew_clk) + kLoadClocks - 2;
+}
+
 // Channel loads of the latched frames up to edge e (output stage: golden.top.simulate).
+void update_ev_present();
 void present_due(int64_t e) {
     for (auto& f : frames_open) {
         while (f.next_ch < 6) {
             const int c = f.next_ch;
-            const int64_t pe = f.k * frame_clk + c * static_cast<int64_t>(skew_clk) + kLoadClocks - 2;
+            const int64_t pe = present_edge(f.k, c);
             if (pe > e) break;
             const int m = c / 2;
             const bool faulted = fault_bits(m, seen(pe)) != 0;
             const bool kill = wd_expired || !global_en() || !axis_en(m) || faulted;
             const int code = kill ? 0 : static_cast<int>(f.code[c]);
-            if (cfg.record & 2) loads.push_back({pe + 2, c, code});
+            if (cfg.record & 2) loads.push({pe + 2, c, code});
             G.pend.push_back({f.k * (frame_clk / D) + c * (skew_clk / D) + 2, c, code});
             frame_codes[c] = static_cast<int16_t>(code);
             if (c == 5 && !G.frames.empty() && (cfg.record & 2)) std::memcpy(G.frames.back().dac, frame_codes, sizeof frame_codes);
@@ -458,9 +475,11 @@ void present_due(int64_t e) {
         }
     }
     while (!frames_open.empty() && frames_open.front().next_ch == 6) frames_open.erase(frames_open.begin());
+    update_ev_present();
 }
 
 // Register-file events of edge e (golden.regmodel._edge), with the committed write if any.
+void update_ev_reg();
 void reg_edge(int64_t e, int word = -1, uint32_t data = 0, bool we = false) {
     const uint32_t timeout_pre = wdog_timeout();
     const bool tick = e == next_tick;
@@ -478,7 +497,7 @@ void reg_edge(int64_t e, int word = -1, uint32_t data = 0, bool we = false) {
             const int64_t n_pulse = e / D;   // first sample captured at or after e + 1
             if (data & HG_CTRL_FAULT_CLR) {
                 fault_clr = true;
-                for (auto& x : AX) x.clear_at.push_back(n_pulse);
+                for (auto& x : AX) { x.clear_at.push_back(n_pulse); x.update_simple(); }
             }
             for (int i = 0; i < 3; ++i)
                 if (data & HG_CTRL_HOME_ARM_AXIS(i)) AX[i].arm_at.push_back(n_pulse);
@@ -525,6 +544,7 @@ void reg_edge(int64_t e, int word = -1, uint32_t data = 0, bool we = false) {
         expiries.push_back(e);
     }
     done_edge = e;
+    update_ev_reg();
 }
 
 void grid_point(int64_t g);
@@ -544,8 +564,9 @@ void dac_arrival() {
     }
 }
 
-// The next grid point with work (a DAC word arriving, a frame record, a mechanics step): every
-// one through the homing sweep and with the 1 us plant, else only those.
+// The next grid point with work (a frame record, a mechanics step): every one through the homing
+// sweep and with the 1 us plant, else only those. (DAC words arriving in between are applied at
+// the next grid point visited, before its work: nothing reads the amplifier in between.)
 int64_t next_grid() {
     const int64_t g = G.done + 1;
     if (!G.dynamic || cfg.mech_us <= 1) return g;
@@ -554,33 +575,44 @@ int64_t next_grid() {
     return std::max(n, g);
 }
 
+// The next event of each kind, kept up to date where it changes (run_to's loop compares them).
+int64_t ev_present = kNever;                      // the next output-stage presentation
+int64_t ev_reg = kNever;                          // the register file's next own event
+int64_t ev_grid = 0;                              // the next grid point's edge
+
+void update_ev_present() {
+    ev_present = kNever;
+    for (const auto& f : frames_open)
+        if (f.next_ch < 6) { ev_present = present_edge(f.k, f.next_ch); break; }
+}
+void update_ev_reg() {
+    ev_reg = std::min(next_tick, std::min(snap_at, cfg_err_at));
+    if (!wd_expired) ev_reg = std::min(ev_reg, wd_expiry);
+}
+void update_ev_grid() { ev_grid = next_grid() * D; }
+
 // Apply everything up to edge E, in edge order: frame latches and output stages (they see the
 // controls set before their edge), the register file's own events, the grid points (plant).
 void run_to(int64_t E) {
     while (true) {
         const int64_t nl = next_latch_k * frame_clk;
-        int64_t np = kNever;
-        for (const auto& f : frames_open)
-            if (f.next_ch < 6) { np = std::min(np, f.k * frame_clk + f.next_ch * static_cast<int64_t>(skew_clk) + kLoadClocks - 2); break; }
-        int64_t nr = std::min(next_tick, std::min(snap_at, cfg_err_at));
-        if (!wd_expired) nr = std::min(nr, wd_expiry);
-        const int64_t gn = next_grid();
-        const int64_t ng = gn * D;
-        const int64_t nd = G.pend_head < G.pend.size() ? G.pend[G.pend_head].at * D : kNever;
-        const int64_t nxt = std::min(std::min(std::min(nl, np), std::min(nr, ng)), nd);
+        const int64_t nxt = std::min(std::min(nl, ev_present), std::min(ev_reg, ev_grid));
         if (nxt > E) break;
-        if (nl == nxt) { latch(next_latch_k); ++next_latch_k; }
-        if (np == nxt) present_due(nxt);
-        if (nr == nxt) reg_edge(nxt);
-        while (nd == nxt && G.pend_head < G.pend.size() && G.pend[G.pend_head].at * D == nxt) dac_arrival();
-        if (ng == nxt) grid_point(gn);
+        if (nl == nxt) { latch(next_latch_k); ++next_latch_k; update_ev_present(); }
+        if (ev_present == nxt) present_due(nxt);
+        if (ev_reg == nxt) reg_edge(nxt);
+        if (ev_grid == nxt) { grid_point(ev_grid / D); update_ev_grid(); }
     }
     done_edge = std::max(done_edge, E);
-    G.done = std::max(G.done, E / D);   // the grid points skipped up to E had nothing to do
+    if (E / D > G.done) {                          // the grid points skipped up to E had nothing to do
+        G.done = E / D;
+        update_ev_grid();
+    }
 }
 
 // ------------------------------------------------------------------ the grid point (1 us)
 void grid_point(int64_t g) {
+    while (G.pend_head < G.pend.size() && G.pend[G.pend_head].at <= g) dac_arrival();
     G.done = g;
     const bool lazy = G.dynamic && cfg.mech_us > 1;
     if (lazy) hg_plant_amp(plant, static_cast<int>(g - G.amp_g));   // commands held since amp_g
@@ -620,7 +652,7 @@ void grid_point(int64_t g) {
             const double* dq = st.dq;
             if (G.lazy_from == kNever) G.lazy_from = g;
             for (int i = 0; i < 3; ++i) {   // overspeed: a step of >= 1/8 line per sample
-                if (AX[i].built && std::fabs(dq[i]) / (2 * kPi) * 1024.0 >= 0.125) AX[i].fault_ev.push_back({g, 1});
+                if (AX[i].built && std::fabs(dq[i]) / (2 * kPi) * 1024.0 >= 0.125) { AX[i].fault_ev.push_back({g, 1}); AX[i].update_simple(); }
             }
             G.mech_next = g + k;
         }
@@ -637,7 +669,7 @@ void grid_point(int64_t g) {
             for (int i = 0; i < 6; ++i) r.i_ab[i] = o.i_ab[i];
             r.energy = o.energy;
         }
-        G.frames.push_back(r);
+        G.frames.push(r);
     }
     // the exact interpolator through the homing sweep: sample g - 1 is the ADC word of grid g
     if (!G.dynamic && g >= 1) {
@@ -655,8 +687,8 @@ void grid_point(int64_t g) {
         for (int i = 0; i < 3; ++i) {
             int a = 0, b = 0;
             if (AX[i].built) codes(i, g - 1, &a, &b);
-            G.adc.push_back(static_cast<int8_t>(a));
-            G.adc.push_back(static_cast<int8_t>(b));
+            G.adc.push(static_cast<int8_t>(a));
+            G.adc.push(static_cast<int8_t>(b));
         }
     }
 }
@@ -795,11 +827,16 @@ int main(int argc, char** argv) {
         AX[i].hold_index_pos = cfg.hold_index_pos[i];
         AX[i].hold_index_count = cfg.hold_index_count[i];
     }
+    G.frames.open(outdir + "/frames.bin");
+    loads.open(outdir + "/loads.bin");
+    G.adc.open(outdir + "/adc.bin");
     // reset: the last edge that samples rst high is edge 0
     wd_expiry = static_cast<int64_t>(wdog_timeout()) * D;
     next_tick = tick_div();
+    update_ev_reg();
     hg_plant_hold(plant, 1);
     grid_point(0);
+    update_ev_grid();
 
     const auto w0 = std::chrono::steady_clock::now();
     const std::clock_t c0 = std::clock();
@@ -818,8 +855,6 @@ int main(int argc, char** argv) {
     const int64_t end_us = G.scene0 + std::llround(cfg.duration_s * 1e6);
     std::vector<TickRec> ticks;
     ticks.reserve(static_cast<size_t>(cfg.duration_s * cfg.servo_hz) + 64);
-    G.frames.reserve(static_cast<size_t>(cfg.duration_s * 1e6 / 16) + 16);
-    if (cfg.record & 2) loads.reserve(static_cast<size_t>((end_us + 16) / 16 * 6));
     int64_t homed_isr = -1;
     bool enabled = false, hang = false, resumed = false;
     double enable_t = NAN;
@@ -852,6 +887,7 @@ int main(int argc, char** argv) {
             hg_plant_set_q(plant, cfg.q0, cfg.qd0);
             G.dynamic = true;
             G.mech_next = G.done + 1;
+            update_ev_grid();
             for (int i = 0; i < 3; ++i) {
                 if (!AX[i].built) continue;
                 const int q = (AX[i].sa << 1) | (AX[i].sa ^ AX[i].sb);
@@ -868,7 +904,7 @@ int main(int argc, char** argv) {
             const auto& f = faults[k].second;
             if (f.kind == 1) {   // A = B = 0 from the next grid point's word: sample g_now on
                 AX[f.axis].dropout_from = g_now;
-                if (AX[f.axis].built) AX[f.axis].fault_ev.push_back({g_now + cfg.loss_samples - 1, 4});
+                if (AX[f.axis].built) { AX[f.axis].fault_ev.push_back({g_now + cfg.loss_samples - 1, 4}); AX[f.axis].update_simple(); }
             }
             if (f.kind == 2) hang = true;
             if (f.kind == 3) drop_wdog = true;
@@ -904,7 +940,10 @@ int main(int argc, char** argv) {
     }
     const double wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - w0).count();
     const double cpu_s = static_cast<double>(std::clock() - c0) / CLOCKS_PER_SEC;
-    write_records(outdir, G.frames, ticks, loads, G.adc);
+    G.frames.close();
+    write_file(outdir, "ticks.bin", ticks.data(), ticks.size() * sizeof(TickRec));
+    loads.close();
+    G.adc.close();
     const double sim_s = static_cast<double>(end_us - G.scene0) * 1e-6;
     print_summary({cfg.clk_hz, cfg.axis_mask, sim_s, wall_s, cpu_s, static_cast<uint64_t>(edge_now), G.frames.size(),
                    ticks.size(), loads.size(), init_err, s.err, s.err_axis, enable_t, wdog_us,
