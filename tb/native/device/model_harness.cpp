@@ -67,8 +67,9 @@ struct Grid {
     int64_t scene0 = 0;
     int64_t mech_next = 0;                  // grid point of the next mechanics step
     struct Pend { int64_t at; int ch; int code; };
-    std::vector<Pend> pend;                 // DAC words on their way, in arrival order
-    size_t pend_head = 0;
+    static constexpr int64_t kPend = 1024;  // DAC words on their way (ring), in arrival order
+    Pend pend[kPend];
+    int64_t pend_head = 0, pend_tail = 0;
     int64_t amp_g = 0;                      // the amplifier's currents are those of this grid point
     RecordFile<FrameRec> frames;            // written as the run goes (harness_common.h)
     RecordFile<int8_t> adc;
@@ -100,6 +101,7 @@ struct Axis {
     int bad_run = 0;
     int faults = 0;
     std::vector<int32_t> pos_ring = std::vector<int32_t>(kRing, 0);
+    std::vector<uint8_t> fine_due = std::vector<uint8_t>(kRing, 0);   // pos_ring lacks the fine angle
     struct Hist { int32_t pos, pos_homed, index_pos; uint16_t index_count, ovs; uint8_t faults, homed; };
     std::vector<Hist> hist = std::vector<Hist>(kRing);
     // pulses (sample index they apply to)
@@ -155,15 +157,23 @@ int fine(const Axis& x, int a, int b, int sa, int sb) {
     return half ? (2 << x.lut_bits) - t : t;
 }
 
-// The exact sequential interpolator (rtl/interp, hapgate.golden.interp.run) on sample n.
-void exact_sample(int i, int64_t n, int a, int b, bool idx) {
+// The exact sequential interpolator (rtl/interp, hapgate.golden.interp.run) on sample n. With
+// sq >= 0 the sample lies in a homing-safe bin (make_safe_table): its words are not evaluated,
+// their sign-bit quadrant is sq, they neither clip nor leave the signal window, and the fine
+// angle is added to pos_ring when someone reads it (pos_of).
+void exact_sample(int i, int64_t n, int a, int b, bool idx, int sq = -1) {
     Axis& x = AX[i];
     for (int64_t c : x.clear_at)
         if (c == n) x.faults = 0;
-    if (a != 0) x.sa = a < 0;
-    if (b != 0) x.sb = b < 0;
+    if (sq >= 0) {
+        x.sa = sq >> 1;
+        x.sb = x.sa ^ (sq & 1);
+    } else {
+        if (a != 0) x.sa = a < 0;
+        if (b != 0) x.sb = b < 0;
+    }
     const int q = (x.sa << 1) | (x.sa ^ x.sb);
-    const int f = fine(x, a, b, x.sa, x.sb);
+    const int f = sq >= 0 ? 0 : fine(x, a, b, x.sa, x.sb);
     if (n == 0) {
         x.qc = q;
     } else {
@@ -189,14 +199,15 @@ void exact_sample(int i, int64_t n, int a, int b, bool idx) {
         if (x.armed) { x.home = line_start; x.homed = x.ever_homed = true; x.armed = false; }
     }
     x.idx_prev = idx;
-    const bool clip = a == -128 || a == 127 || b == -128 || b == 127;
+    const bool clip = sq < 0 && (a == -128 || a == 127 || b == -128 || b == 127);
     const int amp2 = a * a + b * b;
-    const bool bad = amp2 < cfg.amp_min * cfg.amp_min || amp2 > cfg.amp_max * cfg.amp_max;
+    const bool bad = sq < 0 && (amp2 < cfg.amp_min * cfg.amp_min || amp2 > cfg.amp_max * cfg.amp_max);
     x.bad_run = bad ? x.bad_run + 1 : 0;
     if (clip) x.faults |= 2;
     if (x.bad_run >= cfg.loss_samples) x.faults |= 4;
     const int32_t ph = x.ever_homed ? static_cast<int32_t>(static_cast<uint32_t>(pos) - static_cast<uint32_t>(x.home)) : pos;
     x.pos_ring[static_cast<size_t>(n & (kRing - 1))] = pos;
+    x.fine_due[static_cast<size_t>(n & (kRing - 1))] = sq >= 0;
     x.hist[static_cast<size_t>(n & (kRing - 1))] = {pos, ph, x.index_pos, static_cast<uint16_t>(x.index_count),
                                              static_cast<uint16_t>(x.ovs_count), static_cast<uint8_t>(x.faults),
                                              static_cast<uint8_t>(x.homed)};
@@ -224,9 +235,18 @@ void signs(int i, int64_t n, int a, int b, int* sa, int* sb) {
 
 // Absolute measured quadrant of sample n: the sign-bit quadrant q, placed at the multiple of 4
 // nearest the true angle (4 * lines): exact while the decoder never steps two quadrants.
+// std::llround (half away from zero) inline: v - trunc(v) is exact (Sterbenz), |v| < 2^53 here.
+inline int64_t round_half_away(double v) {
+    int64_t t = static_cast<int64_t>(v);
+    const double d = v - static_cast<double>(t);
+    if (d >= 0.5) ++t;
+    else if (d <= -0.5) --t;
+    return t;
+}
+
 int64_t qm_of(int i, int64_t n, int q) {
     const double x4 = 4.0 * lines_of(i, n);
-    return q + 4 * static_cast<int64_t>(std::llround((x4 - q - 0.5) / 4.0));
+    return q + 4 * round_half_away((x4 - q - 0.5) / 4.0);
 }
 
 int fault_bits_slow(int i, int64_t n) {
@@ -253,7 +273,17 @@ inline int fault_bits(int i, int64_t n) {
 
 int32_t pos_of(int i, int64_t n) {                // POS of sample n
     Axis& x = AX[i];
-    if (n <= x.n_exact) return x.pos_ring[static_cast<size_t>(n & (kRing - 1))];
+    if (n <= x.n_exact) {
+        const size_t r = static_cast<size_t>(n & (kRing - 1));
+        if (x.fine_due[r]) {                      // a homing-safe sample: its words now
+            int a, b;
+            codes(i, n, &a, &b);
+            x.pos_ring[r] = static_cast<int32_t>(static_cast<uint32_t>(x.pos_ring[r]) +
+                                                 static_cast<uint32_t>(fine(x, a, b, a < 0, b < 0)));
+            x.fine_due[r] = 0;
+        }
+        return x.pos_ring[r];
+    }
     const bool drop = n >= x.dropout_from;        // the counter stands still, the fine angle of 0, 0
     const int64_t m = drop ? x.dropout_from - 1 : n;
     int sa = x.sa, sb = x.sb, a = 0, b = 0;
@@ -369,20 +399,44 @@ int64_t clamp_torque(int64_t t, int64_t lim) {
 constexpr int kBins = 4096;
 std::vector<uint8_t> safe_q[3];
 
+// The homing sweep's exact interpolator needs more of a sample than its quadrant: no clipping
+// and no signal loss either. hsafe_q[i][b]: the quadrant of bin b if, in addition, the noise-free
+// codes of a noise-free axis stay inside both limits with one LSB to spare at both ends (a code
+// inside the bin is within one of its ends': the signal changes by < 0.3 LSB across it); else 255.
+std::vector<uint8_t> hsafe_q[3];
+
 void make_safe_table(int i) {
     safe_q[i].assign(kBins, 255);
+    hsafe_q[i].assign(kBins, 255);
     const double lim = 2.0 + 6.0 * noise_lsb[i];
-    int prev_q = -1;
+    int prev_q = -1, prev_a = 0, prev_b = 0;
     bool prev_ok = false;
     for (int b = 0; b <= kBins; ++b) {
         int8_t a8, b8;
         hg_plant_encode1(plant, i, static_cast<double>(b) / kBins, 0.0, 0.0, &a8, &b8);
         const bool ok = std::abs(a8) >= lim && std::abs(b8) >= lim;
         const int sa = a8 < 0, sb = b8 < 0, q = (sa << 1) | (sa ^ sb);
-        if (b > 0 && ok && prev_ok && q == prev_q) safe_q[i][static_cast<size_t>(b - 1)] = static_cast<uint8_t>(q);
+        if (b > 0 && ok && prev_ok && q == prev_q) {
+            safe_q[i][static_cast<size_t>(b - 1)] = static_cast<uint8_t>(q);
+            const int lo_a = std::min(std::abs(a8), prev_a) - 1, hi_a = std::max(std::abs(a8), prev_a) + 1;
+            const int lo_b = std::min(std::abs(b8), prev_b) - 1, hi_b = std::max(std::abs(b8), prev_b) + 1;
+            if (noise_lsb[i] == 0 && hi_a <= 126 && hi_b <= 126 &&
+                lo_a * lo_a + lo_b * lo_b >= cfg.amp_min * cfg.amp_min &&
+                hi_a * hi_a + hi_b * hi_b <= cfg.amp_max * cfg.amp_max)
+                hsafe_q[i][static_cast<size_t>(b - 1)] = static_cast<uint8_t>(q);
+        }
         prev_q = q;
         prev_ok = ok;
+        prev_a = std::abs(a8);
+        prev_b = std::abs(b8);
     }
+}
+
+// The homing-safe quadrant of a sample at fraction fr of a line, or -1 (evaluate its words).
+inline int homing_safe_q(int i, double fr) {
+    if (cfg.coarse) return -1;
+    const uint8_t q = hsafe_q[i][static_cast<size_t>(std::min(kBins - 1, static_cast<int>(fr * kBins)))];
+    return q == 255 ? -1 : q;
 }
 
 // Bits 31..9 of POS_HOMED of sample n (what sine commutation reads) from the true angle alone,
@@ -401,8 +455,12 @@ bool sine_hi(int i, int64_t n, int32_t* hi) {
     return true;
 }
 
-struct Frame { int64_t k; int64_t code[6]; int next_ch; };
-std::vector<Frame> frames_open;                   // latched frames whose loads are still due
+struct Frame { int64_t k, base; int64_t code[6]; int next_ch; };
+constexpr int64_t kOpen = 8;                      // latched frames whose loads are still due (ring)
+Frame frames_open[kOpen];
+int64_t open_head = 0, open_tail = 0;
+int64_t present_off[6];                           // frame start -> channel c's presentation, clocks
+int64_t load_after_present = 2;                   // presentation -> load edge (the write strobe + 1)
 int64_t next_latch_k = 0;                 // frame 0: the commutator's reset frame (zero torque)
 int16_t frame_codes[6] = {0, 0, 0, 0, 0, 0};
 RecordFile<LoadRec> loads;
@@ -411,7 +469,14 @@ uint32_t skew_clk = 0, frame_clk = 0;
 void latch(int64_t k) {
     const int64_t e = k * frame_clk;
     const int64_t n = seen(e);
-    Frame f{k, {0, 0, 0, 0, 0, 0}, 0};
+    if (open_tail - open_head == kOpen) {
+        std::fprintf(stderr, "error: internal: more than %lld DAC frames open\n", static_cast<long long>(kOpen));
+        std::exit(3);
+    }
+    Frame& f = frames_open[open_tail & (kOpen - 1)];
+    f.k = k;
+    f.base = e;
+    f.next_ch = 0;
     const bool enable = global_en() && !wd_expired;
     for (int m = 0; m < 3; ++m) {
         const uint32_t mode = axis_en(m) ? (stored[HG_REG_AXIS(m, HG_AX_MODE)] & 3) : HG_MODE_OFF;
@@ -433,10 +498,10 @@ void latch(int64_t k) {
         // (sine mode reads only the angle code: bits 18..9 of the position, plus the offset)
         const int64_t ka = fast ? ((static_cast<int64_t>(hi) & 1023) + off) & 1023 : ua >> (kCB - kAB);
         const int64_t kb = (ka - kPhaseB) & 1023;
-        int ne = 0;
-        for (int64_t d : six_edges) ne += ua >= d;
         int64_t va, vb;
         if (mode == HG_MODE_SIX_STEP) {
+            int ne = 0;
+            for (int64_t d : six_edges) ne += ua >= d;
             va = kSixA[ne] * kFS;
             vb = kSixB[ne] * kFS;
         } else {
@@ -447,34 +512,33 @@ void latch(int64_t k) {
         f.code[2 * m] = zero ? 0 : scale(va, tq);
         f.code[2 * m + 1] = zero ? 0 : scale(vb, tq);
     }
-    frames_open.push_back(f);
+    ++open_tail;
 }
 
-// The edge where channel c of frame k is presented to the output stage.
-inline int64_t present_edge(int64_t k, int c) {
-    return k * frame_clk + c * static_cast<int64_t>(skew_clk) + kLoadClocks - 2;
-}
-
-// Channel loads of the latched frames up to edge e (output stage: golden.top.simulate).
+// Channel loads of the latched frames up to edge e (output stage: golden.top.simulate), in frame
+// and channel order (a frame's last presentation comes before the next frame's first).
 void update_ev_present();
 void present_due(int64_t e) {
-    for (auto& f : frames_open) {
-        while (f.next_ch < 6) {
+    while (open_head < open_tail) {
+        Frame& f = frames_open[open_head & (kOpen - 1)];
+        for (; f.next_ch < 6; ++f.next_ch) {
             const int c = f.next_ch;
-            const int64_t pe = present_edge(f.k, c);
-            if (pe > e) break;
+            const int64_t pe = f.base + present_off[c];
+            if (pe > e) { update_ev_present(); return; }
             const int m = c / 2;
-            const bool faulted = fault_bits(m, seen(pe)) != 0;
-            const bool kill = wd_expired || !global_en() || !axis_en(m) || faulted;
+            const bool kill = wd_expired || !global_en() || !axis_en(m) || fault_bits(m, seen(pe)) != 0;
             const int code = kill ? 0 : static_cast<int>(f.code[c]);
-            if (cfg.record & 2) loads.push({pe + 2, c, code});
-            G.pend.push_back({f.k * (frame_clk / D) + c * (skew_clk / D) + 2, c, code});
+            if (cfg.record & 2) loads.push({pe + load_after_present, c, code});
+            if (G.pend_tail - G.pend_head == Grid::kPend) {
+                std::fprintf(stderr, "error: internal: more than %lld DAC words in flight\n", static_cast<long long>(Grid::kPend));
+                std::exit(3);
+            }
+            G.pend[G.pend_tail++ & (Grid::kPend - 1)] = {f.k * (frame_clk / D) + c * (skew_clk / D) + 2, c, code};
             frame_codes[c] = static_cast<int16_t>(code);
             if (c == 5 && !G.frames.empty() && (cfg.record & 2)) std::memcpy(G.frames.back().dac, frame_codes, sizeof frame_codes);
-            ++f.next_ch;
         }
+        ++open_head;
     }
-    while (!frames_open.empty() && frames_open.front().next_ch == 6) frames_open.erase(frames_open.begin());
     update_ev_present();
 }
 
@@ -552,16 +616,12 @@ void grid_point(int64_t g);
 // A DAC word reaches the amplifier at grid point g (before that grid point's own work, as in
 // device_harness.cpp): the lazy current loop catches up to g first.
 void dac_arrival() {
-    const Grid::Pend& p = G.pend[G.pend_head];
+    const Grid::Pend& p = G.pend[G.pend_head++ & (Grid::kPend - 1)];
     if (G.dynamic && cfg.mech_us > 1) {
         hg_plant_amp(plant, static_cast<int>(p.at - G.amp_g));
         G.amp_g = p.at;
     }
     hg_plant_set_dac(plant, p.ch, p.code);
-    if (++G.pend_head > 4096) {
-        G.pend.erase(G.pend.begin(), G.pend.begin() + static_cast<std::ptrdiff_t>(G.pend_head));
-        G.pend_head = 0;
-    }
 }
 
 // The next grid point with work (a frame record, a mechanics step): every one through the homing
@@ -582,8 +642,10 @@ int64_t ev_grid = 0;                              // the next grid point's edge
 
 void update_ev_present() {
     ev_present = kNever;
-    for (const auto& f : frames_open)
-        if (f.next_ch < 6) { ev_present = present_edge(f.k, f.next_ch); break; }
+    if (open_head < open_tail) {
+        const Frame& f = frames_open[open_head & (kOpen - 1)];
+        ev_present = f.base + present_off[f.next_ch];
+    }
 }
 void update_ev_reg() {
     ev_reg = std::min(next_tick, std::min(snap_at, cfg_err_at));
@@ -612,7 +674,7 @@ void run_to(int64_t E) {
 
 // ------------------------------------------------------------------ the grid point (1 us)
 void grid_point(int64_t g) {
-    while (G.pend_head < G.pend.size() && G.pend[G.pend_head].at <= g) dac_arrival();
+    while (G.pend_head < G.pend_tail && G.pend[G.pend_head & (Grid::kPend - 1)].at <= g) dac_arrival();
     G.done = g;
     const bool lazy = G.dynamic && cfg.mech_us > 1;
     if (lazy) hg_plant_amp(plant, static_cast<int>(g - G.amp_g));   // commands held since amp_g
@@ -675,12 +737,13 @@ void grid_point(int64_t g) {
     if (!G.dynamic && g >= 1) {
         for (int i = 0; i < 3; ++i) {
             if (!AX[i].built) continue;
-            int a, b;
-            codes(i, g - 1, &a, &b);
+            int a = 0, b = 0;
             const double x = lines_of(i, g - 1);
             const double line = std::floor(x);
             const double mline = line - 1024.0 * std::floor(line / 1024.0);
-            exact_sample(i, g - 1, a, b, mline == 0.0 && x - line < 0.25);
+            const int sq = homing_safe_q(i, x - line);
+            if (sq < 0) codes(i, g - 1, &a, &b);
+            exact_sample(i, g - 1, a, b, mline == 0.0 && x - line < 0.25, sq);
         }
     }
     if (G.dynamic && (cfg.record & 4) && g > G.scene0) {
@@ -817,6 +880,7 @@ int main(int argc, char** argv) {
         std::fprintf(stderr, "error: %s: DAC_SKEW/DAC_FRAME must be 2 us / 16 us\n", argv[2]);
         return 2;
     }
+    for (int c = 0; c < 6; ++c) present_off[c] = c * static_cast<int64_t>(skew_clk) + kLoadClocks - 2;
     for (int i = 0; i < 3; ++i) {
         noise_lsb[i] = hg_plant_noise_lsb(plant, i);
         make_safe_table(i);
