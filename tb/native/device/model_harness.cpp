@@ -340,11 +340,10 @@ Sample sample_of(int i, int64_t n, bool need_vel = true) {
     return s;
 }
 
+inline int64_t floordiv(int64_t a, int64_t b) { return a >= 0 ? a / b : -((-a + b - 1) / b); }
+
 // the latest sample whose results an edge sees: (n + 1) * D + LATENCY < edge
-int64_t seen(int64_t edge) {
-    const int64_t num = edge - kLatency - 1;
-    return (num >= 0 ? num / D : -((-num + D - 1) / D)) - 1;
-}
+int64_t seen(int64_t edge) { return floordiv(edge - kLatency - 1, D) - 1; }
 
 // ------------------------------------------------------------------ the register file
 struct Reg { uint32_t word, reset, wmask; int64_t rmin, rmax; };
@@ -460,6 +459,8 @@ constexpr int64_t kOpen = 8;                      // latched frames whose loads 
 Frame frames_open[kOpen];
 int64_t open_head = 0, open_tail = 0;
 int64_t present_off[6];                           // frame start -> channel c's presentation, clocks
+int64_t present_seen[6];                          // seen(frame start + present_off) - 16 k
+int64_t latch_seen = 0;                           // seen(frame start) - 16 k
 int64_t load_after_present = 2;                   // presentation -> load edge (the write strobe + 1)
 int64_t next_latch_k = 0;                 // frame 0: the commutator's reset frame (zero torque)
 int16_t frame_codes[6] = {0, 0, 0, 0, 0, 0};
@@ -468,7 +469,7 @@ uint32_t skew_clk = 0, frame_clk = 0;
 
 void latch(int64_t k) {
     const int64_t e = k * frame_clk;
-    const int64_t n = seen(e);
+    const int64_t n = 16 * k + latch_seen;        // seen(e): the frame is 16 grid points
     if (open_tail - open_head == kOpen) {
         std::fprintf(stderr, "error: internal: more than %lld DAC frames open\n", static_cast<long long>(kOpen));
         std::exit(3);
@@ -526,14 +527,14 @@ void present_due(int64_t e) {
             const int64_t pe = f.base + present_off[c];
             if (pe > e) { update_ev_present(); return; }
             const int m = c / 2;
-            const bool kill = wd_expired || !global_en() || !axis_en(m) || fault_bits(m, seen(pe)) != 0;
+            const bool kill = wd_expired || !global_en() || !axis_en(m) || fault_bits(m, 16 * f.k + present_seen[c]) != 0;
             const int code = kill ? 0 : static_cast<int>(f.code[c]);
             if (cfg.record & 2) loads.push({pe + load_after_present, c, code});
             if (G.pend_tail - G.pend_head == Grid::kPend) {
                 std::fprintf(stderr, "error: internal: more than %lld DAC words in flight\n", static_cast<long long>(Grid::kPend));
                 std::exit(3);
             }
-            G.pend[G.pend_tail++ & (Grid::kPend - 1)] = {f.k * (frame_clk / D) + c * (skew_clk / D) + 2, c, code};
+            G.pend[G.pend_tail++ & (Grid::kPend - 1)] = {16 * f.k + 2 * c + 2, c, code};
             frame_codes[c] = static_cast<int16_t>(code);
             if (c == 5 && !G.frames.empty() && (cfg.record & 2)) std::memcpy(G.frames.back().dac, frame_codes, sizeof frame_codes);
         }
@@ -638,7 +639,7 @@ int64_t next_grid() {
 // The next event of each kind, kept up to date where it changes (run_to's loop compares them).
 int64_t ev_present = kNever;                      // the next output-stage presentation
 int64_t ev_reg = kNever;                          // the register file's next own event
-int64_t ev_grid = 0;                              // the next grid point's edge
+int64_t ev_grid = 0, ev_grid_g = 0;               // the next grid point (its edge, its index)
 
 void update_ev_present() {
     ev_present = kNever;
@@ -651,7 +652,7 @@ void update_ev_reg() {
     ev_reg = std::min(next_tick, std::min(snap_at, cfg_err_at));
     if (!wd_expired) ev_reg = std::min(ev_reg, wd_expiry);
 }
-void update_ev_grid() { ev_grid = next_grid() * D; }
+void update_ev_grid() { ev_grid_g = next_grid(); ev_grid = ev_grid_g * D; }
 
 // Apply everything up to edge E, in edge order: frame latches and output stages (they see the
 // controls set before their edge), the register file's own events, the grid points (plant).
@@ -663,13 +664,10 @@ void run_to(int64_t E) {
         if (nl == nxt) { latch(next_latch_k); ++next_latch_k; update_ev_present(); }
         if (ev_present == nxt) present_due(nxt);
         if (ev_reg == nxt) reg_edge(nxt);
-        if (ev_grid == nxt) { grid_point(ev_grid / D); update_ev_grid(); }
+        if (ev_grid == nxt) { grid_point(ev_grid_g); update_ev_grid(); }
     }
     done_edge = std::max(done_edge, E);
-    if (E / D > G.done) {                          // the grid points skipped up to E had nothing to do
-        G.done = E / D;
-        update_ev_grid();
-    }
+    // (the grid points skipped up to E had nothing to do: the next one with work is > E already)
 }
 
 // ------------------------------------------------------------------ the grid point (1 us)
@@ -699,7 +697,7 @@ void grid_point(int64_t g) {
         G.amp_g = g + 1;
     } else {
         if (mech) {   // one mechanics step to the next multiple of mech_us (and the record)
-            const int k = cfg.mech_us - static_cast<int>(g % cfg.mech_us);
+            const int k = cfg.mech_us - static_cast<int>(g & (cfg.mech_us - 1));   // (a power of 2)
             double q0[3], q1[3];
             hg_plant_q(plant, q0);
             hg_plant_mech_read(plant, k, rec ? &o : nullptr);
@@ -880,7 +878,11 @@ int main(int argc, char** argv) {
         std::fprintf(stderr, "error: %s: DAC_SKEW/DAC_FRAME must be 2 us / 16 us\n", argv[2]);
         return 2;
     }
-    for (int c = 0; c < 6; ++c) present_off[c] = c * static_cast<int64_t>(skew_clk) + kLoadClocks - 2;
+    for (int c = 0; c < 6; ++c) {
+        present_off[c] = c * static_cast<int64_t>(skew_clk) + kLoadClocks - 2;
+        present_seen[c] = seen(present_off[c]);   // (frame_clk = 16 D: seen(16 k D + x) = 16 k + seen(x))
+    }
+    latch_seen = seen(0);
     for (int i = 0; i < 3; ++i) {
         noise_lsb[i] = hg_plant_noise_lsb(plant, i);
         make_safe_table(i);
