@@ -35,7 +35,8 @@ using namespace hg_dev;
 constexpr int64_t kNever = int64_t(1) << 62;
 constexpr int kRing = 8192;                 // grid points of true angles kept (>= 2 velocity windows)
 constexpr int kLatency = 5;                 // interpolator: capture to output registers (golden.top)
-constexpr int kLoadClocks = 9;              // frame start -> channel 0 load (rtl/top/README.md)
+int64_t load_clocks = 0;                    // frame start -> channel 0 load edge (run config dac_load)
+int64_t wr_cycles = 0;                      // the DAC write strobe's length in clocks (t_WCS)
 constexpr double kTSweep0 = 100e-6;         // s after reset: the homing sweep starts
 
 RunCfg cfg;
@@ -244,10 +245,11 @@ inline int64_t round_half_away(double v) {
     return t;
 }
 
-int64_t qm_of(int i, int64_t n, int q) {
-    const double x4 = 4.0 * lines_of(i, n);
+inline int64_t qm_at(double lines, int q) {
+    const double x4 = 4.0 * lines;
     return q + 4 * round_half_away((x4 - q - 0.5) / 4.0);
 }
+int64_t qm_of(int i, int64_t n, int q) { return qm_at(lines_of(i, n), q); }
 
 int fault_bits_slow(int i, int64_t n) {
     const Axis& x = AX[i];
@@ -448,7 +450,7 @@ bool sine_hi(int i, int64_t n, int32_t* hi) {
     const double fr = ln - std::floor(ln);
     const uint8_t q = safe_q[i][static_cast<size_t>(std::min(kBins - 1, static_cast<int>(fr * kBins)))];
     if (q == 255) return false;
-    const int32_t qc = static_cast<int32_t>(static_cast<uint32_t>(x.qc) + static_cast<uint32_t>(qm_of(i, n, q) - x.qm_ref));
+    const int32_t qc = static_cast<int32_t>(static_cast<uint32_t>(x.qc) + static_cast<uint32_t>(qm_at(ln, q) - x.qm_ref));
     const int32_t pos_hi = qc >> 1;               // (pos >> 9 with pos = qc << 8 + f, f < 256)
     *hi = x.ever_homed ? pos_hi - (x.home >> 9) : pos_hi;
     return true;
@@ -461,7 +463,7 @@ int64_t open_head = 0, open_tail = 0;
 int64_t present_off[6];                           // frame start -> channel c's presentation, clocks
 int64_t present_seen[6];                          // seen(frame start + present_off) - 16 k
 int64_t latch_seen = 0;                           // seen(frame start) - 16 k
-int64_t load_after_present = 2;                   // presentation -> load edge (the write strobe + 1)
+int64_t load_after_present = 0;                   // presentation -> load edge (the write strobe + 1)
 int64_t next_latch_k = 0;                 // frame 0: the commutator's reset frame (zero torque)
 int16_t frame_codes[6] = {0, 0, 0, 0, 0, 0};
 RecordFile<LoadRec> loads;
@@ -830,10 +832,40 @@ int main(int argc, char** argv) {
     }
     std::string err;
     const std::string ptext = slurp(argv[1]);
-    if (!parse_run(slurp(argv[2]), cfg, err, true)) {
+    std::string rtext = slurp(argv[2]);
+    {   // this harness's own key (not parse_run's): dac_load = LOAD_CLOCKS WR_CYCLES, the edge of
+        // channel 0's load after the frame start (the RTL harness's HG_LOAD_CLOCKS) and the
+        // write strobe's length (golden.top: presentation = load - 1 - wr, load = presentation + wr + 1)
+        std::istringstream in(rtext);
+        std::string line, rest;
+        int found = 0;
+        while (std::getline(in, line)) {
+            if (line.rfind("dac_load", 0) == 0 && line.find('=') != std::string::npos) {
+                std::istringstream vs(line.substr(line.find('=') + 1));
+                double l = -1, w = -1, extra;
+                vs >> l >> w;
+                if (!vs || (vs >> extra) || l != std::floor(l) || w != std::floor(w) || w < 1 || l < w + 1) {
+                    std::fprintf(stderr, "error: %s: dac_load: expected LOAD_CLOCKS WR_CYCLES (whole, LOAD > WR >= 1)\n", argv[2]);
+                    return 2;
+                }
+                load_clocks = static_cast<int64_t>(l);
+                wr_cycles = static_cast<int64_t>(w);
+                ++found;
+            } else {
+                rest += line + "\n";
+            }
+        }
+        if (found != 1) {
+            std::fprintf(stderr, "error: %s: dac_load: expected once\n", argv[2]);
+            return 2;
+        }
+        rtext = rest;
+    }
+    if (!parse_run(rtext, cfg, err, true)) {
         std::fprintf(stderr, "error: %s: %s\n", argv[2], err.c_str());
         return 2;
     }
+    load_after_present = wr_cycles + 1;
     if (cfg.clk_hz < 6000000 || cfg.clk_hz % 1000000 || cfg.asin_lut.size() != 129 || cfg.sine_rom.size() != 256 ||
         cfg.regs.empty() || (cfg.mech_us > 1 && 16 % cfg.mech_us) || cfg.lut_bits != 7) {
         std::fprintf(stderr, "error: %s: clk_hz, asin_lut (129), sine_rom (256), reg, mech_us (a divisor of 16) "
@@ -878,8 +910,12 @@ int main(int argc, char** argv) {
         std::fprintf(stderr, "error: %s: DAC_SKEW/DAC_FRAME must be 2 us / 16 us\n", argv[2]);
         return 2;
     }
+    if (load_clocks >= static_cast<int64_t>(skew_clk)) {   // a word must be loaded before it reaches the amplifier
+        std::fprintf(stderr, "error: %s: dac_load: the load must come within one slot (%u clocks)\n", argv[2], skew_clk);
+        return 2;
+    }
     for (int c = 0; c < 6; ++c) {
-        present_off[c] = c * static_cast<int64_t>(skew_clk) + kLoadClocks - 2;
+        present_off[c] = c * static_cast<int64_t>(skew_clk) + load_clocks - 1 - wr_cycles;
         present_seen[c] = seen(present_off[c]);   // (frame_clk = 16 D: seen(16 k D + x) = 16 k + seen(x))
     }
     latch_seen = seen(0);
