@@ -463,6 +463,8 @@ int64_t open_head = 0, open_tail = 0;
 int64_t present_off[6];                           // frame start -> channel c's presentation, clocks
 int64_t present_seen[6];                          // seen(frame start + present_off) - 16 k
 int64_t latch_seen = 0;                           // seen(frame start) - 16 k
+int64_t ev_present = kNever;                      // the next output-stage presentation (run_to)
+int64_t ev_reg = kNever;                          // the register file's next own event (run_to)
 int64_t load_after_present = 0;                   // presentation -> load edge (the write strobe + 1)
 int64_t next_latch_k = 0;                 // frame 0: the commutator's reset frame (zero torque)
 int16_t frame_codes[6] = {0, 0, 0, 0, 0, 0};
@@ -519,30 +521,39 @@ void latch(int64_t k) {
 }
 
 // Channel loads of the latched frames up to edge e (output stage: golden.top.simulate), in frame
-// and channel order (a frame's last presentation comes before the next frame's first).
-void update_ev_present();
+// and channel order (a frame's last presentation comes before the next frame's first). The
+// caller passes the edge before the next other event, so the controls and the fault lists that
+// decide the zeroing are those of each presentation's own edge.
 void present_due(int64_t e) {
+    const bool rec = cfg.record & 2;
     while (open_head < open_tail) {
         Frame& f = frames_open[open_head & (kOpen - 1)];
-        for (; f.next_ch < 6; ++f.next_ch) {
-            const int c = f.next_ch;
+        const bool off = wd_expired || !global_en();
+        const int64_t n0 = 16 * f.k, g0 = 16 * f.k + 2;
+        int c = f.next_ch;
+        for (; c < 6; ++c) {
             const int64_t pe = f.base + present_off[c];
-            if (pe > e) { update_ev_present(); return; }
-            const int m = c / 2;
-            const bool kill = wd_expired || !global_en() || !axis_en(m) || fault_bits(m, 16 * f.k + present_seen[c]) != 0;
+            if (pe > e) break;
+            const int m = c >> 1;
+            const bool kill = off || !axis_en(m) || fault_bits(m, n0 + present_seen[c]) != 0;
             const int code = kill ? 0 : static_cast<int>(f.code[c]);
-            if (cfg.record & 2) loads.push({pe + load_after_present, c, code});
+            if (rec) loads.push({pe + load_after_present, c, code});
             if (G.pend_tail - G.pend_head == Grid::kPend) {
                 std::fprintf(stderr, "error: internal: more than %lld DAC words in flight\n", static_cast<long long>(Grid::kPend));
                 std::exit(3);
             }
-            G.pend[G.pend_tail++ & (Grid::kPend - 1)] = {16 * f.k + 2 * c + 2, c, code};
+            G.pend[G.pend_tail++ & (Grid::kPend - 1)] = {g0 + 2 * c, c, code};
             frame_codes[c] = static_cast<int16_t>(code);
-            if (c == 5 && !G.frames.empty() && (cfg.record & 2)) std::memcpy(G.frames.back().dac, frame_codes, sizeof frame_codes);
+        }
+        f.next_ch = c;
+        if (c == 6 && rec && !G.frames.empty()) std::memcpy(G.frames.back().dac, frame_codes, sizeof frame_codes);
+        if (c < 6) {
+            ev_present = f.base + present_off[c];
+            return;
         }
         ++open_head;
     }
-    update_ev_present();
+    ev_present = kNever;
 }
 
 // Register-file events of edge e (golden.regmodel._edge), with the committed write if any.
@@ -638,9 +649,8 @@ int64_t next_grid() {
     return std::max(n, g);
 }
 
-// The next event of each kind, kept up to date where it changes (run_to's loop compares them).
-int64_t ev_present = kNever;                      // the next output-stage presentation
-int64_t ev_reg = kNever;                          // the register file's next own event
+// The next event of each kind, kept up to date where it changes (run_to's loop compares them;
+// ev_present and ev_reg are declared with the frames).
 int64_t ev_grid = 0, ev_grid_g = 0;               // the next grid point (its edge, its index)
 
 void update_ev_present() {
@@ -664,7 +674,8 @@ void run_to(int64_t E) {
         const int64_t nxt = std::min(std::min(nl, ev_present), std::min(ev_reg, ev_grid));
         if (nxt > E) break;
         if (nl == nxt) { latch(next_latch_k); ++next_latch_k; update_ev_present(); }
-        if (ev_present == nxt) present_due(nxt);
+        if (ev_present == nxt)   // (every presentation before the next other event: at an equal edge
+            present_due(std::min(std::min(E, nl - 1), std::min(ev_reg, ev_grid)));   // a latch comes first)
         if (ev_reg == nxt) reg_edge(nxt);
         if (ev_grid == nxt) { grid_point(ev_grid_g); update_ev_grid(); }
     }
