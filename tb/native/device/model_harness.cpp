@@ -932,8 +932,8 @@ int main(int argc, char** argv) {
     latch_seen = seen(0);
     for (int i = 0; i < 3; ++i) {
         noise_lsb[i] = hg_plant_noise_lsb(plant, i);
-        make_safe_table(i);
         AX[i].built = (cfg.axis_mask >> i) & 1;
+        if (AX[i].built) make_safe_table(i);     // (read for built axes only)
         AX[i].lut_bits = cfg.lut_bits;
         AX[i].fb = cfg.lut_bits + 1;
         AX[i].hold_pos_homed = cfg.hold_pos_homed[i];
