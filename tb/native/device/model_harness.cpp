@@ -103,7 +103,7 @@ struct Axis {
     int faults = 0;
     std::vector<int32_t> pos_ring = std::vector<int32_t>(kRing, 0);
     std::vector<uint8_t> fine_due = std::vector<uint8_t>(kRing, 0);   // pos_ring lacks the fine angle
-    struct Hist { int32_t pos, pos_homed, index_pos; uint16_t index_count, ovs; uint8_t faults, homed; };
+    struct Hist { int32_t index_pos; uint16_t index_count, ovs; uint8_t faults, homed; };   // (POS: pos_ring)
     std::vector<Hist> hist = std::vector<Hist>(kRing);
     // pulses (sample index they apply to)
     std::vector<int64_t> arm_at, clear_at;
@@ -206,10 +206,9 @@ void exact_sample(int i, int64_t n, int a, int b, bool idx, int sq = -1) {
     x.bad_run = bad ? x.bad_run + 1 : 0;
     if (clip) x.faults |= 2;
     if (x.bad_run >= cfg.loss_samples) x.faults |= 4;
-    const int32_t ph = x.ever_homed ? static_cast<int32_t>(static_cast<uint32_t>(pos) - static_cast<uint32_t>(x.home)) : pos;
     x.pos_ring[static_cast<size_t>(n & (kRing - 1))] = pos;
     x.fine_due[static_cast<size_t>(n & (kRing - 1))] = sq >= 0;
-    x.hist[static_cast<size_t>(n & (kRing - 1))] = {pos, ph, x.index_pos, static_cast<uint16_t>(x.index_count),
+    x.hist[static_cast<size_t>(n & (kRing - 1))] = {x.index_pos, static_cast<uint16_t>(x.index_count),
                                              static_cast<uint16_t>(x.ovs_count), static_cast<uint8_t>(x.faults),
                                              static_cast<uint8_t>(x.homed)};
     x.n_exact = n;
