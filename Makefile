@@ -65,7 +65,7 @@ synth: $(STAMP)
 	$(HG) pnr
 
 gatelevel: $(STAMP)
-	$(PYTEST) -p no:xdist tb/boards/gatelevel_board_tops.py
+	$(PYTEST) -p no:xdist tb/boards/gatelevel_board_tops.py tb/top/gatelevel_top.py
 
 formal: $(STAMP)
 	$(VENV)/bin/python -m hapgate.flows.formal --mutants

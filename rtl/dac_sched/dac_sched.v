@@ -88,8 +88,9 @@ module dac_sched #(
     reg [CW-1:0] ch_cnt;     // slot number; CHANNELS = no more requests this frame
     reg          wr_go;      // data went out last clock: drop the strobe now (one clock of setup)
 
-`ifdef HG_SIM
-    // Simulation only (absent from synthesis): idle-clock skip for the native harness
+`ifdef HG_SIM_SKIP
+    // Simulation only (absent from synthesis, and from every simulation that does not define
+    // HG_SIM_SKIP: the device harness has no use for it): idle-clock skip for the native harness
     // (tb/native/commutation/). Before a rising edge the harness may write sim_skip = N with
     // 1 <= N <= sim_room; that edge then advances the frame and slot counters by 1 + N, exactly
     // as 1 + N ordinary edges would. sim_room is 0 unless the scheduler is idle: every request
@@ -135,7 +136,7 @@ module dac_sched #(
             slot_cnt  <= (slot_cnt == SKEW_LAST) ? {SW{1'b0}} : slot_cnt + 1'b1;
             if (slot_cnt == SKEW_LAST && ch_cnt != CH_END)
                 ch_cnt <= ch_cnt + 1'b1;
-`ifdef HG_SIM
+`ifdef HG_SIM_SKIP
             if (sim_skip != {FW{1'b0}}) begin  // the hook: this edge counts 1 + sim_skip clocks
                 frame_cnt <= frame_cnt + 1'b1 + sim_skip;
                 slot_cnt  <= slot_cnt + 1'b1 + sim_skip[SW-1:0];

@@ -2,9 +2,9 @@
 the `replay commutation --engine rtl` engine): 10^5 random frames bit-exact against the model at
 the 48 MHz default, the board's 12 MHz and the slowest clock the RTL accepts, every load on the
 documented clock (order, skew, latency, frame, strobe, setup/hold, settling checked per clock by
-the harness); the idle-clock skip (dac_sched.v's HG_SIM hook) leaves every DAC word and load clock
-as evaluating every clock does, and a skip over a load is caught; the harness's own checks fail
-on a wrong schedule; refused clocks are a clear ValueError."""
+the harness); the idle-clock skip (dac_sched.v's HG_SIM_SKIP hook) leaves every DAC word and load
+clock as evaluating every clock does, and a skip over a load is caught; the harness's own checks
+fail on a wrong schedule; refused clocks are a clear ValueError."""
 
 from __future__ import annotations
 

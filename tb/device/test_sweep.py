@@ -126,6 +126,11 @@ def test_kind_sources_narrow_the_key(tmp_path: Path) -> None:
     ("[sweep]\njob = 'calib_mc'\n[fixed]\nengine = 'spice'\n", "fixed.engine"),
     ("[sweep]\njob = 'calib_mc'\n[fixed]\ntravel_lines = 300\n", "fixed.travel_lines"),
     ("[sweep\n", "line 1"),
+    # a value the job refuses in a later grid point or random draw, not only in job 0
+    ("[sweep]\njob = 'zwidth'\nbase = 'b.toml'\n[grid]\n'env.k' = [200.0, 500.0, -40.0]\n",
+     "grid env.k = -40.0"),
+    ("[sweep]\njob = 'zwidth'\nbase = 'b.toml'\nsamples = 40\n[fixed]\n'env.b' = 0.0\n"
+     "[random]\n'env.k' = { uniform = [-2000.0, 30000.0] }\n", "random env.k = -"),
 ])
 def test_bad_spec_exit_2_names_file_and_key(tmp_path: Path, text: str, key: str,
                                             capsys: pytest.CaptureFixture[str]) -> None:

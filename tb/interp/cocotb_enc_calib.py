@@ -61,14 +61,7 @@ async def stream(dut, a: np.ndarray, b: np.ndarray, en: np.ndarray, fr: np.ndarr
                          dut.m_cal_updates.value.to_unsigned()))
         if dut.m_valid.value == 1:
             lat.append(get_sim_time("ns") - sent[len(lat)])
-            cols["pos"].append(dut.m_pos.value.to_signed())
-            cols["pos_homed"].append(dut.m_pos_homed.value.to_signed())
-            cols["vel"].append(dut.m_vel.value.to_signed())
-            cols["index_pos"].append(dut.m_index_pos.value.to_signed())
-            cols["index_count"].append(dut.m_index_count.value.to_unsigned())
-            cols["homed"].append(int(dut.m_homed.value))
-            cols["faults"].append(dut.m_faults.value.to_unsigned())
-            cols["overspeed_count"].append(dut.m_overspeed_count.value.to_unsigned())
+            tbutil.append_interp_outputs(dut, cols)
             assert calq, "a result without its calibration state"
             for c, v in zip(native.CAL_COLUMNS, calq.pop(0)):
                 cols[c].append(v)

@@ -54,14 +54,7 @@ async def stream(dut, sc: encsig.Scenario, gaps: np.ndarray | None = None,
         cycle += 1
         if dut.m_valid.value == 1:
             lat.append(get_sim_time("ns") - sent[len(lat)])
-            cols["pos"].append(dut.m_pos.value.to_signed())
-            cols["pos_homed"].append(dut.m_pos_homed.value.to_signed())
-            cols["vel"].append(dut.m_vel.value.to_signed())
-            cols["index_pos"].append(dut.m_index_pos.value.to_signed())
-            cols["index_count"].append(dut.m_index_count.value.to_unsigned())
-            cols["homed"].append(int(dut.m_homed.value))
-            cols["faults"].append(dut.m_faults.value.to_unsigned())
-            cols["overspeed_count"].append(dut.m_overspeed_count.value.to_unsigned())
+            tbutil.append_interp_outputs(dut, cols)
             assert dut.m_fault.value == (cols["faults"][-1] != 0)
             assert no_obs is False or dut.m_vel_obs.value.to_signed() == 0  # VEL_OBS = 0: 0
         dut.ctl_fault_clear.value = 0

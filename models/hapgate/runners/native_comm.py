@@ -6,7 +6,7 @@ one build per parameter set (cached under build/native/ by `native.verilate_harn
 `run_commutation()` feeds it `Frames` and returns what the DAC received: the signed codes and
 each load's time after its frame start, in clocks, plus the port-timing violations the harness
 counted. By default the idle clocks between a channel's load and the next request pass in one
-edge each (dac_sched.v's HG_SIM hook: same outputs, every clock still counted by the checks).
+edge each (dac_sched.v's HG_SIM_SKIP hook: same outputs, every clock still counted by the checks).
 Bad CLK_HZ (or any parameter the RTL refuses at elaboration) raises `ValueError` with the RTL's
 message.
 """
@@ -65,7 +65,7 @@ def check_config(cfg: cm.CommutationConfig) -> None:
 def build_commutation(cfg: cm.CommutationConfig = cm.CommutationConfig(),
                       checks: cm.CommutationConfig | None = None) -> Path:
     """Verilate and compile the commutator harness for this configuration (cached), with the
-    scheduler's HG_SIM idle-skip hook. `checks` (tests only): build the harness's port checks
+    scheduler's HG_SIM_SKIP idle-skip hook. `checks` (tests only): build the harness's port checks
     for another configuration's strobe, frame and settling than the RTL's."""
     check_config(cfg)
     params = cfg.rtl_params()
@@ -77,7 +77,7 @@ def build_commutation(cfg: cm.CommutationConfig = cm.CommutationConfig(),
     try:
         return native.verilate_harness("commutation_harness", "commutator", SOURCES, params,
                                        [HARNESS], cflags=flags, inputs=[Path(params["LUT_FILE"])],
-                                       vflags=["-DHG_SIM"])
+                                       vflags=["-DHG_SIM", "-DHG_SIM_SKIP"])
     except RuntimeError as exc:
         log = Path(str(exc).rsplit("see ", 1)[-1])
         stops = re.findall(r"\b(\w+_must_\w+|\w+_needs_\w+)\b", log.read_text()) \

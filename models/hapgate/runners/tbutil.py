@@ -32,3 +32,19 @@ async def start(dut, period_ns: float, reset_cycles: int = 4) -> None:
     await ClockCycles(dut.clk, reset_cycles)
     dut.rst.value = 0
     await RisingEdge(dut.clk)
+
+
+# The interpolator's result ports, in the native harness's column order (native.COLUMNS), and
+# how each is read: "s" signed, "u" unsigned, "b" a single bit.
+INTERP_OUTPUTS = (("pos", "m_pos", "s"), ("pos_homed", "m_pos_homed", "s"),
+                  ("vel", "m_vel", "s"), ("index_pos", "m_index_pos", "s"),
+                  ("index_count", "m_index_count", "u"), ("homed", "m_homed", "b"),
+                  ("faults", "m_faults", "u"), ("overspeed_count", "m_overspeed_count", "u"))
+
+
+def append_interp_outputs(dut, cols: dict[str, list[int]]) -> None:
+    """Append the interpolator's result ports (enc_interp / enc_interp3 of one axis) to cols."""
+    for col, port, kind in INTERP_OUTPUTS:
+        v = getattr(dut, port).value
+        cols[col].append(v.to_signed() if kind == "s" else v.to_unsigned() if kind == "u"
+                         else int(v))

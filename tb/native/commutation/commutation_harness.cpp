@@ -183,7 +183,7 @@ int main(int argc, char** argv) {
     };
 
     Vcommutator___024root* const root = top->rootp;
-    // The hook's members (dac_sched.v, HG_SIM): the edge's extra clocks and the room for them.
+    // The hook's members (dac_sched.v, HG_SIM_SKIP): the edge's extra clocks and the room for them.
     auto& sim_skip = root->commutator__DOT__u_sched__DOT__sim_skip;
     const auto& sim_room = root->commutator__DOT__u_sched__DOT__sim_room;
     uint64_t edges = 0, skips = 0;
