@@ -20,6 +20,9 @@
 #define HG_REG_ID            HG_WORD(offsetof(hapgate_t, ID))
 #define HG_ID_MAGIC          ((uint32_t)HAPGATE__ID__MAGIC_reset)
 #define HG_ID_MAGIC_SHIFT    ((uint32_t)HAPGATE__ID__MAGIC_bp)
+#define HG_ID_VERSION        ((uint32_t)HAPGATE__ID__VERSION_reset)  /* the map built against */
+#define HG_ID_VERSION_OF(id) (((uint32_t)(id) & HAPGATE__ID__VERSION_bm) >> HAPGATE__ID__VERSION_bp)
+#define HG_ID_MAJOR(ver)     ((uint32_t)(ver) >> 8)   /* init refuses another major version */
 
 /* CTRL (RW; FAULT_CLR, HOME_ARMi and SNAP are single pulses that read 0). */
 #define HG_REG_CTRL          HG_WORD(offsetof(hapgate_t, CTRL))
@@ -56,6 +59,19 @@
 #define HG_REG_SCRATCH       HG_WORD(offsetof(hapgate_t, SCRATCH))
 #define HG_REG_WDOG_TIMEOUT  HG_WORD(offsetof(hapgate_t, WDOG_TIMEOUT))
 #define HG_REG_CLK_KHZ       HG_WORD(offsetof(hapgate_t, CLK_KHZ))
+
+/* HARM_* (global): the harmonic table of the ratio angle stage (FPGAs built with HARM = 1;
+ * without it the three read 0). Loading: hg_harm.h. */
+#define HG_REG_HARM_CTRL     HG_WORD(offsetof(hapgate_t, HARM_CTRL))
+#define HG_REG_HARM_ADDR     HG_WORD(offsetof(hapgate_t, HARM_ADDR))
+#define HG_REG_HARM_DATA     HG_WORD(offsetof(hapgate_t, HARM_DATA))
+#define HG_HARM_EN(i)        (1u << (HAPGATE__HARM_CTRL__EN_bp + (i)))
+#define HG_HARM_EN_ALL       ((uint32_t)HAPGATE__HARM_CTRL__EN_bm)
+#define HG_HARM_LOG2_OF(ctrl) (((uint32_t)(ctrl) & HAPGATE__HARM_CTRL__LOG2_bm) >> HAPGATE__HARM_CTRL__LOG2_bp)
+#define HG_HARM_ADDR(axis, entry) ((((uint32_t)(axis) << HAPGATE__HARM_ADDR__AXIS_bp) & \
+                                    HAPGATE__HARM_ADDR__AXIS_bm) | \
+                                   ((uint32_t)(entry) & HAPGATE__HARM_ADDR__ADDR_bm))
+#define HG_HARM_DATA_MASK    ((uint32_t)HAPGATE__HARM_DATA__DATA_bm)
 
 /* Per-axis block i: snapshot (RO) and motor command (RW). */
 #define HG_AXIS_STRIDE       HG_WORD(sizeof(hapgate__axis_t__stride40_t))

@@ -15,7 +15,7 @@ extern "C" {
 #define HAPGATE__ID__VERSION_bm 0xffff
 #define HAPGATE__ID__VERSION_bp 0
 #define HAPGATE__ID__VERSION_bw 16
-#define HAPGATE__ID__VERSION_reset 0x101
+#define HAPGATE__ID__VERSION_reset 0x102
 #define HAPGATE__ID__MAGIC_bm 0xffff0000
 #define HAPGATE__ID__MAGIC_bp 16
 #define HAPGATE__ID__MAGIC_bw 16
@@ -160,6 +160,32 @@ extern "C" {
 #define HAPGATE__VEL_CTRL__BW2_bp 16
 #define HAPGATE__VEL_CTRL__BW2_bw 4
 #define HAPGATE__VEL_CTRL__BW2_reset 0x6
+
+// reg - hapgate::HARM_CTRL
+#define HAPGATE__HARM_CTRL__EN_bm 0x7
+#define HAPGATE__HARM_CTRL__EN_bp 0
+#define HAPGATE__HARM_CTRL__EN_bw 3
+#define HAPGATE__HARM_CTRL__EN_reset 0x0
+#define HAPGATE__HARM_CTRL__LOG2_bm 0xf00
+#define HAPGATE__HARM_CTRL__LOG2_bp 8
+#define HAPGATE__HARM_CTRL__LOG2_bw 4
+#define HAPGATE__HARM_CTRL__LOG2_reset 0x0
+
+// reg - hapgate::HARM_ADDR
+#define HAPGATE__HARM_ADDR__ADDR_bm 0xff
+#define HAPGATE__HARM_ADDR__ADDR_bp 0
+#define HAPGATE__HARM_ADDR__ADDR_bw 8
+#define HAPGATE__HARM_ADDR__ADDR_reset 0x0
+#define HAPGATE__HARM_ADDR__AXIS_bm 0x300
+#define HAPGATE__HARM_ADDR__AXIS_bp 8
+#define HAPGATE__HARM_ADDR__AXIS_bw 2
+#define HAPGATE__HARM_ADDR__AXIS_reset 0x0
+
+// reg - hapgate::HARM_DATA
+#define HAPGATE__HARM_DATA__DATA_bm 0xff
+#define HAPGATE__HARM_DATA__DATA_bp 0
+#define HAPGATE__HARM_DATA__DATA_bw 8
+#define HAPGATE__HARM_DATA__DATA_reset 0x0
 
 // reg - hapgate::axis_t::POS
 #define HAPGATE__AXIS_T__POS__VALUE_bm 0xffffffff
@@ -314,7 +340,9 @@ typedef struct __attribute__ ((__packed__)) {
     uint32_t DAC_FRAME;
     uint32_t CLK_KHZ;
     uint32_t VEL_CTRL;
-    uint8_t RESERVED_34_3f[0xc];
+    uint32_t HARM_CTRL;
+    uint32_t HARM_ADDR;
+    uint32_t HARM_DATA;
     hapgate__axis_t__stride40_t AXIS[3];
 } hapgate_t;
 

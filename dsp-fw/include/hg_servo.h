@@ -26,7 +26,7 @@ enum {
     HG_ERR_STALE = 4,      /* snapshot SEQ unchanged since the last step, or torn     */
     HG_ERR_OVERRUN = 5,    /* SEQ advanced by more than 1 + max_missed                */
     HG_ERR_WATCHDOG = 6,   /* FPGA reports its watchdog expired                       */
-    HG_ERR_FPGA_ID = 7,    /* ID register magic mismatch at init                      */
+    HG_ERR_FPGA_ID = 7,    /* ID register magic or major map version mismatch at init */
     HG_ERR_CONFIG = 8,     /* configuration rejected at init                          */
 };
 

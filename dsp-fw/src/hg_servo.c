@@ -88,7 +88,8 @@ uint8_t hg_servo_init(hg_servo_t *s, const hg_servo_cfg_t *cfg)
     zero_torque();
     fpga_write32(HG_REG_CTRL, 0);
     s->fpga_id = fpga_read32(HG_REG_ID);
-    if ((s->fpga_id >> HG_ID_MAGIC_SHIFT) != HG_ID_MAGIC) {
+    if ((s->fpga_id >> HG_ID_MAGIC_SHIFT) != HG_ID_MAGIC ||
+        HG_ID_MAJOR(HG_ID_VERSION_OF(s->fpga_id)) != HG_ID_MAJOR(HG_ID_VERSION)) {
         latch(s, HG_ERR_FPGA_ID, 0);
         return s->err;
     }

@@ -7,6 +7,9 @@
 uint32_t hal_sim_regs[HAL_SIM_NREGS];
 uint32_t hal_sim_nwrites[HAL_SIM_NREGS];
 uint32_t hal_sim_bad_access;
+uint8_t hal_sim_harm[HG_NAXES][256];
+unsigned hal_sim_harm_log2 = 6;
+int hal_sim_harm_flip = -1;
 int hal_sim_irq_depth;
 uint32_t hal_sim_irq_saves;
 bool hal_sim_tear;
@@ -15,11 +18,39 @@ void hal_sim_reset(void)
 {
     for (unsigned i = 0; i < HAL_SIM_NREGS; i++)
         hal_sim_regs[i] = hal_sim_nwrites[i] = 0;
-    hal_sim_regs[HG_REG_ID] = HG_ID_MAGIC << HG_ID_MAGIC_SHIFT | 0x0001u;
+    hal_sim_regs[HG_REG_ID] = HG_ID_MAGIC << HG_ID_MAGIC_SHIFT | HG_ID_VERSION;
+    hal_sim_regs[HG_REG_HARM_CTRL] = (uint32_t)hal_sim_harm_log2 << HAPGATE__HARM_CTRL__LOG2_bp;
+    hal_sim_harm_flip = -1;
     hal_sim_bad_access = 0;
     hal_sim_irq_depth = 0;
     hal_sim_irq_saves = 0;
     hal_sim_tear = false;
+}
+
+/* HARM_ADDR / HARM_DATA as hg_regfile.v has them: an access to HARM_DATA reads or writes entry
+ * ADDR mod 2^LOG2 of axis AXIS (3: none), then ADDR += 1 (mod 256); HARM_CTRL.LOG2 is read-only;
+ * LOG2 = 0 (no harmonic stage): the three registers read 0 and ignore writes. */
+static uint32_t harm_access(bool we, uint32_t v)
+{
+    const uint32_t a = hal_sim_regs[HG_REG_HARM_ADDR];
+    const uint32_t axis = (a & HAPGATE__HARM_ADDR__AXIS_bm) >> HAPGATE__HARM_ADDR__AXIS_bp;
+    const uint32_t entry = (a & HAPGATE__HARM_ADDR__ADDR_bm) & ((1u << hal_sim_harm_log2) - 1u);
+    uint32_t r = 0;
+    if (axis < HG_NAXES) {
+        if (we)
+            hal_sim_harm[axis][entry] = (uint8_t)(v & HG_HARM_DATA_MASK);
+        r = hal_sim_harm[axis][entry];
+        if (!we && (int)entry == hal_sim_harm_flip)
+            r ^= 1u;
+    }
+    hal_sim_regs[HG_REG_HARM_ADDR] = (a & ~(uint32_t)HAPGATE__HARM_ADDR__ADDR_bm) |
+                                     ((a + 1u) & HAPGATE__HARM_ADDR__ADDR_bm);
+    return we ? 0 : r;
+}
+
+static bool harm_reg(uint32_t addr)
+{
+    return addr == HG_REG_HARM_CTRL || addr == HG_REG_HARM_ADDR || addr == HG_REG_HARM_DATA;
 }
 
 uint32_t fpga_read32(uint32_t addr)
@@ -28,6 +59,10 @@ uint32_t fpga_read32(uint32_t addr)
         hal_sim_bad_access++;
         return 0xDEADBEEFu;
     }
+    if (harm_reg(addr) && hal_sim_harm_log2 == 0)
+        return 0;
+    if (addr == HG_REG_HARM_DATA)
+        return harm_access(false, 0);
     if (hal_sim_tear && addr == HG_REG_AXIS(0, HG_AX_POS)) {
         hal_sim_tear = false;
         hal_sim_regs[HG_REG_SEQ]++;
@@ -42,6 +77,18 @@ void fpga_write32(uint32_t addr, uint32_t v)
         return;
     }
     hal_sim_nwrites[addr]++;
+    if (harm_reg(addr)) {
+        if (hal_sim_harm_log2 == 0)
+            return;
+        if (addr == HG_REG_HARM_DATA) {
+            (void)harm_access(true, v);
+            return;
+        }
+        if (addr == HG_REG_HARM_CTRL)
+            v = (v & HG_HARM_EN_ALL) | (hal_sim_regs[addr] & HAPGATE__HARM_CTRL__LOG2_bm);
+        else
+            v &= HAPGATE__HARM_ADDR__ADDR_bm | HAPGATE__HARM_ADDR__AXIS_bm;
+    }
     if (addr == HG_REG_CTRL && (v & HG_CTRL_FAULT_CLR)) {
         hal_sim_regs[HG_REG_STATUS] &= ~(HG_STAT_FAULT_ALL | HG_STAT_WDOG);
         v &= ~HG_CTRL_FAULT_CLR; /* a pulse, not a state */

@@ -69,7 +69,8 @@ void test_link_ping_state(void)
     setup();
     CHECK(request(HG_MSG_PING, NULL, 0, 0x81, raw) == HG_PING_LEN);
     CHECK(raw[3] == 0x00 && raw[4] == 0x01);                     /* fw 1.0 */
-    CHECK(raw[5] == 0x01 && raw[7] == 0x47 && raw[8] == 0x48);   /* FPGA ID, little-endian */
+    CHECK(raw[5] == (HG_ID_VERSION & 0xFF) && raw[6] == HG_ID_VERSION >> 8 &&
+          raw[7] == 0x47 && raw[8] == 0x48);                     /* FPGA ID, little-endian */
     CHECK(raw[9] == (1000 & 0xFF) && raw[10] == 1000 >> 8);      /* rate */
     const double q[3] = { 0, DEG_D(45.0), DEG_D(45.0) }, qd[3] = { 0, 1.0, 1.0 };
     fx_pose(&S, q, qd);
@@ -248,7 +249,8 @@ void test_link_v2_info_stats(void)
     CHECK(rn - 5 == HG_INFO_LEN);
     const uint8_t *d = raw + 3;
     CHECK(d[0] == 0x00 && d[1] == 0x01 && d[2] == HG_PROTO_VERSION);
-    CHECK(d[4] == 0x01 && d[6] == 0x47 && d[7] == 0x48);             /* FPGA ID */
+    CHECK(d[4] == (HG_ID_VERSION & 0xFF) && d[5] == HG_ID_VERSION >> 8 &&
+          d[6] == 0x47 && d[7] == 0x48);                             /* FPGA ID */
     CHECK(d[8] == (1000 & 0xFF) && d[9] == 1000 >> 8);               /* rate */
     CHECK(d[10] == (HG_LINK_TIMEOUT_MS & 0xFF) && d[11] == HG_LINK_TIMEOUT_MS >> 8);
     CHECK(d[12] == 0x40 && d[13] == 0x42 && d[14] == 0x0F && d[15] == 0); /* 1000000 */

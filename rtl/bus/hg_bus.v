@@ -14,7 +14,9 @@ module hg_bus #(
     parameter integer FRAME_CLOCKS = 768,        // DAC frame in clocks (read-only info)
     parameter integer ADDR_BITS    = 8,          // word-address lines decoded
     parameter integer VEL_OBS      = 0,          // 1: the interpolator has the velocity observer
-    parameter integer VEL_SEL_RST  = 0           // 1: VEL_CTRL.SEL resets to 7
+    parameter integer VEL_SEL_RST  = 0,          // 1: VEL_CTRL.SEL resets to 7
+    parameter integer HARM         = 0,          // 1: the interpolator has the harmonic table
+    parameter integer HARM_LOG2    = 6           // HARM = 1: its entries per line, log2
 ) (
     input  wire                 clk,
     input  wire                 rst,
@@ -53,6 +55,11 @@ module hg_bus #(
     input  wire [95:0]          in_vel_obs,      // observer velocity (see hg_regfile)
     output wire [11:0]          cfg_obs_bw,
     output wire [2:0]           cfg_obs_type3,
+    output wire [2:0]           ctl_harm_en,     // harmonic table (see hg_regfile)
+    output wire [2:0]           cfg_harm_we,
+    output wire [7:0]           cfg_harm_addr,
+    output wire [7:0]           cfg_harm_data,
+    input  wire [23:0]          in_harm_rdata,
     output wire                 wdog_expired,
     output wire                 irq,
     output wire                 tick,
@@ -78,7 +85,7 @@ module hg_bus #(
     hg_regfile #(
         .CLK_HZ(CLK_HZ), .SAMPLE_HZ(SAMPLE_HZ), .VEL_LOG2W(VEL_LOG2W), .VEL_BITS(VEL_BITS),
         .SKEW_CLOCKS(SKEW_CLOCKS), .FRAME_CLOCKS(FRAME_CLOCKS), .ADDR_BITS(ADDR_BITS),
-        .VEL_OBS(VEL_OBS), .VEL_SEL_RST(VEL_SEL_RST)
+        .VEL_OBS(VEL_OBS), .VEL_SEL_RST(VEL_SEL_RST), .HARM(HARM), .HARM_LOG2(HARM_LOG2)
     ) u_regs (
         .clk(clk), .rst(rst),
         .s_raddr(raddr), .s_rdata(rdata), .s_req(req), .s_we(we), .s_addr(addr),
@@ -91,6 +98,8 @@ module hg_bus #(
         .in_cal_stat(in_cal_stat), .ctl_cal_en(ctl_cal_en), .ctl_cal_freeze(ctl_cal_freeze),
         .cfg_cal_mu(cfg_cal_mu),
         .in_vel_obs(in_vel_obs), .cfg_obs_bw(cfg_obs_bw), .cfg_obs_type3(cfg_obs_type3),
+        .ctl_harm_en(ctl_harm_en), .cfg_harm_we(cfg_harm_we), .cfg_harm_addr(cfg_harm_addr),
+        .cfg_harm_data(cfg_harm_data), .in_harm_rdata(in_harm_rdata),
         .ctl_global_en(ctl_global_en), .ctl_axis_en(ctl_axis_en),
         .ctl_fault_clear(ctl_fault_clear), .ctl_home_arm(ctl_home_arm),
         .ctl_torque(ctl_torque), .ctl_offset(ctl_offset), .ctl_mode(ctl_mode),

@@ -16,7 +16,9 @@ module hg_regfile #(
     parameter integer FRAME_CLOCKS = 768,        // DAC frame in clocks (read-only info)
     parameter integer ADDR_BITS    = 8,          // decoded word-address bits (7..30; the map spans 64)
     parameter integer VEL_OBS      = 0,          // 1: the interpolator has the velocity observer
-    parameter integer VEL_SEL_RST  = 0           // 1: VEL_CTRL.SEL resets to 7 (every axis the observer's)
+    parameter integer VEL_SEL_RST  = 0,          // 1: VEL_CTRL.SEL resets to 7 (every axis the observer's)
+    parameter integer HARM         = 0,          // 1: the interpolator has the harmonic table (HARM_*)
+    parameter integer HARM_LOG2    = 6           // HARM = 1: its entries per line, log2 (4..8)
 ) (
     input  wire                 clk,
     input  wire                 rst,
@@ -58,6 +60,11 @@ module hg_regfile #(
     output wire [11:0]          cfg_cal_mu,      // AXIS[i].CAL_CTRL.MU, 4 bits per axis
     output wire [11:0]          cfg_obs_bw,      // VEL_CTRL.BW0..2, 4 bits per axis
     output wire [2:0]           cfg_obs_type3,   // VEL_CTRL.TYPE3, bit per axis
+    output wire [2:0]           ctl_harm_en,     // HARM_CTRL.EN, bit per axis (HARM = 1)
+    output wire [2:0]           cfg_harm_we,     // HARM_DATA written: store into axis i's table
+    output wire [7:0]           cfg_harm_addr,   // HARM_ADDR.ADDR (write entry and read-back)
+    output wire [7:0]           cfg_harm_data,   // the written HARM_DATA (with cfg_harm_we)
+    input  wire [23:0]          in_harm_rdata,   // each axis's entry cfg_harm_addr (read-back)
     output wire                 wdog_expired,    // sticky: all torque to zero
     output wire                 irq,             // servo tick pending (level)
     output reg                  tick             // one clock after each servo tick (observation)
@@ -79,7 +86,7 @@ module hg_regfile #(
     localparam [19:0] WD_MIN   = WD_MIN_I[19:0];
     localparam [19:0] WD_MAX   = WD_MAX_I[19:0];
     localparam [19:0] WD_RST   = WD_RST_I[19:0];
-    localparam [31:0] ID_VALUE = 32'h4847_0101;      // magic "HG", map version 1.1
+    localparam [31:0] ID_VALUE = 32'h4847_0102;      // magic "HG", map version 1.2
     localparam [31:0] WD_KEY   = 32'h5AFE_C0DE;
     localparam [31:0] UNMAPPED = 32'hDEAD_BEEF;
     localparam integer CLK_KHZ_I = CLK_HZ / 1000;
@@ -96,6 +103,7 @@ module hg_regfile #(
                      R_TORQUE = 4'h8, R_OFFSET = 4'h9, R_MODE = 4'hA, R_TQ_LIMIT = 4'hB,
                      R_CAL_OFS = 4'hC, R_CAL_GAIN = 4'hD, R_CAL_PHASE = 4'hE;
     localparam [5:0] A_VEL_CTRL = 6'h0C;
+    localparam [5:0] A_HARM_CTRL = 6'h0D, A_HARM_ADDR = 6'h0E, A_HARM_DATA = 6'h0F;
     localparam [2:0] VEL_SEL_R  = (VEL_SEL_RST != 0) ? 3'b111 : 3'b000;
     // VEL_CTRL {BW2, BW1, BW0, 1'b0, TYPE3, 1'b0, SEL}: BW = 6, TYPE3 = 1 on every axis
     localparam [19:0] VEL_CTRL_RST = {4'd6, 4'd6, 4'd6, 1'b0, 3'b111, 1'b0, VEL_SEL_R};
@@ -123,6 +131,10 @@ module hg_regfile #(
         begin : g_bad_vel_obs
             hg_regfile_VEL_OBS_and_VEL_SEL_RST_must_be_0_or_1 u_stop ();
         end
+        if ((HARM != 0 && HARM != 1) || (HARM != 0 && (HARM_LOG2 < 4 || HARM_LOG2 > 8)))
+        begin : g_bad_harm
+            hg_regfile_HARM_must_be_0_or_1_and_HARM_LOG2_4_to_8 u_stop ();
+        end
     endgenerate
 
     // ---------------------------------------------------------------- decode
@@ -139,7 +151,7 @@ module hg_regfile #(
             if (a[ADDR_BITS-1:6] != {(ADDR_BITS - 6){1'b0}})
                 mapped = 1'b0;
             else if (a[5:4] == 2'b00)
-                mapped = (a[3:0] <= A_VEL_CTRL[3:0]);
+                mapped = 1'b1;                      // 0x0..0xF: every global word
             else
                 mapped = (a[3:0] <= R_CAL_PHASE);  // 0x0..0xE: all but word 0xF
         end
@@ -227,6 +239,57 @@ module hg_regfile #(
     assign cfg_cal_mu     = {cal_ctrl_q[23:20], cal_ctrl_q[15:12], cal_ctrl_q[7:4]};
     assign cfg_obs_bw     = vel_ctrl_q[19:8];
     assign cfg_obs_type3  = vel_ctrl_q[6:4];
+
+    // ---------------------------------------------------------------- harmonic table (HARM_*)
+    // HARM_CTRL {LOG2[11:8], EN[2:0]}, HARM_ADDR {AXIS[9:8], ADDR[7:0]}, HARM_DATA [7:0].
+    // A HARM_DATA write stores its low byte into entry ADDR of axis AXIS's table (cfg_harm_we
+    // in the clock of the write); every HARM_DATA access (read or write) then increments ADDR
+    // (wrapping at 256). AXIS = 3 selects no table. HARM = 0: all read 0, writes ignored.
+    wire [31:0] harm_ctrl_rd, harm_addr_rd, harm_data_rd;
+    generate
+        if (HARM != 0) begin : g_harm
+            localparam [3:0] HL2 = HARM_LOG2[3:0];
+            reg [2:0] harm_en_q;
+            reg [7:0] harm_addr_q;
+            reg [1:0] harm_axis_q;
+            wire      data_acc = s_req && glob_w && wa[3:0] == A_HARM_DATA[3:0];
+            always @(posedge clk) begin
+                if (rst) begin
+                    harm_en_q   <= 3'b000;
+                    harm_addr_q <= 8'd0;
+                    harm_axis_q <= 2'd0;
+                end else begin
+                    if (wr && glob_w && wa[3:0] == A_HARM_CTRL[3:0])
+                        harm_en_q <= s_wdata[2:0];
+                    if (wr && glob_w && wa[3:0] == A_HARM_ADDR[3:0]) begin
+                        harm_addr_q <= s_wdata[7:0];
+                        harm_axis_q <= s_wdata[9:8];
+                    end else if (data_acc) begin
+                        harm_addr_q <= harm_addr_q + 8'd1;
+                    end
+                end
+            end
+            assign ctl_harm_en   = harm_en_q;
+            assign cfg_harm_we   = (data_acc && s_we && harm_axis_q != 2'd3) ?
+                                   (3'b001 << harm_axis_q) : 3'b000;
+            assign cfg_harm_addr = harm_addr_q;
+            assign cfg_harm_data = s_wdata[7:0];
+            assign harm_ctrl_rd  = {20'd0, HL2, 5'd0, harm_en_q};
+            assign harm_addr_rd  = {22'd0, harm_axis_q, harm_addr_q};
+            assign harm_data_rd  = {24'd0, (harm_axis_q == 2'd0) ? in_harm_rdata[7:0] :
+                                           (harm_axis_q == 2'd1) ? in_harm_rdata[15:8] :
+                                           (harm_axis_q == 2'd2) ? in_harm_rdata[23:16] : 8'd0};
+        end else begin : g_noharm
+            assign ctl_harm_en   = 3'b000;
+            assign cfg_harm_we   = 3'b000;
+            assign cfg_harm_addr = 8'd0;
+            assign cfg_harm_data = 8'd0;
+            assign harm_ctrl_rd  = 32'd0;
+            assign harm_addr_rd  = 32'd0;
+            assign harm_data_rd  = 32'd0;
+            wire unused_harm = &{1'b0, in_harm_rdata};
+        end
+    endgenerate
 
     // ---------------------------------------------------------------- servo tick and snapshot
     // A tick every tick_div_q clocks, exactly; a TICK_DIV write restarts the period (the first
@@ -434,7 +497,10 @@ module hg_regfile #(
                     A_SKEW[3:0]:     s_rdata = {16'd0, SKEW_C};
                     A_FRAME[3:0]:    s_rdata = {16'd0, FRAME_C};
                     A_CLK[3:0]:      s_rdata = CLK_KHZ;
-                    default:         s_rdata = {12'd0, vel_ctrl_q};
+                    A_VEL_CTRL[3:0]: s_rdata = {12'd0, vel_ctrl_q};
+                    A_HARM_CTRL[3:0]: s_rdata = harm_ctrl_rd;
+                    A_HARM_ADDR[3:0]: s_rdata = harm_addr_rd;
+                    default:         s_rdata = harm_data_rd;     // A_HARM_DATA
                 endcase
             end else begin
                 case (ra[3:0])

@@ -22,6 +22,12 @@ module hapgate_top #(
     parameter integer COARSE        = 0,          // 1: plain quadrature, fine angle zeroed (Z-width)
     parameter integer VEL_OBS       = 0,          // 1: tracking velocity observer beside the FIR
     parameter integer VEL_OBS_SEL   = 0,          // 1: VEL_CTRL.SEL resets to 7 (VEL = the observer)
+    parameter integer ANGLE         = 0,          // 1: ratio angle stage atan(smaller / larger)
+    parameter integer RATIO_BITS    = 10,         // ANGLE = 1: ratio table 2**RATIO_BITS entries
+    parameter         RATIO_FILE    = "atan.hex", // ANGLE = 1: the ratio table (angle.write_ratio_table)
+    parameter integer ANGLE_REG     = 0,          // 1: register after the angle select (latency + 1)
+    parameter integer HARM          = 0,          // 1 (ANGLE = 1): harmonic table, HARM_* registers
+    parameter integer HARM_LOG2     = 6,          // HARM = 1: 2**HARM_LOG2 table entries per line
     parameter integer LINES_LOG2    = 10,         // encoder lines per revolution = 2**LINES_LOG2
     parameter integer POLE_PAIRS    = 2,          // motor electrical cycles per revolution
     parameter integer SKEW_NS       = 2000,       // DAC channel-to-channel skew
@@ -98,6 +104,16 @@ module hapgate_top #(
         if (HOLD_C != 0 && CLK_HZ < 2 * SAMPLE_HZ) begin : g_bad_hold_c
             hapgate_top_HOLD_C_needs_CLK_HZ_at_least_2_SAMPLE_HZ u_stop ();
         end
+        // the ratio stage runs at 1024 counts per line here: the registers, the commutation
+        // offsets and the firmware count 2**20 per revolution (a 4096/line top would need POS,
+        // IDX_POS, POS_HOMED and VEL rescaled: not built)
+        if (ANGLE != 0 && LUT_BITS != 7) begin : g_bad_angle_lut
+            hapgate_top_ANGLE_1_needs_LUT_BITS_7_the_registers_count_1024_per_line u_stop ();
+        end
+        // the table read-back (HARM_DATA) uses the interpolator's clocks without a sample
+        if (HARM != 0 && CLK_HZ < 2 * SAMPLE_HZ) begin : g_bad_harm_clk
+            hapgate_top_HARM_needs_CLK_HZ_at_least_2_SAMPLE_HZ u_stop ();
+        end
     endgenerate
 
     // ---------------------------------------------------------------- interpolators
@@ -113,6 +129,9 @@ module hapgate_top #(
     wire [95:0] vel_obs;
     wire [11:0] obs_bw;
     wire [2:0]  obs_type3;
+    wire [2:0]  harm_en, harm_we;
+    wire [7:0]  harm_addr, harm_wdata;
+    wire [23:0] harm_rdata;
     wire [47:0] cal_phase;
     wire        cal_valid;
 
@@ -124,6 +143,7 @@ module hapgate_top #(
     wire [32*NAX-1:0] c_pos, c_pos_homed, c_vel, c_index_pos, c_vel_obs;
     wire [4*NAX-1:0]  c_obs_bw;
     wire [NAX-1:0]    c_obs_type3;
+    wire [NAX-1:0]    c_harm_en, c_harm_we;
     wire [16*NAX-1:0] c_index_count, c_overspeed_count;
     wire [3*NAX-1:0]  c_faults;
     wire [NAX-1:0]    c_cal_en, c_cal_freeze;
@@ -155,13 +175,15 @@ module hapgate_top #(
 `endif
     endgenerate
 
-    wire [8*NAX-1:0] harm_rdata;
+    wire [8*NAX-1:0] c_harm_rdata;
     enc_interp3 #(
         .CLK_HZ(CLK_HZ), .SAMPLE_HZ(SAMPLE_HZ), .AXES(NAX), .LUT_BITS(LUT_BITS),
         .LUT_FILE(ASIN_FILE), .VEL_LOG2W(VEL_LOG2W), .AMP_MIN(AMP_MIN), .AMP_MAX(AMP_MAX),
         .LOSS_SAMPLES(LOSS_SAMPLES), .CAL(CAL), .CAL_LUT_FILE(CAL_LUT_FILE),
         .CAL_LINES_LOG2(CAL_LINES_LOG2), .CAL_NLOG(CAL_NLOG), .COARSE(COARSE),
-        .SQ_RAM(SQ_RAM), .HOLD_C(HOLD_C), .VEL_OBS(VEL_OBS)
+        .SQ_RAM(SQ_RAM), .HOLD_C(HOLD_C), .VEL_OBS(VEL_OBS),
+        .ANGLE(ANGLE), .RATIO_BITS(RATIO_BITS), .RATIO_FILE(RATIO_FILE), .ANGLE_REG(ANGLE_REG),
+        .HARM(HARM), .HARM_LOG2(HARM_LOG2)
     ) u_interp (
         .clk(clk), .rst(rst), .adc_strobe(adc_strobe), .adc_a(c_adc_a), .adc_b(c_adc_b),
         .enc_index(c_index), .ctl_fault_clear({NAX{fault_clear}}), .ctl_home_arm(c_arm),
@@ -173,12 +195,12 @@ module hapgate_top #(
         .m_cal_valid(cal_valid), .m_cal_ofs_a(c_cal_ofs_a), .m_cal_ofs_b(c_cal_ofs_b),
         .m_cal_gain_a(c_cal_gain_a), .m_cal_gain_b(c_cal_gain_b), .m_cal_phase(c_cal_phase),
         .m_cal_gear(c_cal_gear), .m_cal_updates(c_cal_updates),
-        // harmonic correction (enc_interp HARM = 1) not built in the top: tied off
-        .ctl_harm_en({NAX{1'b0}}), .cfg_harm_we({NAX{1'b0}}), .cfg_harm_addr(8'd0),
-        .cfg_harm_data(8'd0), .m_harm_rdata(harm_rdata),
+        // harmonic correction (HARM = 1): table and enable from the HARM_* registers
+        .ctl_harm_en(c_harm_en), .cfg_harm_we(c_harm_we), .cfg_harm_addr(harm_addr),
+        .cfg_harm_data(harm_wdata), .m_harm_rdata(c_harm_rdata),
         .m_vel_obs(c_vel_obs), .cfg_obs_bw(c_obs_bw), .cfg_obs_type3(c_obs_type3)
     );
-    wire unused_cal_valid = &{1'b0, cal_valid, harm_rdata};  // (the registers read the live state)
+    wire unused_cal_valid = &{1'b0, cal_valid};  // (the registers read the live state)
     wire [95:0] cal_ofs_w, cal_gain_w, cal_stat_w;
 
     genvar ax;
@@ -197,6 +219,9 @@ module hapgate_top #(
                 assign c_cal_mu[4*J +: 4]          = cal_mu[4*ax +: 4];
                 assign c_obs_bw[4*J +: 4]          = obs_bw[4*ax +: 4];
                 assign c_obs_type3[J]              = obs_type3[ax];
+                assign c_harm_en[J]                = harm_en[ax];
+                assign c_harm_we[J]                = harm_we[ax];
+                assign harm_rdata[8*ax +: 8]       = c_harm_rdata[8*J +: 8];
                 assign vel_obs[32*ax +: 32]        = c_vel_obs[32*J +: 32];
                 assign pos[32*ax +: 32]            = c_pos[32*J +: 32];
                 assign pos_homed[32*ax +: 32]      = c_pos_homed[32*J +: 32];
@@ -215,7 +240,9 @@ module hapgate_top #(
             end else begin : g_held
                 wire unused_in = &{1'b0, adc_a[8*ax +: 8], adc_b[8*ax +: 8], enc_index[ax],
                                    home_arm[ax], cal_en[ax], cal_freeze[ax], cal_mu[4*ax +: 4],
-                                   obs_bw[4*ax +: 4], obs_type3[ax]};
+                                   obs_bw[4*ax +: 4], obs_type3[ax], harm_en[ax],
+                                   harm_we[ax]};
+                assign harm_rdata[8*ax +: 8]       = 8'd0;
                 assign vel_obs[32*ax +: 32]        = 32'd0;
                 assign pos[32*ax +: 32]            = hold_pos_homed[32*ax +: 32] +
                                                      hold_index_pos[32*ax +: 32];
@@ -263,7 +290,7 @@ module hapgate_top #(
         .VEL_BITS(VEL_OBS != 0 ? 32 : LUT_BITS + VEL_LOG2W + 4),  // the interpolator's
         //                                       stored velocity bits (the observer's: all 32)
         .SKEW_CLOCKS(SKEW_CLOCKS), .FRAME_CLOCKS(FRAME_CLOCKS), .ADDR_BITS(BUS_ADDR_BITS),
-        .VEL_OBS(VEL_OBS), .VEL_SEL_RST(VEL_OBS_SEL)
+        .VEL_OBS(VEL_OBS), .VEL_SEL_RST(VEL_OBS_SEL), .HARM(HARM), .HARM_LOG2(HARM_LOG2)
     ) u_bus (
         .clk(clk), .rst(rst),
         .bus_ce_n(bus_ce_n), .bus_re_n(bus_re_n), .bus_we_n(bus_we_n), .bus_addr(bus_addr),
@@ -276,6 +303,8 @@ module hapgate_top #(
         .in_cal_stat(cal_stat_w), .ctl_cal_en(cal_en), .ctl_cal_freeze(cal_freeze),
         .cfg_cal_mu(cal_mu),
         .in_vel_obs(vel_obs), .cfg_obs_bw(obs_bw), .cfg_obs_type3(obs_type3),
+        .ctl_harm_en(harm_en), .cfg_harm_we(harm_we), .cfg_harm_addr(harm_addr),
+        .cfg_harm_data(harm_wdata), .in_harm_rdata(harm_rdata),
         .ctl_global_en(global_en), .ctl_axis_en(axis_en), .ctl_fault_clear(fault_clear),
         .ctl_home_arm(home_arm), .ctl_torque(torque), .ctl_offset(offset), .ctl_mode(mode),
         .ctl_tq_limit(tq_limit), .wdog_expired(wdog_expired), .irq(irq), .tick(tick),

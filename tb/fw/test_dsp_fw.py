@@ -12,7 +12,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 from hapgate.golden import kinematics as kin
-from hapgate.golden import pclink
+from hapgate.golden import pclink, regmap
 
 ROOT = Path(__file__).resolve().parents[2]
 FW = ROOT / "dsp-fw"
@@ -199,7 +199,8 @@ def test_pclink_against_firmware() -> None:
     assert [(fr.msg_type, fr.seq) for fr in frames] == [
         (p.PING | p.REPLY, 1), (p.SET_SCENE | p.REPLY, 2), (p.NAK, 3),
         (p.ENABLE | p.REPLY, 4), (p.GET_STATE | p.REPLY, 6), (p.GET_STATS | p.REPLY, 7)]
-    assert p.parse_ping(frames[0].data) == (0x0100, 0x48470001, 1000)
+    fpga_id = regmap.load().by_name()["ID"].reset     # hal_sim's FPGA: the map built against
+    assert p.parse_ping(frames[0].data) == (0x0100, fpga_id, 1000)
     assert frames[2].data == bytes([p.SET_SCENE, 1])
     st = p.parse_state(frames[4].data)
     assert np.allclose(st.p, [0, 0.0707107, 0], atol=1e-6)

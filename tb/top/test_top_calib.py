@@ -1,6 +1,6 @@
 """The calibration path through the whole FPGA (hapgate_top with CAL = 1): enable, freeze and
 read-back of the live estimates over the bus, and the calibrated positions, against the models;
-both simulators."""
+both simulators (Verilator with the ratio angle stage and the harmonic table built: `config`)."""
 
 from __future__ import annotations
 
@@ -15,10 +15,17 @@ HERE = Path(__file__).parent
 SAMPLES = {"verilator": 2000, "icarus": 600}
 
 
+def config(simulator: str) -> top.TopConfig:
+    """Icarus: the paper's arcsine after the calibration. Verilator: the ratio stage and the
+    harmonic table too (the issue-13 chain), one build shared with tb/top/test_top_harm.py."""
+    hi = simulator == "verilator"
+    return top.TopConfig(clk_hz=50_000_000, interp=interp.InterpConfig(
+        cal=True, cal_lines_log2=0, ratio=hi, harm=hi))
+
+
 @pytest.mark.parametrize("simulator", sim.simulators())
 def test_top_calibration(simulator: str, monkeypatch: pytest.MonkeyPatch) -> None:
-    cfg = top.TopConfig(clk_hz=50_000_000,
-                        interp=interp.InterpConfig(cal=True, cal_lines_log2=0))
+    cfg = config(simulator)
     if simulator == "verilator":
         # the larger model needs the precompiled-header flag (TOOLCHAIN.md); cocotb's runner
         # calls make itself, which reads variable assignments from MAKEFLAGS

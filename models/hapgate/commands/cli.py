@@ -157,6 +157,12 @@ def main(argv: list[str] | None = None) -> int:
         "commutation", help="positions and torques -> DAC codes and load times "
                             "(FRAMES.csv -> DAC.csv)"))
     rp.set_defaults(fn=cmd_replay)
+    from . import harm
+
+    hp = sub.add_parser("harm", help="harmonic table of the ratio angle stage: fit --in "
+                        "CAPTURE.csv --out TABLE.hex (learn it off-chip)")
+    harm.add_arguments(hp)
+    hp.set_defaults(fn=harm.main)
     from . import mutants
 
     mp = sub.add_parser("mutants", help="mutation testing: every mutant in tb/mutants/mutants.toml "

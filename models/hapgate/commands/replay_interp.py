@@ -13,7 +13,7 @@ import numpy as np
 
 from ..base.capture import CaptureError, Column, check_output, read_table, write_csv
 from ..base.report import table
-from ..golden import interp
+from ..golden import angle, interp
 from ..runners import native
 
 OUT_COLUMNS = ("pos", "vel", "fault", "pos_homed", "index_pos", "index_count", "homed",
@@ -51,18 +51,32 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--angle", choices=("asin", "ratio"), default="asin",
                    help="angle stage: the paper's arcsine (default) or the ratio table "
                         "atan(smaller / larger) (enc_interp ANGLE = 1; rtl/interp/README.md)")
+    p.add_argument("--harm", metavar="FILE|learn", default=None,
+                   help="with --angle ratio: the harmonic correction table (HARM = 1) on from "
+                        "the first sample, loaded from FILE (hapgate harm fit's output) or "
+                        "learned from this capture first ('learn': fitted with the correction "
+                        "off, then applied to the same samples)")
+    p.add_argument("--harm-log2", type=int, default=6, choices=range(4, 9), metavar="{4..8}",
+                   help="with --harm: table entries per line, log2 (HARM_LOG2, default 6)")
     p.add_argument("--no-align", action="store_true",
                    help="do not remove the mean offset between position and truth_counts")
 
 
-def _engine(name: str, cap: dict[str, np.ndarray], cfg: interp.InterpConfig, clk_hz: int
-            ) -> tuple[dict[str, np.ndarray], float]:
+def _engine(name: str, cap: dict[str, np.ndarray], cfg: interp.InterpConfig, clk_hz: int,
+            harm: np.ndarray | None = None) -> tuple[dict[str, np.ndarray], float]:
     a, b, idx = cap["a"], cap["b"], cap.get("index")
+    on = harm is not None
     t0 = time.perf_counter()
     if name == "model":
-        out = native.model_matrix(interp.run(a, b, idx, cfg, cal_en=cfg.cal))
+        out = native.model_matrix(interp.run(a, b, idx, cfg, cal_en=cfg.cal, harm_table=harm,
+                                             harm_en=on))
     else:
-        out = native.run_interp(a, b, idx, cfg, clk_hz=clk_hz, cal_en=cfg.cal).axis(0)
+        run = native.run_interp(a, b, idx, cfg, clk_hz=clk_hz, cal_en=cfg.cal, harm_table=harm,
+                                harm_en=on)
+        bad = int(run.stats.get("harm_readback_bad", "0"))
+        if bad:
+            raise RuntimeError(f"the RTL read back {bad} harmonic table entries wrong")
+        out = run.axis(0)
     return out, time.perf_counter() - t0
 
 
@@ -80,12 +94,21 @@ def main(args: argparse.Namespace) -> int:
         print("error: --calib with the arcsine needs --lut-bits <= 8 (or --angle ratio)",
               file=sys.stderr)
         return 2
-    cfg = interp.InterpConfig(lut_bits=args.lut_bits, cal=args.calib, ratio=ratio)
+    if args.harm is not None and not ratio:
+        print("error: --harm needs --angle ratio (the harmonic table corrects the ratio stage)",
+              file=sys.stderr)
+        return 2
+    cfg = interp.InterpConfig(lut_bits=args.lut_bits, cal=args.calib, ratio=ratio,
+                              harm=args.harm is not None, harm_log2=args.harm_log2)
     why = clock_error(args.clk_hz)
+    harm: np.ndarray | None = None
     try:
         if why:
             raise CaptureError(why)
-        check_output(args.out, [args.inp])
+        check_output(args.out, [args.inp] + ([Path(args.harm)] if args.harm not in (None, "learn")
+                                             else []))
+        if args.harm not in (None, "learn"):
+            harm = angle.read_harm_table(Path(args.harm), args.harm_log2)
         tab = read_table(args.inp, CAPTURE)
     except CaptureError as exc:
         print(f"error: {exc}", file=sys.stderr)
@@ -97,8 +120,18 @@ def main(args: argparse.Namespace) -> int:
     if "index" in raw:
         cap["index"] = raw["index"].astype(bool)
     n = cap["a"].size
+    if args.harm == "learn":
+        try:
+            harm = angle.harmonic_fit(interp.run(cap["a"], cap["b"], None, cfg, cal_en=cfg.cal)
+                                      .pos.astype(np.int64), cfg.lut_bits, cfg.harm_log2)
+        except ValueError as exc:
+            print(f"error: {args.inp}: {exc} (--harm learn needs a steady speed over many "
+                  "lines)", file=sys.stderr)
+            return 2
+        print(f"harmonic table learned from {args.inp}: {harm.size} entries, "
+              f"{harm.min()} .. {harm.max()} quarter counts")
     engines = ("rtl", "model") if args.compare else (args.engine,)
-    results = {e: _engine(e, cap, cfg, args.clk_hz) for e in engines}
+    results = {e: _engine(e, cap, cfg, args.clk_hz, harm) for e in engines}
     out, _ = results[args.engine]
     cols = {"pos": out["pos"], "vel": out["vel"], "fault": out["faults"],
             "pos_homed": out["pos_homed"], "index_pos": out["index_pos"],

@@ -28,6 +28,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..base.capture import CaptureError
 from ..base.tables import write_hex
 
 RATIO_BITS = 10     # default ratio table: 1024 entries (a 1024 x (L + 1) ROM: 2..3 SB_RAM40_4K)
@@ -127,3 +128,43 @@ def harmonic_fit(pos: np.ndarray, lut_bits: int, harm_log2: int = HARM_LOG2) -> 
         raise ValueError("harmonic_fit: the run does not visit every bin of the line")
     mean = np.bincount(j, weights=r, minlength=hn) / cnt
     return np.clip(np.floor(mean * (1 << HARM_FRAC) + 0.5), -128, 127).astype(np.int64)
+
+
+# ----------------------------------------------------------------------------------------------
+# Harmonic table files: what `hapgate harm fit` writes and `replay interp --harm FILE` reads.
+# $readmemh text: optional `//` comment lines, then one entry per line, two hex digits of the
+# 8-bit two's complement (1/4 count): 2^harm_log2 lines. The firmware loads the same entries
+# through HARM_ADDR / HARM_DATA (dsp-fw/include/hg_harm.h).
+
+def harm_table_text(table: np.ndarray, note: str = "") -> str:
+    t = np.asarray(table, dtype=np.int64)
+    if t.ndim != 1 or t.size < 16 or t.size & (t.size - 1) or t.min() < -128 or t.max() > 127:
+        raise ValueError("harmonic table: 2^N (N >= 4) signed 8-bit entries")
+    head = "".join(f"// {line}\n" for line in note.splitlines())
+    return head + "".join(f"{int(v) & 0xFF:02x}\n" for v in t)
+
+
+def read_harm_table(path: Path, harm_log2: int = HARM_LOG2) -> np.ndarray:
+    """The entries of a harmonic table file (signed); CaptureError naming FILE:LINE if the file
+    is not 2^harm_log2 entries of two hex digits."""
+    n = 1 << harm_log2
+    try:
+        text = Path(path).read_text(encoding="ascii")
+    except (OSError, UnicodeDecodeError) as exc:
+        raise CaptureError(f"{path}: cannot read the harmonic table ({exc})") from None
+    vals: list[int] = []
+    for k, raw in enumerate(text.splitlines(), 1):
+        tok = raw.split("//", 1)[0].strip()
+        if not tok:
+            continue
+        if len(tok) > 2 or any(c not in "0123456789abcdefABCDEF" for c in tok):
+            raise CaptureError(f"{path}:{k}: {tok!r} is not an entry (two hex digits, the "
+                               "8-bit two's complement of 1/4 counts, one per line)")
+        if len(vals) == n:
+            raise CaptureError(f"{path}:{k}: more than {n} entries (2^{harm_log2})")
+        v = int(tok, 16)
+        vals.append(v - 256 if v >= 128 else v)
+    if len(vals) != n:
+        raise CaptureError(f"{path}:{len(text.splitlines())}: {len(vals)} entries, the table "
+                           f"has {n} (2^{harm_log2})")
+    return np.array(vals, dtype=np.int64)

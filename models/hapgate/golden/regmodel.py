@@ -16,7 +16,13 @@ refused). The hapgate-specific hardware behaviour is written out here:
   dropped access; all three cleared by CTRL.FAULT_CLR;
 - VEL reads floor(v * SAMPLE_HZ / 2**VEL_LOG2W) of the snapshot's window difference v, or of the
   observer's velocity when the FPGA has the observer (`vel_obs`) and bit i of VEL_CTRL.SEL was
-  set before the snapshot's edge (`vel_sel_reset`: SEL resets to 7, hapgate_top VEL_OBS_SEL).
+  set before the snapshot's edge (`vel_sel_reset`: SEL resets to 7, hapgate_top VEL_OBS_SEL);
+- harmonic table (`harm`, hapgate_top HARM = 1; otherwise HARM_CTRL/HARM_ADDR/HARM_DATA read 0
+  and ignore writes): a HARM_DATA write stores its low byte into entry ADDR mod 2**harm_log2 of
+  axis AXIS's table (AXIS = 3: none); every HARM_DATA access, read or write, then increments
+  ADDR (mod 256) at its commit edge; a read returns that entry (0 for AXIS = 3); HARM_CTRL.LOG2
+  reads harm_log2. The tables are block RAM, not reset: an entry never written reads as
+  unknown in the hardware (here: 0).
 
 Time is counted in clock edges (integers). Every register updates at an edge from the values
 before it. `access(word, we, wdata, edge)` applies an access that the bus slave committed at
@@ -78,6 +84,8 @@ class RegModel:
     vel_log2w: int = 8
     vel_obs: bool = False                # the interpolator has the observer (VEL_OBS = 1)
     vel_sel_reset: bool = False          # VEL_CTRL.SEL resets to 7 (hapgate_top VEL_OBS_SEL)
+    harm: bool = False                   # the interpolator has the harmonic table (HARM = 1)
+    harm_log2: int = 6                   # its entries per line, log2 (HARM_LOG2)
     inputs: Inputs = _zero_inputs
     input_edges: list[int] = field(default_factory=list)  # sorted edges where inputs(e) changes
     # state
@@ -95,12 +103,15 @@ class RegModel:
     ticks: list[int] = field(default_factory=list)       # edges of every tick (for checks)
     expiries: list[int] = field(default_factory=list)
     pulses: list[tuple[int, str, int]] = field(default_factory=list)  # (edge, field, bits)
+    harm_tables: list[list[int]] = field(default_factory=list)  # per axis, 8-bit entries
 
     def __post_init__(self) -> None:
         self.regs = self.rm.by_name()
         self.words = self.rm.by_word()
         self.clk_hz = int(self.rm.params["CLK_HZ"])
         self.clk_per_us = self.clk_hz // 1_000_000
+        if not self.harm_tables:   # block RAM: kept through a reset
+            self.harm_tables = [[0] * (1 << self.harm_log2) for _ in range(3)]
         self.reset(self.reset_edge)
 
     # ------------------------------------------------------------------ state
@@ -192,6 +203,15 @@ class RegModel:
         value = self.stored[reg.name]
         ack = 0
         fault_clr = pet = tick_ok = False
+        if reg.name.startswith("HARM_"):
+            if self.harm and reg.name == "HARM_DATA":
+                addr, axis = self._field("HARM_ADDR", "ADDR"), self._field("HARM_ADDR", "AXIS")
+                if axis < 3:
+                    self.harm_tables[axis][addr % (1 << self.harm_log2)] = data & 0xFF
+                self._harm_step()
+                return ack, fault_clr, pet, tick_ok
+            if not self.harm:      # no harmonic stage: the registers ignore writes
+                return ack, fault_clr, pet, tick_ok
         for f in reg.fields:
             if "w" not in f.sw:
                 continue
@@ -244,7 +264,14 @@ class RegModel:
         reg = self.words.get(word)
         self._edge(edge, write=(reg, wdata) if (we and reg is not None) else None,
                    access_word=word)
+        if not we and self.harm and reg is not None and reg.name == "HARM_DATA":
+            self._harm_step()      # a read increments the address too (at its commit edge)
         return value
+
+    def _harm_step(self) -> None:
+        f = self.regs["HARM_ADDR"].field("ADDR")
+        addr = (self._field("HARM_ADDR", "ADDR") + 1) & 0xFF
+        self.stored["HARM_ADDR"] = (self.stored["HARM_ADDR"] & ~f.mask) | (addr << f.lsb)
 
     def proto_error(self, edge: int) -> None:
         self.run_to(edge - 1)
@@ -255,6 +282,12 @@ class RegModel:
         reg = self.words.get(word)
         if reg is None:
             return self.rm.unmapped_read
+        if reg.name.startswith("HARM_") and not self.harm:
+            return 0
+        if reg.name == "HARM_DATA":
+            axis = self._field("HARM_ADDR", "AXIS")
+            addr = self._field("HARM_ADDR", "ADDR") % (1 << self.harm_log2)
+            return self.harm_tables[axis][addr] if axis < 3 else 0
         value = 0
         for f in reg.fields:
             if f.sw == "w":
@@ -271,6 +304,8 @@ class RegModel:
     def _hw_value(self, reg: str, name: str) -> int:
         if reg == "SEQ":
             return self.seq
+        if reg == "HARM_CTRL":     # LOG2: the build's table size
+            return self.harm_log2 if self.harm else 0
         if reg == "STATUS":
             ins = self.inputs(self.done + 1)
             if name == "FAULT":

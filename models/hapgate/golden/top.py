@@ -11,8 +11,9 @@ has expired, drive is disabled (globally or for that axis) or the axis has a fau
 Clock edges are counted from the last edge that samples rst high (edge 0):
 
 - sample n is captured at edge (n + 1) * DIV + 1 (DIV = CLK_HZ / SAMPLE_HZ) and its results are
-  in the interpolator's output registers from edge (n + 1) * DIV + 5 (LATENCY) on: an edge e
-  sees sample n iff (n + 1) * DIV + LATENCY < e;
+  in the interpolator's output registers from edge (n + 1) * DIV + LATENCY on (LATENCY =
+  InterpConfig.latency: 5 for the paper's path, 6 with CAL, 16 + HARM with the ratio stage):
+  an edge e sees sample n iff (n + 1) * DIV + LATENCY < e;
 - frame k >= 1 starts (its inputs are latched) at edge k * FRAME_CLOCKS; frame 0 (from reset) is
   zero torque;
 - channel c of frame k: its word is presented on the pins at edge
@@ -36,7 +37,7 @@ from . import commutation, interp
 from .commutation import CommutationConfig, Frames
 from .interp import InterpConfig
 
-LATENCY = 5             # interpolator: capture-strobe cycle to output registers (rtl/interp)
+LATENCY = 5             # the paper's interpolator: capture-strobe cycle to output registers
 OFF = commutation.OFF
 DAC_TWR_NS = 50         # DAC7624/7625 t_WCS, CS low for write >= 50 ns (rtl/top/README.md)
 
@@ -63,6 +64,16 @@ class TopConfig:
         wr = max(self.comm.wr_cycles, dac_wr_clocks(self.clk_hz, self.dac_twr_ns))
         if wr != self.comm.wr_cycles:  # as hapgate_top.v: never shorter than the DAC's t_WCS
             object.__setattr__(self, "comm", replace(self.comm, wr_cycles=wr))
+        i = self.interp
+        if i.harm and not i.ratio:
+            raise ValueError("TopConfig: the harmonic table (harm) needs the ratio stage (ratio)")
+        if i.ratio and i.lut_bits != 7:   # as hapgate_top.v
+            raise ValueError("TopConfig: the ratio stage in the top runs at 1024 counts per line "
+                             "(lut_bits = 7): the registers and the firmware count 2^20 per "
+                             f"revolution; got lut_bits = {i.lut_bits}")
+        if i.harm and self.clk_hz < 2 * self.sample_hz:
+            raise ValueError("TopConfig: the harmonic table's read-back (HARM_DATA) needs "
+                             f"clk_hz >= 2 * sample_hz; got {self.clk_hz}")
         if self.comm.count_bits != self.count_bits:
             raise ValueError("commutation count_bits must be lut_bits + 3 + lines_log2")
 
@@ -94,6 +105,9 @@ class TopConfig:
                     "CAL_LINES_LOG2": i.cal_lines_log2, "CAL_NLOG": i.cal_nlog} if i.cal else {}),
                 **({"COARSE": 1} if i.coarse else {}),
                 **({"VEL_OBS": 1} if i.vel_obs else {}),
+                **{k: v for k, v in i.rtl_params().items()
+                   if k in ("ANGLE", "RATIO_BITS", "RATIO_FILE", "ANGLE_REG", "HARM",
+                            "HARM_LOG2")},
                 **({"VEL_OBS_SEL": 1} if self.vel_obs_sel else {})}
 
 
@@ -105,7 +119,13 @@ def blocks() -> list[Block]:
             "bus/emif_slave.v", "bus/hg_regfile.v", "bus/hg_bus.v", "top/hapgate_top.v")
     return [Block(name="hapgate_top", top="hapgate_top", sources=srcs,
                   params=lambda: TopConfig().rtl_params(),
-                  doc="the FPGA: 3 interpolators, commutation, DAC scheduler, bus, registers")]
+                  doc="the FPGA: 3 interpolators, commutation, DAC scheduler, bus, registers"),
+            Block(name="hapgate_top_harm", top="hapgate_top", sources=srcs,
+                  params=lambda: TopConfig(interp=InterpConfig(ratio=True, harm=True)
+                                           ).rtl_params(),
+                  lint_synth=(),   # (the stages are synthesised in enc_interp_ratio)
+                  doc="the FPGA with the ratio angle stage and the harmonic table "
+                      "(ANGLE = 1, HARM = 1, HARM_* registers)")]
 
 
 # ---------------------------------------------------------------------------- register timeline
@@ -174,7 +194,7 @@ def simulate(a: np.ndarray, b: np.ndarray, index: np.ndarray, timeline: Timeline
 
     def sample_seen(edge: np.ndarray) -> np.ndarray:
         """Latest sample whose results an edge sees: (n + 1) * DIV + LATENCY < edge."""
-        s = (np.asarray(edge) - LATENCY - 1) // cfg.div - 1
+        s = (np.asarray(edge) - cfg.interp.latency - 1) // cfg.div - 1
         if np.any(s >= n):
             raise ValueError("the run needs more ADC samples than given")
         return s

@@ -1,0 +1,67 @@
+"""The ratio angle stage and the harmonic table through the whole FPGA (hapgate_top with
+ANGLE = 1, HARM = 1): the table learned from the FPGA's own positions, loaded and read back over
+the bus (HARM_ADDR / HARM_DATA), enabled per axis (HARM_CTRL); positions bit-exact against the
+models on every sample, every read against the register model, each entry and the error against
+the float truth within their budgets (0.35 deg RMS with 1 % h3: issue 13).
+
+Verilator runs on test_top_calib's Verilator build (the same parameters: CAL = 1, disabled here,
+50 MHz), so the two share one build; Icarus builds the stages alone, at 8 MHz, shorter."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+from hapgate.flows import blocks
+from hapgate.golden import interp, top
+from hapgate.runners import sim
+
+HERE = Path(__file__).parent
+RUN = {"verilator": {"HG_LEARN": "2000", "HG_ON": "3000"},
+       "icarus": {"HG_LEARN": "1200", "HG_ON": "2200"}}
+
+
+def config(simulator: str) -> top.TopConfig:
+    if simulator == "verilator":   # = tb/top/test_top_calib.py's config("verilator")
+        return top.TopConfig(clk_hz=50_000_000, interp=interp.InterpConfig(
+            cal=True, cal_lines_log2=0, ratio=True, harm=True))
+    return top.TopConfig(clk_hz=8_000_000, interp=interp.InterpConfig(ratio=True, harm=True))
+
+
+@pytest.mark.parametrize("simulator", sim.simulators())
+def test_top_harmonic_table(simulator: str, monkeypatch: pytest.MonkeyPatch) -> None:
+    if simulator == "verilator":
+        monkeypatch.setenv("MAKEFLAGS", "CFG_CXXFLAGS_PCH_I=-include")   # (TOOLCHAIN.md)
+    sim.run_cocotb(blocks.get("hapgate_top"), simulator, "cocotb_top_harm", HERE,
+                   params=config(simulator).rtl_params(), extra_env=RUN[simulator])
+
+
+@pytest.mark.parametrize("change, stop", [
+    ({"LUT_BITS": 9}, "hapgate_top_ANGLE_1_needs_LUT_BITS_7"),
+    ({"CLK_HZ": 1_000_000}, "hapgate_top_HARM_needs_CLK_HZ_at_least_2_SAMPLE_HZ"),
+    ({"ANGLE": 0}, "enc_interp_HARM_must_be_0_or_1_and_needs_ANGLE_1"),
+    ({"HARM_LOG2": 9}, "hg_regfile_HARM_must_be_0_or_1_and_HARM_LOG2_4_to_8"),
+])
+def test_refused_configurations(change: dict[str, int], stop: str) -> None:
+    """Combinations that cannot work stop the elaboration with a message naming the parameter
+    (Icarus elaboration, no simulation), and TopConfig refuses them before any build."""
+    from hapgate.flows import flow
+
+    block = blocks.get("hapgate_top_harm")
+    good = flow.lint_icarus(block, block.params())
+    assert good.ok, good.detail
+    bad = flow.lint_icarus(block, block.params() | change)
+    assert not bad.ok and stop in bad.detail, bad.detail
+
+
+def test_top_config_refusals() -> None:
+    with pytest.raises(ValueError, match="1024 counts per line"):
+        top.TopConfig(interp=interp.InterpConfig(ratio=True, lut_bits=9))
+    with pytest.raises(ValueError, match="clk_hz >= 2"):
+        top.TopConfig(clk_hz=1_000_000, interp=interp.InterpConfig(ratio=True, harm=True))
+    with pytest.raises(ValueError, match="needs the ratio stage"):
+        top.TopConfig(interp=interp.InterpConfig(harm=True))
+    p = top.TopConfig(interp=interp.InterpConfig(ratio=True, harm=True)).rtl_params()
+    assert (p["ANGLE"], p["HARM"], p["HARM_LOG2"], p["RATIO_BITS"]) == (1, 1, 6, 10)
+    assert Path(str(p["RATIO_FILE"])).is_file()
+    assert not {"ANGLE", "HARM", "RATIO_FILE", "ANGLE_REG"} & set(top.TopConfig().rtl_params())
