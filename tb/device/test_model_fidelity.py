@@ -76,6 +76,39 @@ def test_multirate_model_stays_within_its_bound(pair):
     assert mdl.summary["fw_err"] == "0" and np.abs(fm["dac"]).max() > 100
 
 
+def test_model_at_48_mhz_takes_the_dac_schedule_and_matches_the_rtl():
+    """At the shipped 48 MHz the DAC's t_WCS lengthens the write strobe (3 clocks instead of 1)
+    and every load moves to 11 clocks after its slot start (9 up to 20 MHz): the model takes the
+    schedule from the run's configuration (golden.top.TopConfig, as runner.build's
+    HG_LOAD_CLOCKS). With the 1 us plant and every axis built it is bit-identical to the
+    gateware's full 48 MHz build (the one test_closed_loop's skip test uses: cached): every
+    frame, tick and DAC load (edge, channel, code). The multirate model gives the same frames
+    and ticks at 48 MHz as at 6 MHz (its events keep their order at any clock, README)."""
+    s = _short(**{"run.duration_s": 0.012})
+    rtl = runner.simulate(s, clk_hz=runner.FULL_CLK_HZ, mask=7)
+    m = s.override({"run.fidelity": "model"})
+    mdl = model.simulate(m, clk_hz=runner.FULL_CLK_HZ, mask=7, mech_us=1)
+    d = runner.FULL_CLK_HZ // 1_000_000
+    offsets = (mdl.loads["edge"] - mdl.loads["ch"] * 2 * d) % (16 * d)
+    assert set(offsets.tolist()) == {11}                      # not the 9 clocks of <= 20 MHz
+    assert rtl.frames.size == mdl.frames.size > 700
+    for name in runner.FRAME_DT.names:
+        assert np.array_equal(rtl.frames[name], mdl.frames[name]), name
+    assert rtl.ticks.size == mdl.ticks.size >= 20
+    for name in runner.TICK_DT.names:
+        assert np.array_equal(rtl.ticks[name], mdl.ticks[name]), name
+    assert np.array_equal(rtl.loads, mdl.loads)
+    assert np.abs(mdl.frames["dac"]).max() > 100
+    for k in ("fw_err", "last_key_edge", "clocks", "enabled_t"):
+        assert rtl.summary[k] == mdl.summary[k], k
+    fast, low = (model.simulate(m, clk_hz=c, mask=7)
+                 for c in (runner.FULL_CLK_HZ, runner.MIN_CLK_HZ))
+    for name in runner.FRAME_DT.names:
+        assert np.array_equal(fast.frames[name], low.frames[name]), name
+    for name in runner.TICK_DT.names:
+        assert np.array_equal(fast.ticks[name], low.ticks[name]), name
+
+
 def test_wall_law_at_model_fidelity_within_the_rtl_budget():
     """The wall test of test_closed_loop at model fidelity: its steady-state force against
     k * depth within the same budget as the gateware's (the budget's derivation is there)."""

@@ -35,7 +35,8 @@ using namespace hg_dev;
 constexpr int64_t kNever = int64_t(1) << 62;
 constexpr int kRing = 8192;                 // grid points of true angles kept (>= 2 velocity windows)
 constexpr int kLatency = 5;                 // interpolator: capture to output registers (golden.top)
-constexpr int kLoadClocks = 9;              // frame start -> channel 0 load (rtl/top/README.md)
+int64_t load_clocks = 0;                    // frame start -> channel 0 load edge (run config dac_load)
+int64_t wr_cycles = 0;                      // the DAC write strobe's length in clocks (t_WCS)
 constexpr double kTSweep0 = 100e-6;         // s after reset: the homing sweep starts
 
 RunCfg cfg;
@@ -67,11 +68,12 @@ struct Grid {
     int64_t scene0 = 0;
     int64_t mech_next = 0;                  // grid point of the next mechanics step
     struct Pend { int64_t at; int ch; int code; };
-    std::vector<Pend> pend;                 // DAC words on their way, in arrival order
-    size_t pend_head = 0;
+    static constexpr int64_t kPend = 1024;  // DAC words on their way (ring), in arrival order
+    Pend pend[kPend];
+    int64_t pend_head = 0, pend_tail = 0;
     int64_t amp_g = 0;                      // the amplifier's currents are those of this grid point
-    std::vector<FrameRec> frames;
-    std::vector<int8_t> adc;
+    RecordFile<FrameRec> frames;            // written as the run goes (harness_common.h)
+    RecordFile<int8_t> adc;
     int steps_per_us = 1;
     // the multirate plant's steps: q between two step boundaries is linear (semi-implicit Euler
     // moves q by dt * qd_new); step m covers the grid points (g0, g0 + k], m = (g - 1) / 16
@@ -100,13 +102,16 @@ struct Axis {
     int bad_run = 0;
     int faults = 0;
     std::vector<int32_t> pos_ring = std::vector<int32_t>(kRing, 0);
-    struct Hist { int32_t pos, pos_homed, index_pos; uint16_t index_count, ovs; uint8_t faults, homed; };
+    std::vector<uint8_t> fine_due = std::vector<uint8_t>(kRing, 0);   // pos_ring lacks the fine angle
+    struct Hist { int32_t index_pos; uint16_t index_count, ovs; uint8_t faults, homed; };   // (POS: pos_ring)
     std::vector<Hist> hist = std::vector<Hist>(kRing);
     // pulses (sample index they apply to)
     std::vector<int64_t> arm_at, clear_at;
     // event mode (after the release): faults as (sample, bits) events; clears as samples
     std::vector<std::pair<int64_t, int>> fault_ev;
     int64_t dropout_from = kNever;          // first sample with A = B = 0
+    bool simple = false;                    // no fault event, no clear after n_exact (fault_bits)
+    void update_simple() { simple = built && fault_ev.empty() && (clear_at.empty() || clear_at.back() <= n_exact); }
     int64_t qm_ref = 0;                     // absolute measured quadrant of sample n_exact
     // hold values (an axis that is not built)
     uint32_t hold_pos_homed = 0, hold_index_pos = 0, hold_index_count = 0;
@@ -153,15 +158,23 @@ int fine(const Axis& x, int a, int b, int sa, int sb) {
     return half ? (2 << x.lut_bits) - t : t;
 }
 
-// The exact sequential interpolator (rtl/interp, hapgate.golden.interp.run) on sample n.
-void exact_sample(int i, int64_t n, int a, int b, bool idx) {
+// The exact sequential interpolator (rtl/interp, hapgate.golden.interp.run) on sample n. With
+// sq >= 0 the sample lies in a homing-safe bin (make_safe_table): its words are not evaluated,
+// their sign-bit quadrant is sq, they neither clip nor leave the signal window, and the fine
+// angle is added to pos_ring when someone reads it (pos_of).
+void exact_sample(int i, int64_t n, int a, int b, bool idx, int sq = -1) {
     Axis& x = AX[i];
     for (int64_t c : x.clear_at)
         if (c == n) x.faults = 0;
-    if (a != 0) x.sa = a < 0;
-    if (b != 0) x.sb = b < 0;
+    if (sq >= 0) {
+        x.sa = sq >> 1;
+        x.sb = x.sa ^ (sq & 1);
+    } else {
+        if (a != 0) x.sa = a < 0;
+        if (b != 0) x.sb = b < 0;
+    }
     const int q = (x.sa << 1) | (x.sa ^ x.sb);
-    const int f = fine(x, a, b, x.sa, x.sb);
+    const int f = sq >= 0 ? 0 : fine(x, a, b, x.sa, x.sb);
     if (n == 0) {
         x.qc = q;
     } else {
@@ -187,18 +200,19 @@ void exact_sample(int i, int64_t n, int a, int b, bool idx) {
         if (x.armed) { x.home = line_start; x.homed = x.ever_homed = true; x.armed = false; }
     }
     x.idx_prev = idx;
-    const bool clip = a == -128 || a == 127 || b == -128 || b == 127;
+    const bool clip = sq < 0 && (a == -128 || a == 127 || b == -128 || b == 127);
     const int amp2 = a * a + b * b;
-    const bool bad = amp2 < cfg.amp_min * cfg.amp_min || amp2 > cfg.amp_max * cfg.amp_max;
+    const bool bad = sq < 0 && (amp2 < cfg.amp_min * cfg.amp_min || amp2 > cfg.amp_max * cfg.amp_max);
     x.bad_run = bad ? x.bad_run + 1 : 0;
     if (clip) x.faults |= 2;
     if (x.bad_run >= cfg.loss_samples) x.faults |= 4;
-    const int32_t ph = x.ever_homed ? static_cast<int32_t>(static_cast<uint32_t>(pos) - static_cast<uint32_t>(x.home)) : pos;
     x.pos_ring[static_cast<size_t>(n & (kRing - 1))] = pos;
-    x.hist[static_cast<size_t>(n & (kRing - 1))] = {pos, ph, x.index_pos, static_cast<uint16_t>(x.index_count),
+    x.fine_due[static_cast<size_t>(n & (kRing - 1))] = sq >= 0;
+    x.hist[static_cast<size_t>(n & (kRing - 1))] = {x.index_pos, static_cast<uint16_t>(x.index_count),
                                              static_cast<uint16_t>(x.ovs_count), static_cast<uint8_t>(x.faults),
                                              static_cast<uint8_t>(x.homed)};
     x.n_exact = n;
+    x.update_simple();
 }
 
 // Sign bits of sample n with the zero code held (look back over zero codes, at most 64 samples).
@@ -221,12 +235,22 @@ void signs(int i, int64_t n, int a, int b, int* sa, int* sb) {
 
 // Absolute measured quadrant of sample n: the sign-bit quadrant q, placed at the multiple of 4
 // nearest the true angle (4 * lines): exact while the decoder never steps two quadrants.
-int64_t qm_of(int i, int64_t n, int q) {
-    const double x4 = 4.0 * lines_of(i, n);
-    return q + 4 * static_cast<int64_t>(std::llround((x4 - q - 0.5) / 4.0));
+// std::llround (half away from zero) inline: v - trunc(v) is exact (Sterbenz), |v| < 2^53 here.
+inline int64_t round_half_away(double v) {
+    int64_t t = static_cast<int64_t>(v);
+    const double d = v - static_cast<double>(t);
+    if (d >= 0.5) ++t;
+    else if (d <= -0.5) --t;
+    return t;
 }
 
-int fault_bits(int i, int64_t n) {
+inline int64_t qm_at(double lines, int q) {
+    const double x4 = 4.0 * lines;
+    return q + 4 * round_half_away((x4 - q - 0.5) / 4.0);
+}
+int64_t qm_of(int i, int64_t n, int q) { return qm_at(lines_of(i, n), q); }
+
+int fault_bits_slow(int i, int64_t n) {
     const Axis& x = AX[i];
     if (!x.built) return 0;
     if (n <= x.n_exact) return n >= 0 ? x.hist[static_cast<size_t>(n & (kRing - 1))].faults : 0;
@@ -240,9 +264,27 @@ int fault_bits(int i, int64_t n) {
     return bits;
 }
 
+// The fault bits of sample n: after the release, with no fault event and no clear pending, the
+// exact counter's bits (the common case, one compare); else the event lists.
+inline int fault_bits(int i, int64_t n) {
+    const Axis& x = AX[i];
+    if (x.simple && n > x.n_exact) return x.faults;
+    return fault_bits_slow(i, n);
+}
+
 int32_t pos_of(int i, int64_t n) {                // POS of sample n
     Axis& x = AX[i];
-    if (n <= x.n_exact) return x.pos_ring[static_cast<size_t>(n & (kRing - 1))];
+    if (n <= x.n_exact) {
+        const size_t r = static_cast<size_t>(n & (kRing - 1));
+        if (x.fine_due[r]) {                      // a homing-safe sample: its words now
+            int a, b;
+            codes(i, n, &a, &b);
+            x.pos_ring[r] = static_cast<int32_t>(static_cast<uint32_t>(x.pos_ring[r]) +
+                                                 static_cast<uint32_t>(fine(x, a, b, a < 0, b < 0)));
+            x.fine_due[r] = 0;
+        }
+        return x.pos_ring[r];
+    }
     const bool drop = n >= x.dropout_from;        // the counter stands still, the fine angle of 0, 0
     const int64_t m = drop ? x.dropout_from - 1 : n;
     int sa = x.sa, sb = x.sb, a = 0, b = 0;
@@ -252,7 +294,7 @@ int32_t pos_of(int i, int64_t n) {                // POS of sample n
         if (!drop && (a == 127 || a == -128 || b == 127 || b == -128)) {  // clipping, seen where evaluated
             bool have = false;
             for (const auto& e : x.fault_ev) have = have || (e.first <= n && (e.second & 2));
-            if (!have) x.fault_ev.push_back({n, 2});
+            if (!have) { x.fault_ev.push_back({n, 2}); x.update_simple(); }
         }
         signs(i, m, a, b, &sa, &sb);
         const int q = (sa << 1) | (sa ^ sb);
@@ -299,11 +341,10 @@ Sample sample_of(int i, int64_t n, bool need_vel = true) {
     return s;
 }
 
+inline int64_t floordiv(int64_t a, int64_t b) { return a >= 0 ? a / b : -((-a + b - 1) / b); }
+
 // the latest sample whose results an edge sees: (n + 1) * D + LATENCY < edge
-int64_t seen(int64_t edge) {
-    const int64_t num = edge - kLatency - 1;
-    return (num >= 0 ? num / D : -((-num + D - 1) / D)) - 1;
-}
+int64_t seen(int64_t edge) { return floordiv(edge - kLatency - 1, D) - 1; }
 
 // ------------------------------------------------------------------ the register file
 struct Reg { uint32_t word, reset, wmask; int64_t rmin, rmax; };
@@ -358,20 +399,44 @@ int64_t clamp_torque(int64_t t, int64_t lim) {
 constexpr int kBins = 4096;
 std::vector<uint8_t> safe_q[3];
 
+// The homing sweep's exact interpolator needs more of a sample than its quadrant: no clipping
+// and no signal loss either. hsafe_q[i][b]: the quadrant of bin b if, in addition, the noise-free
+// codes of a noise-free axis stay inside both limits with one LSB to spare at both ends (a code
+// inside the bin is within one of its ends': the signal changes by < 0.3 LSB across it); else 255.
+std::vector<uint8_t> hsafe_q[3];
+
 void make_safe_table(int i) {
     safe_q[i].assign(kBins, 255);
+    hsafe_q[i].assign(kBins, 255);
     const double lim = 2.0 + 6.0 * noise_lsb[i];
-    int prev_q = -1;
+    int prev_q = -1, prev_a = 0, prev_b = 0;
     bool prev_ok = false;
     for (int b = 0; b <= kBins; ++b) {
         int8_t a8, b8;
         hg_plant_encode1(plant, i, static_cast<double>(b) / kBins, 0.0, 0.0, &a8, &b8);
         const bool ok = std::abs(a8) >= lim && std::abs(b8) >= lim;
         const int sa = a8 < 0, sb = b8 < 0, q = (sa << 1) | (sa ^ sb);
-        if (b > 0 && ok && prev_ok && q == prev_q) safe_q[i][static_cast<size_t>(b - 1)] = static_cast<uint8_t>(q);
+        if (b > 0 && ok && prev_ok && q == prev_q) {
+            safe_q[i][static_cast<size_t>(b - 1)] = static_cast<uint8_t>(q);
+            const int lo_a = std::min(std::abs(a8), prev_a) - 1, hi_a = std::max(std::abs(a8), prev_a) + 1;
+            const int lo_b = std::min(std::abs(b8), prev_b) - 1, hi_b = std::max(std::abs(b8), prev_b) + 1;
+            if (noise_lsb[i] == 0 && hi_a <= 126 && hi_b <= 126 &&
+                lo_a * lo_a + lo_b * lo_b >= cfg.amp_min * cfg.amp_min &&
+                hi_a * hi_a + hi_b * hi_b <= cfg.amp_max * cfg.amp_max)
+                hsafe_q[i][static_cast<size_t>(b - 1)] = static_cast<uint8_t>(q);
+        }
         prev_q = q;
         prev_ok = ok;
+        prev_a = std::abs(a8);
+        prev_b = std::abs(b8);
     }
+}
+
+// The homing-safe quadrant of a sample at fraction fr of a line, or -1 (evaluate its words).
+inline int homing_safe_q(int i, double fr) {
+    if (cfg.coarse) return -1;
+    const uint8_t q = hsafe_q[i][static_cast<size_t>(std::min(kBins - 1, static_cast<int>(fr * kBins)))];
+    return q == 255 ? -1 : q;
 }
 
 // Bits 31..9 of POS_HOMED of sample n (what sine commutation reads) from the true angle alone,
@@ -384,23 +449,38 @@ bool sine_hi(int i, int64_t n, int32_t* hi) {
     const double fr = ln - std::floor(ln);
     const uint8_t q = safe_q[i][static_cast<size_t>(std::min(kBins - 1, static_cast<int>(fr * kBins)))];
     if (q == 255) return false;
-    const int32_t qc = static_cast<int32_t>(static_cast<uint32_t>(x.qc) + static_cast<uint32_t>(qm_of(i, n, q) - x.qm_ref));
+    const int32_t qc = static_cast<int32_t>(static_cast<uint32_t>(x.qc) + static_cast<uint32_t>(qm_at(ln, q) - x.qm_ref));
     const int32_t pos_hi = qc >> 1;               // (pos >> 9 with pos = qc << 8 + f, f < 256)
     *hi = x.ever_homed ? pos_hi - (x.home >> 9) : pos_hi;
     return true;
 }
 
-struct Frame { int64_t k; int64_t code[6]; int next_ch; };
-std::vector<Frame> frames_open;                   // latched frames whose loads are still due
+struct Frame { int64_t k, base; int64_t code[6]; int next_ch; };
+constexpr int64_t kOpen = 8;                      // latched frames whose loads are still due (ring)
+Frame frames_open[kOpen];
+int64_t open_head = 0, open_tail = 0;
+int64_t present_off[6];                           // frame start -> channel c's presentation, clocks
+int64_t present_seen[6];                          // seen(frame start + present_off) - 16 k
+int64_t latch_seen = 0;                           // seen(frame start) - 16 k
+int64_t ev_present = kNever;                      // the next output-stage presentation (run_to)
+int64_t ev_reg = kNever;                          // the register file's next own event (run_to)
+int64_t load_after_present = 0;                   // presentation -> load edge (the write strobe + 1)
 int64_t next_latch_k = 0;                 // frame 0: the commutator's reset frame (zero torque)
 int16_t frame_codes[6] = {0, 0, 0, 0, 0, 0};
-std::vector<LoadRec> loads;
+RecordFile<LoadRec> loads;
 uint32_t skew_clk = 0, frame_clk = 0;
 
 void latch(int64_t k) {
     const int64_t e = k * frame_clk;
-    const int64_t n = seen(e);
-    Frame f{k, {0, 0, 0, 0, 0, 0}, 0};
+    const int64_t n = 16 * k + latch_seen;        // seen(e): the frame is 16 grid points
+    if (open_tail - open_head == kOpen) {
+        std::fprintf(stderr, "error: internal: more than %lld DAC frames open\n", static_cast<long long>(kOpen));
+        std::exit(3);
+    }
+    Frame& f = frames_open[open_tail & (kOpen - 1)];
+    f.k = k;
+    f.base = e;
+    f.next_ch = 0;
     const bool enable = global_en() && !wd_expired;
     for (int m = 0; m < 3; ++m) {
         const uint32_t mode = axis_en(m) ? (stored[HG_REG_AXIS(m, HG_AX_MODE)] & 3) : HG_MODE_OFF;
@@ -422,10 +502,10 @@ void latch(int64_t k) {
         // (sine mode reads only the angle code: bits 18..9 of the position, plus the offset)
         const int64_t ka = fast ? ((static_cast<int64_t>(hi) & 1023) + off) & 1023 : ua >> (kCB - kAB);
         const int64_t kb = (ka - kPhaseB) & 1023;
-        int ne = 0;
-        for (int64_t d : six_edges) ne += ua >= d;
         int64_t va, vb;
         if (mode == HG_MODE_SIX_STEP) {
+            int ne = 0;
+            for (int64_t d : six_edges) ne += ua >= d;
             va = kSixA[ne] * kFS;
             vb = kSixB[ne] * kFS;
         } else {
@@ -436,31 +516,47 @@ void latch(int64_t k) {
         f.code[2 * m] = zero ? 0 : scale(va, tq);
         f.code[2 * m + 1] = zero ? 0 : scale(vb, tq);
     }
-    frames_open.push_back(f);
+    ++open_tail;
 }
 
-// Channel loads of the latched frames up to edge e (output stage: golden.top.simulate).
+// Channel loads of the latched frames up to edge e (output stage: golden.top.simulate), in frame
+// and channel order (a frame's last presentation comes before the next frame's first). The
+// caller passes the edge before the next other event, so the controls and the fault lists that
+// decide the zeroing are those of each presentation's own edge.
 void present_due(int64_t e) {
-    for (auto& f : frames_open) {
-        while (f.next_ch < 6) {
-            const int c = f.next_ch;
-            const int64_t pe = f.k * frame_clk + c * static_cast<int64_t>(skew_clk) + kLoadClocks - 2;
+    const bool rec = cfg.record & 2;
+    while (open_head < open_tail) {
+        Frame& f = frames_open[open_head & (kOpen - 1)];
+        const bool off = wd_expired || !global_en();
+        const int64_t n0 = 16 * f.k, g0 = 16 * f.k + 2;
+        int c = f.next_ch;
+        for (; c < 6; ++c) {
+            const int64_t pe = f.base + present_off[c];
             if (pe > e) break;
-            const int m = c / 2;
-            const bool faulted = fault_bits(m, seen(pe)) != 0;
-            const bool kill = wd_expired || !global_en() || !axis_en(m) || faulted;
+            const int m = c >> 1;
+            const bool kill = off || !axis_en(m) || fault_bits(m, n0 + present_seen[c]) != 0;
             const int code = kill ? 0 : static_cast<int>(f.code[c]);
-            if (cfg.record & 2) loads.push_back({pe + 2, c, code});
-            G.pend.push_back({f.k * (frame_clk / D) + c * (skew_clk / D) + 2, c, code});
+            if (rec) loads.push({pe + load_after_present, c, code});
+            if (G.pend_tail - G.pend_head == Grid::kPend) {
+                std::fprintf(stderr, "error: internal: more than %lld DAC words in flight\n", static_cast<long long>(Grid::kPend));
+                std::exit(3);
+            }
+            G.pend[G.pend_tail++ & (Grid::kPend - 1)] = {g0 + 2 * c, c, code};
             frame_codes[c] = static_cast<int16_t>(code);
-            if (c == 5 && !G.frames.empty() && (cfg.record & 2)) std::memcpy(G.frames.back().dac, frame_codes, sizeof frame_codes);
-            ++f.next_ch;
         }
+        f.next_ch = c;
+        if (c == 6 && rec && !G.frames.empty()) std::memcpy(G.frames.back().dac, frame_codes, sizeof frame_codes);
+        if (c < 6) {
+            ev_present = f.base + present_off[c];
+            return;
+        }
+        ++open_head;
     }
-    while (!frames_open.empty() && frames_open.front().next_ch == 6) frames_open.erase(frames_open.begin());
+    ev_present = kNever;
 }
 
 // Register-file events of edge e (golden.regmodel._edge), with the committed write if any.
+void update_ev_reg();
 void reg_edge(int64_t e, int word = -1, uint32_t data = 0, bool we = false) {
     const uint32_t timeout_pre = wdog_timeout();
     const bool tick = e == next_tick;
@@ -478,7 +574,7 @@ void reg_edge(int64_t e, int word = -1, uint32_t data = 0, bool we = false) {
             const int64_t n_pulse = e / D;   // first sample captured at or after e + 1
             if (data & HG_CTRL_FAULT_CLR) {
                 fault_clr = true;
-                for (auto& x : AX) x.clear_at.push_back(n_pulse);
+                for (auto& x : AX) { x.clear_at.push_back(n_pulse); x.update_simple(); }
             }
             for (int i = 0; i < 3; ++i)
                 if (data & HG_CTRL_HOME_ARM_AXIS(i)) AX[i].arm_at.push_back(n_pulse);
@@ -525,6 +621,7 @@ void reg_edge(int64_t e, int word = -1, uint32_t data = 0, bool we = false) {
         expiries.push_back(e);
     }
     done_edge = e;
+    update_ev_reg();
 }
 
 void grid_point(int64_t g);
@@ -532,20 +629,17 @@ void grid_point(int64_t g);
 // A DAC word reaches the amplifier at grid point g (before that grid point's own work, as in
 // device_harness.cpp): the lazy current loop catches up to g first.
 void dac_arrival() {
-    const Grid::Pend& p = G.pend[G.pend_head];
+    const Grid::Pend& p = G.pend[G.pend_head++ & (Grid::kPend - 1)];
     if (G.dynamic && cfg.mech_us > 1) {
         hg_plant_amp(plant, static_cast<int>(p.at - G.amp_g));
         G.amp_g = p.at;
     }
     hg_plant_set_dac(plant, p.ch, p.code);
-    if (++G.pend_head > 4096) {
-        G.pend.erase(G.pend.begin(), G.pend.begin() + static_cast<std::ptrdiff_t>(G.pend_head));
-        G.pend_head = 0;
-    }
 }
 
-// The next grid point with work (a DAC word arriving, a frame record, a mechanics step): every
-// one through the homing sweep and with the 1 us plant, else only those.
+// The next grid point with work (a frame record, a mechanics step): every one through the homing
+// sweep and with the 1 us plant, else only those. (DAC words arriving in between are applied at
+// the next grid point visited, before its work: nothing reads the amplifier in between.)
 int64_t next_grid() {
     const int64_t g = G.done + 1;
     if (!G.dynamic || cfg.mech_us <= 1) return g;
@@ -554,33 +648,43 @@ int64_t next_grid() {
     return std::max(n, g);
 }
 
+// The next event of each kind, kept up to date where it changes (run_to's loop compares them;
+// ev_present and ev_reg are declared with the frames).
+int64_t ev_grid = 0, ev_grid_g = 0;               // the next grid point (its edge, its index)
+
+void update_ev_present() {
+    ev_present = kNever;
+    if (open_head < open_tail) {
+        const Frame& f = frames_open[open_head & (kOpen - 1)];
+        ev_present = f.base + present_off[f.next_ch];
+    }
+}
+void update_ev_reg() {
+    ev_reg = std::min(next_tick, std::min(snap_at, cfg_err_at));
+    if (!wd_expired) ev_reg = std::min(ev_reg, wd_expiry);
+}
+void update_ev_grid() { ev_grid_g = next_grid(); ev_grid = ev_grid_g * D; }
+
 // Apply everything up to edge E, in edge order: frame latches and output stages (they see the
 // controls set before their edge), the register file's own events, the grid points (plant).
 void run_to(int64_t E) {
     while (true) {
         const int64_t nl = next_latch_k * frame_clk;
-        int64_t np = kNever;
-        for (const auto& f : frames_open)
-            if (f.next_ch < 6) { np = std::min(np, f.k * frame_clk + f.next_ch * static_cast<int64_t>(skew_clk) + kLoadClocks - 2); break; }
-        int64_t nr = std::min(next_tick, std::min(snap_at, cfg_err_at));
-        if (!wd_expired) nr = std::min(nr, wd_expiry);
-        const int64_t gn = next_grid();
-        const int64_t ng = gn * D;
-        const int64_t nd = G.pend_head < G.pend.size() ? G.pend[G.pend_head].at * D : kNever;
-        const int64_t nxt = std::min(std::min(std::min(nl, np), std::min(nr, ng)), nd);
+        const int64_t nxt = std::min(std::min(nl, ev_present), std::min(ev_reg, ev_grid));
         if (nxt > E) break;
-        if (nl == nxt) { latch(next_latch_k); ++next_latch_k; }
-        if (np == nxt) present_due(nxt);
-        if (nr == nxt) reg_edge(nxt);
-        while (nd == nxt && G.pend_head < G.pend.size() && G.pend[G.pend_head].at * D == nxt) dac_arrival();
-        if (ng == nxt) grid_point(gn);
+        if (nl == nxt) { latch(next_latch_k); ++next_latch_k; update_ev_present(); }
+        if (ev_present == nxt)   // (every presentation before the next other event: at an equal edge
+            present_due(std::min(std::min(E, nl - 1), std::min(ev_reg, ev_grid)));   // a latch comes first)
+        if (ev_reg == nxt) reg_edge(nxt);
+        if (ev_grid == nxt) { grid_point(ev_grid_g); update_ev_grid(); }
     }
     done_edge = std::max(done_edge, E);
-    G.done = std::max(G.done, E / D);   // the grid points skipped up to E had nothing to do
+    // (the grid points skipped up to E had nothing to do: the next one with work is > E already)
 }
 
 // ------------------------------------------------------------------ the grid point (1 us)
 void grid_point(int64_t g) {
+    while (G.pend_head < G.pend_tail && G.pend[G.pend_head & (Grid::kPend - 1)].at <= g) dac_arrival();
     G.done = g;
     const bool lazy = G.dynamic && cfg.mech_us > 1;
     if (lazy) hg_plant_amp(plant, static_cast<int>(g - G.amp_g));   // commands held since amp_g
@@ -605,7 +709,7 @@ void grid_point(int64_t g) {
         G.amp_g = g + 1;
     } else {
         if (mech) {   // one mechanics step to the next multiple of mech_us (and the record)
-            const int k = cfg.mech_us - static_cast<int>(g % cfg.mech_us);
+            const int k = cfg.mech_us - static_cast<int>(g & (cfg.mech_us - 1));   // (a power of 2)
             double q0[3], q1[3];
             hg_plant_q(plant, q0);
             hg_plant_mech_read(plant, k, rec ? &o : nullptr);
@@ -620,7 +724,7 @@ void grid_point(int64_t g) {
             const double* dq = st.dq;
             if (G.lazy_from == kNever) G.lazy_from = g;
             for (int i = 0; i < 3; ++i) {   // overspeed: a step of >= 1/8 line per sample
-                if (AX[i].built && std::fabs(dq[i]) / (2 * kPi) * 1024.0 >= 0.125) AX[i].fault_ev.push_back({g, 1});
+                if (AX[i].built && std::fabs(dq[i]) / (2 * kPi) * 1024.0 >= 0.125) { AX[i].fault_ev.push_back({g, 1}); AX[i].update_simple(); }
             }
             G.mech_next = g + k;
         }
@@ -637,26 +741,27 @@ void grid_point(int64_t g) {
             for (int i = 0; i < 6; ++i) r.i_ab[i] = o.i_ab[i];
             r.energy = o.energy;
         }
-        G.frames.push_back(r);
+        G.frames.push(r);
     }
     // the exact interpolator through the homing sweep: sample g - 1 is the ADC word of grid g
     if (!G.dynamic && g >= 1) {
         for (int i = 0; i < 3; ++i) {
             if (!AX[i].built) continue;
-            int a, b;
-            codes(i, g - 1, &a, &b);
+            int a = 0, b = 0;
             const double x = lines_of(i, g - 1);
             const double line = std::floor(x);
             const double mline = line - 1024.0 * std::floor(line / 1024.0);
-            exact_sample(i, g - 1, a, b, mline == 0.0 && x - line < 0.25);
+            const int sq = homing_safe_q(i, x - line);
+            if (sq < 0) codes(i, g - 1, &a, &b);
+            exact_sample(i, g - 1, a, b, mline == 0.0 && x - line < 0.25, sq);
         }
     }
     if (G.dynamic && (cfg.record & 4) && g > G.scene0) {
         for (int i = 0; i < 3; ++i) {
             int a = 0, b = 0;
             if (AX[i].built) codes(i, g - 1, &a, &b);
-            G.adc.push_back(static_cast<int8_t>(a));
-            G.adc.push_back(static_cast<int8_t>(b));
+            G.adc.push(static_cast<int8_t>(a));
+            G.adc.push(static_cast<int8_t>(b));
         }
     }
 }
@@ -737,10 +842,40 @@ int main(int argc, char** argv) {
     }
     std::string err;
     const std::string ptext = slurp(argv[1]);
-    if (!parse_run(slurp(argv[2]), cfg, err, true)) {
+    std::string rtext = slurp(argv[2]);
+    {   // this harness's own key (not parse_run's): dac_load = LOAD_CLOCKS WR_CYCLES, the edge of
+        // channel 0's load after the frame start (the RTL harness's HG_LOAD_CLOCKS) and the
+        // write strobe's length (golden.top: presentation = load - 1 - wr, load = presentation + wr + 1)
+        std::istringstream in(rtext);
+        std::string line, rest;
+        int found = 0;
+        while (std::getline(in, line)) {
+            if (line.rfind("dac_load", 0) == 0 && line.find('=') != std::string::npos) {
+                std::istringstream vs(line.substr(line.find('=') + 1));
+                double l = -1, w = -1, extra;
+                vs >> l >> w;
+                if (!vs || (vs >> extra) || l != std::floor(l) || w != std::floor(w) || w < 1 || l < w + 1) {
+                    std::fprintf(stderr, "error: %s: dac_load: expected LOAD_CLOCKS WR_CYCLES (whole, LOAD > WR >= 1)\n", argv[2]);
+                    return 2;
+                }
+                load_clocks = static_cast<int64_t>(l);
+                wr_cycles = static_cast<int64_t>(w);
+                ++found;
+            } else {
+                rest += line + "\n";
+            }
+        }
+        if (found != 1) {
+            std::fprintf(stderr, "error: %s: dac_load: expected once\n", argv[2]);
+            return 2;
+        }
+        rtext = rest;
+    }
+    if (!parse_run(rtext, cfg, err, true)) {
         std::fprintf(stderr, "error: %s: %s\n", argv[2], err.c_str());
         return 2;
     }
+    load_after_present = wr_cycles + 1;
     if (cfg.clk_hz < 6000000 || cfg.clk_hz % 1000000 || cfg.asin_lut.size() != 129 || cfg.sine_rom.size() != 256 ||
         cfg.regs.empty() || (cfg.mech_us > 1 && 16 % cfg.mech_us) || cfg.lut_bits != 7) {
         std::fprintf(stderr, "error: %s: clk_hz, asin_lut (129), sine_rom (256), reg, mech_us (a divisor of 16) "
@@ -785,21 +920,35 @@ int main(int argc, char** argv) {
         std::fprintf(stderr, "error: %s: DAC_SKEW/DAC_FRAME must be 2 us / 16 us\n", argv[2]);
         return 2;
     }
+    if (load_clocks >= static_cast<int64_t>(skew_clk)) {   // a word must be loaded before it reaches the amplifier
+        std::fprintf(stderr, "error: %s: dac_load: the load must come within one slot (%u clocks)\n", argv[2], skew_clk);
+        return 2;
+    }
+    for (int c = 0; c < 6; ++c) {
+        present_off[c] = c * static_cast<int64_t>(skew_clk) + load_clocks - 1 - wr_cycles;
+        present_seen[c] = seen(present_off[c]);   // (frame_clk = 16 D: seen(16 k D + x) = 16 k + seen(x))
+    }
+    latch_seen = seen(0);
     for (int i = 0; i < 3; ++i) {
         noise_lsb[i] = hg_plant_noise_lsb(plant, i);
-        make_safe_table(i);
         AX[i].built = (cfg.axis_mask >> i) & 1;
+        if (AX[i].built) make_safe_table(i);     // (read for built axes only)
         AX[i].lut_bits = cfg.lut_bits;
         AX[i].fb = cfg.lut_bits + 1;
         AX[i].hold_pos_homed = cfg.hold_pos_homed[i];
         AX[i].hold_index_pos = cfg.hold_index_pos[i];
         AX[i].hold_index_count = cfg.hold_index_count[i];
     }
+    G.frames.open(outdir + "/frames.bin");
+    loads.open(outdir + "/loads.bin");
+    G.adc.open(outdir + "/adc.bin");
     // reset: the last edge that samples rst high is edge 0
     wd_expiry = static_cast<int64_t>(wdog_timeout()) * D;
     next_tick = tick_div();
+    update_ev_reg();
     hg_plant_hold(plant, 1);
     grid_point(0);
+    update_ev_grid();
 
     const auto w0 = std::chrono::steady_clock::now();
     const std::clock_t c0 = std::clock();
@@ -818,8 +967,6 @@ int main(int argc, char** argv) {
     const int64_t end_us = G.scene0 + std::llround(cfg.duration_s * 1e6);
     std::vector<TickRec> ticks;
     ticks.reserve(static_cast<size_t>(cfg.duration_s * cfg.servo_hz) + 64);
-    G.frames.reserve(static_cast<size_t>(cfg.duration_s * 1e6 / 16) + 16);
-    if (cfg.record & 2) loads.reserve(static_cast<size_t>((end_us + 16) / 16 * 6));
     int64_t homed_isr = -1;
     bool enabled = false, hang = false, resumed = false;
     double enable_t = NAN;
@@ -852,6 +999,7 @@ int main(int argc, char** argv) {
             hg_plant_set_q(plant, cfg.q0, cfg.qd0);
             G.dynamic = true;
             G.mech_next = G.done + 1;
+            update_ev_grid();
             for (int i = 0; i < 3; ++i) {
                 if (!AX[i].built) continue;
                 const int q = (AX[i].sa << 1) | (AX[i].sa ^ AX[i].sb);
@@ -868,7 +1016,7 @@ int main(int argc, char** argv) {
             const auto& f = faults[k].second;
             if (f.kind == 1) {   // A = B = 0 from the next grid point's word: sample g_now on
                 AX[f.axis].dropout_from = g_now;
-                if (AX[f.axis].built) AX[f.axis].fault_ev.push_back({g_now + cfg.loss_samples - 1, 4});
+                if (AX[f.axis].built) { AX[f.axis].fault_ev.push_back({g_now + cfg.loss_samples - 1, 4}); AX[f.axis].update_simple(); }
             }
             if (f.kind == 2) hang = true;
             if (f.kind == 3) drop_wdog = true;
@@ -904,7 +1052,10 @@ int main(int argc, char** argv) {
     }
     const double wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - w0).count();
     const double cpu_s = static_cast<double>(std::clock() - c0) / CLOCKS_PER_SEC;
-    write_records(outdir, G.frames, ticks, loads, G.adc);
+    G.frames.close();
+    write_file(outdir, "ticks.bin", ticks.data(), ticks.size() * sizeof(TickRec));
+    loads.close();
+    G.adc.close();
     const double sim_s = static_cast<double>(end_us - G.scene0) * 1e-6;
     print_summary({cfg.clk_hz, cfg.axis_mask, sim_s, wall_s, cpu_s, static_cast<uint64_t>(edge_now), G.frames.size(),
                    ticks.size(), loads.size(), init_err, s.err, s.err_axis, enable_t, wdog_us,
