@@ -34,10 +34,9 @@ import random
 
 import cocotb
 import numpy as np
-from cocotb.clock import Clock
 from cocotb.triggers import ClockCycles, ReadOnly, RisingEdge, Timer
 from cocotb.utils import get_sim_time
-from hapgate.golden import angle, emif, encsig, interp, regmap
+from hapgate.golden import angle, encsig, interp, regmap
 from hapgate.golden import top as topm
 from hapgate.golden.regmodel import RegModel
 from hapgate.runners import tbutil
@@ -88,24 +87,9 @@ async def harmonic_table_through_the_top(dut) -> None:
     n_load = 6000 // CFG.div + 200           # samples the bus sequence may take, with margin
     n = N_LEARN + n_load + N_ON
     a, b, lines = stimulus(n)
-    cocotb.start_soon(Clock(dut.clk, PERIOD_PS, unit="ps").start())
-    master = emif.EmifMaster(dut)
-    dut.adc_a.value = 0
-    dut.adc_b.value = 0
-    dut.enc_index.value = 0
-    dut.rst.value = 1
-    await ClockCycles(dut.clk, 4)
-    ref = int(get_sim_time(unit="ps"))
-    dut.rst.value = 0
-    mon = emif.Monitor(dut, PERIOD_PS, ref, scope=dut.u_bus)
-    mon.start()
+    bus = await tbutil.TopBus(dut, PERIOD_PS, W, rng).start()
+    ref, mon, master, wr, rd = bus.ref, bus.mon, bus.master, bus.wr, bus.rd
     pos: list[int] = []                      # the interpolator's m_pos, every sample
-
-    async def drive_adc() -> None:
-        for k in range(n):
-            await RisingEdge(dut.adc_strobe)
-            dut.adc_a.value = sum((int(a[k, i]) & 0xFF) << (8 * i) for i in range(3))
-            dut.adc_b.value = sum((int(b[k, i]) & 0xFF) << (8 * i) for i in range(3))
 
     async def record() -> None:
         while True:
@@ -113,19 +97,10 @@ async def harmonic_table_through_the_top(dut) -> None:
             await ReadOnly()
             pos.append(int(dut.u_interp.m_pos.value))
 
-    cocotb.start_soon(drive_adc())
+    cocotb.start_soon(tbutil.drive_top_adc(dut, a, b))
     cocotb.start_soon(record())
     await ClockCycles(dut.clk, 3 * CFG.div)
     await Timer(PERIOD_PS // 3, unit="ps")
-
-    def timing() -> emif.Timing:
-        return emif.random_timing(rng, PERIOD_PS)
-
-    async def wr(name: str, v: int) -> None:
-        await master.write(W[name], v, timing())
-
-    async def rd(name: str) -> int:
-        return await master.read(W[name], timing())
 
     ident = await rd("ID")
     assert ident == RM.by_name()["ID"].reset, f"ID 0x{ident:08x}"

@@ -12,10 +12,9 @@ import random
 
 import cocotb
 import numpy as np
-from cocotb.clock import Clock
-from cocotb.triggers import ClockCycles, RisingEdge, Timer
+from cocotb.triggers import ClockCycles, Timer
 from cocotb.utils import get_sim_time
-from hapgate.golden import emif, encsig, interp, regmap, velobs
+from hapgate.golden import encsig, interp, regmap, velobs
 from hapgate.golden import top as topm
 from hapgate.runners import tbutil
 
@@ -38,37 +37,15 @@ def stimulus() -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     return a, b, np.array(SPEEDS)
 
 
-async def drive_adc(dut, a: np.ndarray, b: np.ndarray) -> None:
-    for k in range(a.shape[0]):
-        await RisingEdge(dut.adc_strobe)
-        dut.adc_a.value = sum((int(a[k, i]) & 0xFF) << (8 * i) for i in range(3))
-        dut.adc_b.value = sum((int(b[k, i]) & 0xFF) << (8 * i) for i in range(3))
-
-
 @cocotb.test()
 async def observer_through_the_top(dut) -> None:
     rng = random.Random(5)
     a, b, _ = stimulus()
-    cocotb.start_soon(Clock(dut.clk, PERIOD_PS, unit="ps").start())
-    master = emif.EmifMaster(dut)
-    dut.adc_a.value = 0
-    dut.adc_b.value = 0
-    dut.enc_index.value = 0
-    dut.rst.value = 1
-    await ClockCycles(dut.clk, 4)
-    ref = int(get_sim_time(unit="ps"))
-    dut.rst.value = 0
-    mon = emif.Monitor(dut, PERIOD_PS, ref, scope=dut.u_bus)
-    mon.start("tick")
-    cocotb.start_soon(drive_adc(dut, a, b))
+    bus = await tbutil.TopBus(dut, PERIOD_PS, W, rng).start("tick")
+    ref, mon, wr, rd = bus.ref, bus.mon, bus.wr, bus.rd
+    cocotb.start_soon(tbutil.drive_top_adc(dut, a, b))
     await ClockCycles(dut.clk, 3 * CFG.div)
     await Timer(PERIOD_PS // 3, unit="ps")
-
-    async def wr(name: str, v: int) -> None:
-        await master.write(W[name], v, emif.random_timing(rng, PERIOD_PS))
-
-    async def rd(name: str) -> int:
-        return await master.read(W[name], emif.random_timing(rng, PERIOD_PS))
 
     # reset: SEL = 7 (VEL_OBS_SEL), TYPE3 = 7, BW = 6 on every axis
     assert await rd("VEL_CTRL") == 0x6_6677, "VEL_CTRL reset"

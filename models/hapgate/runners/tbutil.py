@@ -48,3 +48,51 @@ def append_interp_outputs(dut, cols: dict[str, list[int]]) -> None:
         v = getattr(dut, port).value
         cols[col].append(v.to_signed() if kind == "s" else v.to_unsigned() if kind == "u"
                          else int(v))
+
+
+class TopBus:
+    """The whole FPGA top brought out of reset with its bus ready (the calibration, velocity
+    observer and harmonic-table benches share it): clock started, ADC inputs zero, reset for 4
+    clocks, the bus monitor recording from the reset edge `ref`. `wr` / `rd` access a register
+    by name with random EMIF timing from `rng`."""
+
+    def __init__(self, dut, period_ps: int, words: dict[str, int], rng) -> None:
+        from ..golden import emif
+        self.dut, self.period_ps, self.words, self.rng = dut, period_ps, words, rng
+        self.master = emif.EmifMaster(dut)
+        self.mon: emif.Monitor | None = None
+        self.ref = 0
+
+    async def start(self, *watch: str):
+        from cocotb.utils import get_sim_time
+
+        from ..golden import emif
+        dut = self.dut
+        cocotb.start_soon(Clock(dut.clk, self.period_ps, unit="ps").start())
+        dut.adc_a.value = 0
+        dut.adc_b.value = 0
+        dut.enc_index.value = 0
+        dut.rst.value = 1
+        await ClockCycles(dut.clk, 4)
+        self.ref = int(get_sim_time(unit="ps"))
+        dut.rst.value = 0
+        self.mon = emif.Monitor(dut, self.period_ps, self.ref, scope=dut.u_bus)
+        self.mon.start(*watch)
+        return self
+
+    async def wr(self, name: str, v: int) -> None:
+        from ..golden import emif
+        await self.master.write(self.words[name], v, emif.random_timing(self.rng, self.period_ps))
+
+    async def rd(self, name: str) -> int:
+        from ..golden import emif
+        return await self.master.read(self.words[name], emif.random_timing(self.rng,
+                                                                           self.period_ps))
+
+
+async def drive_top_adc(dut, a, b) -> None:
+    """Present sample k of every axis (a, b: shape (n, 3) signed codes) at the k-th ADC strobe."""
+    for k in range(a.shape[0]):
+        await RisingEdge(dut.adc_strobe)
+        dut.adc_a.value = sum((int(a[k, i]) & 0xFF) << (8 * i) for i in range(3))
+        dut.adc_b.value = sum((int(b[k, i]) & 0xFF) << (8 * i) for i in range(3))
