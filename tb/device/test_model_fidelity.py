@@ -34,19 +34,24 @@ def pair() -> tuple[runner.Raw, runner.Raw, runner.Raw, sc.Scene]:
     return runner.simulate(s), model.simulate(m, mech_us=1), model.simulate(m), s
 
 
-def test_model_with_the_1us_plant_is_bit_identical_to_the_rtl(pair):
-    """Same plant path (1 us): every frame (q, p, F_hand, tau, currents, the six DAC codes), every
-    firmware tick and every DAC load (edge, channel, code) equal bit for bit: the register file,
-    the servo tick, the snapshot timing, the interpolator's positions and velocities, the
-    commutator's sine table and arithmetic and the output stage are exact at the grid's timing."""
-    rtl, mdl, _, _ = pair
-    assert rtl.frames.size == mdl.frames.size > 1000
+
+def assert_same_run(rtl: runner.Raw, mdl: runner.Raw, min_frames: int) -> None:
+    """Every frame, tick and load record of the two runs equal, field by field."""
+    assert rtl.frames.size == mdl.frames.size > min_frames
     for name in runner.FRAME_DT.names:
         assert np.array_equal(rtl.frames[name], mdl.frames[name]), name
     assert rtl.ticks.size == mdl.ticks.size >= 20
     for name in runner.TICK_DT.names:
         assert np.array_equal(rtl.ticks[name], mdl.ticks[name]), name
     assert np.array_equal(rtl.loads, mdl.loads)
+
+def test_model_with_the_1us_plant_is_bit_identical_to_the_rtl(pair):
+    """Same plant path (1 us): every frame (q, p, F_hand, tau, currents, the six DAC codes), every
+    firmware tick and every DAC load (edge, channel, code) equal bit for bit: the register file,
+    the servo tick, the snapshot timing, the interpolator's positions and velocities, the
+    commutator's sine table and arithmetic and the output stage are exact at the grid's timing."""
+    rtl, mdl, _, _ = pair
+    assert_same_run(rtl, mdl, 1000)
     assert np.abs(mdl.frames["dac"]).max() > 100            # it was driving
     for k in ("fw_err", "last_key_edge", "clocks", "enabled_t"):
         assert rtl.summary[k] == mdl.summary[k], k
@@ -91,13 +96,7 @@ def test_model_at_48_mhz_takes_the_dac_schedule_and_matches_the_rtl():
     d = runner.FULL_CLK_HZ // 1_000_000
     offsets = (mdl.loads["edge"] - mdl.loads["ch"] * 2 * d) % (16 * d)
     assert set(offsets.tolist()) == {11}                      # not the 9 clocks of <= 20 MHz
-    assert rtl.frames.size == mdl.frames.size > 700
-    for name in runner.FRAME_DT.names:
-        assert np.array_equal(rtl.frames[name], mdl.frames[name]), name
-    assert rtl.ticks.size == mdl.ticks.size >= 20
-    for name in runner.TICK_DT.names:
-        assert np.array_equal(rtl.ticks[name], mdl.ticks[name]), name
-    assert np.array_equal(rtl.loads, mdl.loads)
+    assert_same_run(rtl, mdl, 700)
     assert np.abs(mdl.frames["dac"]).max() > 100
     for k in ("fw_err", "last_key_edge", "clocks", "enabled_t"):
         assert rtl.summary[k] == mdl.summary[k], k
