@@ -58,6 +58,9 @@ bool parse_run(const std::string& text, RunCfg& c, std::string& err, bool model_
         else if (model_keys && key == "mech_us" && need(1)) c.mech_us = static_cast<int>(v[0]);
         else if (model_keys && key == "axis_mask" && need(1)) c.axis_mask = static_cast<int>(v[0]);
         else if (model_keys && key == "clk_hz" && need(1)) c.clk_hz = static_cast<uint32_t>(v[0]);
+        else if (model_keys && key == "dac_load" && need(2)) {
+            c.dac_load[0] = v[0]; c.dac_load[1] = v[1]; ++c.dac_load_seen;
+        }
         else if (model_keys && key == "asin_lut") c.asin_lut = v;
         else if (model_keys && key == "sine_rom") c.sine_rom = v;
         else if (model_keys && key == "reg" && need(5)) c.regs.insert(c.regs.end(), v.begin(), v.end());

@@ -41,6 +41,8 @@ struct RunCfg {
     int mech_us = 0;                        // mechanics step, us (0: the plant's own dt_s)
     int axis_mask = 7;                      // axes built (the RTL's AXIS_MASK)
     uint32_t clk_hz = 0;                    // the clock the records' edges count
+    double dac_load[2] = {-1, -1};          // frame start -> channel 0 load edge, write strobe clocks
+    int dac_load_seen = 0;                  // (model key dac_load = LOAD_CLOCKS WR_CYCLES)
     std::vector<double> asin_lut, sine_rom; // interpolator and commutation tables
     std::vector<double> regs;               // word, reset, write mask, range min, max (-1: none) per register
     int vel_log2w = 8, amp_min = 40, amp_max = 170, loss_samples = 16, lut_bits = 7;

@@ -842,38 +842,25 @@ int main(int argc, char** argv) {
     }
     std::string err;
     const std::string ptext = slurp(argv[1]);
-    std::string rtext = slurp(argv[2]);
-    {   // this harness's own key (not parse_run's): dac_load = LOAD_CLOCKS WR_CYCLES, the edge of
-        // channel 0's load after the frame start (the RTL harness's HG_LOAD_CLOCKS) and the
-        // write strobe's length (golden.top: presentation = load - 1 - wr, load = presentation + wr + 1)
-        std::istringstream in(rtext);
-        std::string line, rest;
-        int found = 0;
-        while (std::getline(in, line)) {
-            if (line.rfind("dac_load", 0) == 0 && line.find('=') != std::string::npos) {
-                std::istringstream vs(line.substr(line.find('=') + 1));
-                double l = -1, w = -1, extra;
-                vs >> l >> w;
-                if (!vs || (vs >> extra) || l != std::floor(l) || w != std::floor(w) || w < 1 || l < w + 1) {
-                    std::fprintf(stderr, "error: %s: dac_load: expected LOAD_CLOCKS WR_CYCLES (whole, LOAD > WR >= 1)\n", argv[2]);
-                    return 2;
-                }
-                load_clocks = static_cast<int64_t>(l);
-                wr_cycles = static_cast<int64_t>(w);
-                ++found;
-            } else {
-                rest += line + "\n";
-            }
-        }
-        if (found != 1) {
-            std::fprintf(stderr, "error: %s: dac_load: expected once\n", argv[2]);
-            return 2;
-        }
-        rtext = rest;
-    }
+    const std::string rtext = slurp(argv[2]);
     if (!parse_run(rtext, cfg, err, true)) {
         std::fprintf(stderr, "error: %s: %s\n", argv[2], err.c_str());
         return 2;
+    }
+    {   // dac_load = LOAD_CLOCKS WR_CYCLES: the edge of channel 0's load after the frame start (the
+        // RTL harness's HG_LOAD_CLOCKS) and the write strobe's length (golden.top: presentation =
+        // load - 1 - wr, load = presentation + wr + 1)
+        const double l = cfg.dac_load[0], w = cfg.dac_load[1];
+        if (cfg.dac_load_seen != 1) {
+            std::fprintf(stderr, "error: %s: dac_load: expected once\n", argv[2]);
+            return 2;
+        }
+        if (l != std::floor(l) || w != std::floor(w) || w < 1 || l < w + 1) {
+            std::fprintf(stderr, "error: %s: dac_load: expected LOAD_CLOCKS WR_CYCLES (whole, LOAD > WR >= 1)\n", argv[2]);
+            return 2;
+        }
+        load_clocks = static_cast<int64_t>(l);
+        wr_cycles = static_cast<int64_t>(w);
     }
     load_after_present = wr_cycles + 1;
     if (cfg.clk_hz < 6000000 || cfg.clk_hz % 1000000 || cfg.asin_lut.size() != 129 || cfg.sine_rom.size() != 256 ||
