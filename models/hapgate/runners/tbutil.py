@@ -9,6 +9,9 @@ from pathlib import Path
 import cocotb
 from cocotb.clock import Clock
 from cocotb.triggers import ClockCycles, RisingEdge
+from cocotb.utils import get_sim_time
+
+from ..golden import emif
 
 
 def params() -> dict[str, object]:
@@ -57,16 +60,12 @@ class TopBus:
     by name with random EMIF timing from `rng`."""
 
     def __init__(self, dut, period_ps: int, words: dict[str, int], rng) -> None:
-        from ..golden import emif
         self.dut, self.period_ps, self.words, self.rng = dut, period_ps, words, rng
         self.master = emif.EmifMaster(dut)
         self.mon: emif.Monitor | None = None
         self.ref = 0
 
-    async def start(self, *watch: str):
-        from cocotb.utils import get_sim_time
-
-        from ..golden import emif
+    async def start(self, *watch: str) -> TopBus:
         dut = self.dut
         cocotb.start_soon(Clock(dut.clk, self.period_ps, unit="ps").start())
         dut.adc_a.value = 0
@@ -81,11 +80,9 @@ class TopBus:
         return self
 
     async def wr(self, name: str, v: int) -> None:
-        from ..golden import emif
         await self.master.write(self.words[name], v, emif.random_timing(self.rng, self.period_ps))
 
     async def rd(self, name: str) -> int:
-        from ..golden import emif
         return await self.master.read(self.words[name], emif.random_timing(self.rng,
                                                                            self.period_ps))
 
