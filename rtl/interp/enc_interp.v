@@ -84,6 +84,16 @@ module enc_interp #(
     output wire [15:0] m_cal_phase,       // signed, 2^-14
     output wire [7:0]  m_cal_gear,        // valid blocks since enable (saturating)
     output wire [15:0] m_cal_updates      // valid blocks since reset (wrapping)
+`ifdef HG_SIM_GATE
+    ,
+    // simulation only (the virtual device, tb/native/device/README.md "Stage clocks"): the
+    // stage clocks {D+E, C, B, A}, driven by the harness as clk in the cycles whose enables
+    // sim_gate_en announced after the previous edge; a stage's registers change only in those
+    // cycles, so the results are the same as with clk everywhere (and with HG_SIM_GATE undefined
+    // every stage runs on clk)
+    input  wire [3:0]  sim_gclk,
+    output wire [3:0]  sim_gate_en
+`endif
 );
     localparam integer FB   = LUT_BITS + 1;             // fine bits per quadrant
     localparam integer QCW  = 32 - FB;                  // quadrant counter width
@@ -96,6 +106,22 @@ module enc_interp #(
     localparam [16:0]     AMP2_MAX = AMP2_MAX_I[16:0];
     localparam [RUNW-1:0] LOSS_N   = LOSS_SAMPLES[RUNW-1:0];
     localparam [QCW-1:0]  QC_TWO   = {{(QCW - 2){1'b0}}, 2'd2};
+
+    // Stage clocks: clk in the design; in a HG_SIM_GATE simulation of the configurations whose
+    // stages work only with their valid (no calibration, delay line or harmonic stage) the
+    // harness's gated clocks, else clk (the enables then ask for every cycle).
+    wire clk_a, clk_b, clk_c, clk_de;
+`ifdef HG_SIM_GATE
+    assign clk_a  = sim_gclk[0];
+    assign clk_b  = sim_gclk[1];
+    assign clk_c  = sim_gclk[2];
+    assign clk_de = sim_gclk[3];
+`else
+    assign clk_a  = clk;
+    assign clk_b  = clk;
+    assign clk_c  = clk;
+    assign clk_de = clk;
+`endif
 
     // Elaboration-time checks: a bad configuration instantiates a module that does not exist,
     // whose name is the message.
@@ -151,7 +177,7 @@ module enc_interp #(
     reg       clr_pend, arm_pend_ctl;
     reg       cal_en_a, cal_fr_a, hen_a;
 
-    always @(posedge clk) begin
+    always @(posedge clk_a) begin
         if (s_valid) begin
             hen_a    <= ctl_harm_en;
             cal_en_a <= ctl_cal_en;
@@ -248,7 +274,7 @@ module enc_interp #(
                         sq_tab[t] = {7'd0, m} * {7'd0, m};            // <= 128 * 128: 15 bits
                     end
                 end
-                always @(posedge clk) begin
+                always @(posedge clk_a) begin
                     if (s_valid) begin
                         a_sq_q <= sq_tab[(INVERT != 0) ? s_b : s_a];
                         b_sq_q <= sq_tab[(INVERT != 0) ? s_a : s_b];
@@ -373,7 +399,7 @@ module enc_interp #(
             reg [LUT_BITS-1:0] lut [0:LUT_N-1];
             reg [LUT_BITS-1:0] lut_b;
             initial $readmemh(LUT_FILE, lut);
-            always @(posedge clk) lut_b <= lut[addr];
+            always @(posedge clk_b) lut_b <= lut[addr];
             assign t_b = {1'b0, lut_b};
             wire unused_mlg = &{1'b0, mlg_r};
         end
@@ -381,7 +407,7 @@ module enc_interp #(
     reg [1:0]          q_b;
     reg                half_b, idx_b, clr_b, arm_b, clip_b, bad_b, hen_b;
 
-    always @(posedge clk) begin
+    always @(posedge clk_b) begin
         hen_b  <= sbd_s[6];
         q_b    <= sbd_s[5:4];
         half_b <= sbd_s[3];
@@ -402,7 +428,7 @@ module enc_interp #(
         end
     end
 
-    always @(posedge clk) begin
+    always @(posedge clk_b) begin
         if (rst) begin
             sa_prev <= 1'b0;
             sb_prev <= 1'b0;
@@ -540,8 +566,12 @@ module enc_interp #(
     reg [15:0] index_count_c, ovs_count_c;
 
     always @(posedge clk) begin
+        if (rst) vc <= 1'b0;
+        else     vc <= vC;
+    end
+
+    always @(posedge clk_c) begin
         if (rst) begin
-            vc            <= 1'b0;
             started       <= 1'b0;
             last_up       <= 1'b1;
             idx_prev      <= 1'b1;
@@ -556,7 +586,6 @@ module enc_interp #(
             index_count_c <= 16'd0;
             ovs_count_c   <= 16'd0;
         end else begin
-            vc <= vC;
             if (vC) begin
                 started  <= 1'b1;
                 q_prev   <= qC;
@@ -585,7 +614,7 @@ module enc_interp #(
     end
 
     reg ovs_c;
-    always @(posedge clk) begin
+    always @(posedge clk_c) begin
         if (vC) begin
             pos_c       <= pos_next;
             pos_homed_c <= pos_next - home_next;
@@ -620,7 +649,7 @@ module enc_interp #(
     reg                 homed_d;
     reg [2:0]           flags_d;
 
-    always @(posedge clk) begin
+    always @(posedge clk_de) begin
         if (vc) begin
             hist[wptr] <= pos_c[DW-1:0];
             old_d      <= hist[wptr];            // read-before-write: pos[n - W]
@@ -642,7 +671,7 @@ module enc_interp #(
                 flags_d       = flags;
             end
         end else begin : g_copy_d
-            always @(posedge clk) begin
+            always @(posedge clk_de) begin
                 pos_d         <= pos_c;
                 pos_homed_d   <= pos_homed_c;
                 index_pos_d   <= index_pos_c;
@@ -655,13 +684,16 @@ module enc_interp #(
     endgenerate
 
     always @(posedge clk) begin
+        if (rst) vd <= 1'b0;
+        else     vd <= vc;
+    end
+
+    always @(posedge clk_de) begin
         if (rst) begin
-            vd     <= 1'b0;
             wptr   <= {VEL_LOG2W{1'b0}};
             full   <= 1'b0;
             full_d <= 1'b0;
         end else begin
-            vd <= vc;
             if (vc) begin
                 wptr   <= wptr + 1'b1;
                 full_d <= full;
@@ -673,7 +705,7 @@ module enc_interp #(
     // ---------------------------------------------------------------- stage E: outputs
     wire [DW-1:0] vdiff = pos_d[DW-1:0] - old_d;
 
-    always @(posedge clk) begin
+    always @(posedge clk_de) begin
         if (vd) begin
             m_pos             <= pos_d;
             m_pos_homed       <= pos_homed_d;
@@ -687,16 +719,24 @@ module enc_interp #(
     end
 
     always @(posedge clk) begin
-        if (rst) begin
-            m_valid  <= 1'b0;
-            m_faults <= 3'b000;
-        end else begin
-            m_valid <= vd;
-            if (vd) m_faults <= flags_d;
-        end
+        if (rst) m_valid <= 1'b0;
+        else     m_valid <= vd;
+    end
+
+    always @(posedge clk_de) begin
+        if (rst)     m_faults <= 3'b000;
+        else if (vd) m_faults <= flags_d;
     end
 
     assign m_fault = |m_faults;
+
+`ifdef HG_SIM_GATE
+    // the enables of the stage clocks at the next edge (state after this one): capture with the
+    // strobe, each stage with its input valid, stages D and E until their valids clear
+    localparam integer GATE = (CAL == 0 && HARM == 0 && ANGLE == 0 && ANGLE_REG == 0) ? 1 : 0;
+    assign sim_gate_en = (GATE != 0) ? {rst | vc | vd, rst | vC, rst | ctl_s[2], s_valid}
+                                     : 4'b1111;
+`endif
 endmodule
 
 `default_nettype wire

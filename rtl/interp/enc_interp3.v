@@ -68,6 +68,11 @@ module enc_interp3 #(
     output wire [16*AXES-1:0]   m_cal_phase,
     output wire [8*AXES-1:0]    m_cal_gear,
     output wire [16*AXES-1:0]   m_cal_updates
+`ifdef HG_SIM_GATE
+    ,
+    input  wire [3:0]           sim_gclk,        // simulation only: the stage clocks (enc_interp)
+    output wire [3:0]           sim_gate_en      // their enables, any axis
+`endif
 );
     generate
         if (AXES < 1 || AXES > 3) begin : g_bad_axes
@@ -82,6 +87,16 @@ module enc_interp3 #(
     wire [AXES-1:0] valid;
     assign m_valid = &valid;  // the axes run in lockstep
     wire [AXES-1:0] cal_valid;
+`ifdef HG_SIM_GATE
+    wire [4*AXES-1:0] gate_en;
+    reg  [3:0]        gate_any;
+    integer           k;
+    always @(*) begin
+        gate_any = 4'd0;
+        for (k = 0; k < AXES; k = k + 1) gate_any = gate_any | gate_en[4*k +: 4];
+    end
+    assign sim_gate_en = gate_any;
+`endif
     assign m_cal_valid = &cal_valid;
 
     genvar i;
@@ -118,6 +133,9 @@ module enc_interp3 #(
                 .ctl_harm_en(ctl_harm_en[i]), .cfg_harm_we(cfg_harm_we[i]),
                 .cfg_harm_addr(cfg_harm_addr), .cfg_harm_data(cfg_harm_data),
                 .m_harm_rdata(m_harm_rdata[8*i +: 8])
+`ifdef HG_SIM_GATE
+                , .sim_gclk(sim_gclk), .sim_gate_en(gate_en[4*i +: 4])
+`endif
             );
         end
     endgenerate

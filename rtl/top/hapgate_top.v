@@ -91,6 +91,15 @@ module hapgate_top #(
     input  wire [95:0]              sim_hold_pos_homed,
     input  wire [95:0]              sim_hold_index_pos,
     input  wire [47:0]              sim_hold_index_count
+`ifdef HG_SIM_GATE
+    ,
+    // simulation only: the interpolators' stage clocks and their enables (enc_interp)
+    input  wire                     sim_gclk_a,   // stage A (capture)
+    input  wire                     sim_gclk_b,   // stage B (quadrant, table)
+    input  wire                     sim_gclk_c,   // stage C (count, index, faults)
+    input  wire                     sim_gclk_de,  // stages D and E (velocity, outputs)
+    output wire [3:0]               sim_gate_en   // their enables at the next edge {DE, C, B, A}
+`endif
 `endif
 );
     localparam integer COUNT_BITS  = LUT_BITS + 3 + LINES_LOG2;  // counts per revolution, log2
@@ -282,6 +291,12 @@ module hapgate_top #(
         .ctl_harm_en(c_harm_en), .cfg_harm_we(c_harm_we), .cfg_harm_addr(harm_addr),
         .cfg_harm_data(harm_wdata), .m_harm_rdata(c_harm_rdata),
         .m_vel_obs(c_vel_obs), .cfg_obs_bw(c_obs_bw), .cfg_obs_type3(c_obs_type3)
+`ifdef HG_SIM
+`ifdef HG_SIM_GATE
+        , .sim_gclk({sim_gclk_de, sim_gclk_c, sim_gclk_b, sim_gclk_a}),
+        .sim_gate_en(sim_gate_en)
+`endif
+`endif
     );
     wire unused_cal_valid = &{1'b0, cal_valid};  // (the registers read the live state)
     wire [95:0] cal_ofs_w, cal_gain_w, cal_stat_w;

@@ -88,22 +88,26 @@ def axis_mask(scene: Any) -> int:
 
 
 def build(clk_hz: int, mask: int = 7, trace: bool = False, test_limits: bool = False,
-          coarse: bool = False, vel_obs: bool = False) -> Path:
+          coarse: bool = False, vel_obs: bool = False, gate: bool = True) -> Path:
     """Verilate the top (HG_SIM, AXIS_MASK) with the harness, plant and firmware (cached).
     test_limits: the firmware built with HG_SCENE_K_MAX_TEST (scene key firmware.test_limits);
     coarse: plain quadrature, the interpolator's fine angle zeroed (run.position);
-    vel_obs: the tracking velocity observer built and reported as VEL (run.velocity)."""
+    vel_obs: the tracking velocity observer built and reported as VEL (run.velocity);
+    gate: the interpolators' stages on simulation-only stage clocks (HG_SIM_GATE,
+    tb/native/device/README.md "Stage clocks"; False: every stage on clk, the same results)."""
     cfg = TopConfig(clk_hz=clk_hz, interp=InterpConfig(coarse=coarse, vel_obs=vel_obs),
                     vel_obs_sel=vel_obs)
     block = blocks()[0]
     srcs = [ROOT / "rtl" / s for s in block.sources]
     params = cfg.rtl_params() | {"AXIS_MASK": mask}
     fw_srcs = sorted((FW / "src").glob("*.c")) + sorted((FW / "include").glob("*.h"))
-    vflags = ["-DHG_SIM"] + (["--trace"] if trace else [])   # VCD: FST needs liblz4 headers
+    vflags = (["-DHG_SIM"] + (["-DHG_SIM_GATE"] if gate else [])
+              + (["--trace"] if trace else []))   # VCD: FST needs liblz4 headers
     defs = (f"HG_SCENE_K_MAX_TEST={K_MAX_TEST:.1f}",) if test_limits else ()
     return native.verilate_harness(
         "device_harness", block.top, srcs, params, HARNESS,
         cflags=(f"-std=c++17 -DCLK_HZ={clk_hz} -DAXIS_MASK={mask} -DHG_TRACE={int(trace)} "
+                f"-DHG_SIM_GATE={int(gate)} "
                 f"-DHG_LOAD_CLOCKS={cfg.comm.load_clocks + 1} "
                 f"-I{HERE} -I{FW / 'include'}" + "".join(f" -D{d}" for d in defs)),
         ldflags="fw/libhgfw.a -lm",
@@ -336,9 +340,10 @@ def _progress_reader(proc: subprocess.Popen, duration: float, progress: Any) -> 
 
 
 def simulate(scene: Any, clk_hz: int | None = None, mask: int | None = None,
-             progress: Any = None, out_dir: Path | None = None) -> Raw:
+             progress: Any = None, out_dir: Path | None = None, gate: bool = True) -> Raw:
     """Build what the scene needs (or the given clock/mask) and run it once; at model fidelity
-    the golden models' harness (hapgate.device.model)."""
+    the golden models' harness (hapgate.device.model). gate=False: the rtl build without the
+    interpolators' simulation-only stage clocks (build(); the same results, slower)."""
     if scene.run.fidelity == "model":
         from . import model
         return model.simulate(scene, clk_hz, mask, progress, out_dir)
@@ -346,7 +351,7 @@ def simulate(scene: Any, clk_hz: int | None = None, mask: int | None = None,
     m = axis_mask(scene) if mask is None else int(mask)
     trace = bool(scene.run.trace)
     exe = build(clk, m, trace, bool(getattr(scene.firmware, "test_limits", False)),
-                _coarse(scene), _observer(scene))
+                _coarse(scene), _observer(scene), gate=gate)
     q0 = start_pose(scene)
     built = [f"interpolator axis {i}" for i in range(3) if m >> i & 1]
     built += ["commutator + DAC scheduler", "bus + register file", "firmware (dsp-fw)",

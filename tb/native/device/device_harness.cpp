@@ -175,9 +175,27 @@ struct Bench {
     void eval() { Vhapgate_top___024root___eval(top->rootp); }
 #endif
 
+#if HG_SIM_GATE
+    // the interpolators' stage clocks (rtl/interp/enc_interp.v, README "Stage clocks"): each
+    // ticks with clk in the cycles whose enable the design announced after the previous edge
+    uint8_t gates = 0xF;
+    void set_gates(unsigned g) {
+        top->sim_gclk_a = g & 1U;
+        top->sim_gclk_b = (g >> 1) & 1U;
+        top->sim_gclk_c = (g >> 2) & 1U;
+        top->sim_gclk_de = (g >> 3) & 1U;
+    }
+#endif
+
     void tick() {
         top->clk = 1;
+#if HG_SIM_GATE
+        set_gates(gates);
+#endif
         eval();
+#if HG_SIM_GATE
+        gates = static_cast<uint8_t>(top->sim_gate_en | (top->rst ? 0xF : 0));
+#endif
         ++edge;
 #if HG_TRACE
         if (tfp) tfp->dump(static_cast<uint64_t>(edge) * 2);
@@ -203,6 +221,9 @@ struct Bench {
         }
         prev_irq = top->irq;
         top->clk = 0;
+#if HG_SIM_GATE
+        set_gates(0);
+#endif
 #if HG_TRACE
         eval();
         if (tfp) tfp->dump(static_cast<uint64_t>(edge) * 2 + 1);
@@ -211,6 +232,12 @@ struct Bench {
         // next posedge evaluation (its input phase always runs): instead of evaluating the
         // falling edge, record it as the model's edge detector would (saves ~5 % of a run).
         top->rootp->__Vtrigprevexpr___TOP__clk__0 = 0;
+#if HG_SIM_GATE
+        top->rootp->__Vtrigprevexpr___TOP__sim_gclk_a__0 = 0;
+        top->rootp->__Vtrigprevexpr___TOP__sim_gclk_b__0 = 0;
+        top->rootp->__Vtrigprevexpr___TOP__sim_gclk_c__0 = 0;
+        top->rootp->__Vtrigprevexpr___TOP__sim_gclk_de__0 = 0;
+#endif
 #endif
         if (edge % D == 0) grid(edge / D);
     }
@@ -333,8 +360,16 @@ int main(int argc, char** argv) {
     top.bus_ce_n = top.bus_re_n = top.bus_we_n = 1;
     top.eval();
     for (int i = 0; i < 4; ++i) {
-        top.clk = 1; top.eval();
-        top.clk = 0; top.eval();
+        top.clk = 1;
+#if HG_SIM_GATE
+        bench.set_gates(0xF);
+#endif
+        top.eval();
+        top.clk = 0;
+#if HG_SIM_GATE
+        bench.set_gates(0);
+#endif
+        top.eval();
     }
     top.rst = 0;
     top.eval();
