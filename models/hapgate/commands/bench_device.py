@@ -3,7 +3,8 @@ fidelity, clock and set of axes, and where the time goes (gateware, firmware, pl
 
 Rows: the wall scene (scenes/wall.toml: three axes, a hand pushing into a 20 N/cm wall, 1 kHz
 servo; the dropout fault dropped so the whole run renders the wall) at the lowest bit-identical
-clock, at 10 kHz servo, with one axis built, and at the shipped 48 MHz with everything built.
+clock (with the interpolators' simulation-only stage clocks, and without them), at 10 kHz servo,
+with one axis built, and at the shipped 48 MHz with everything built.
 The real-time factor is simulated time over the harness's wall time (build excluded), and over
 its CPU time (the one-core figure, meaningful on a busy machine); the cost split comes from the
 harness's own timers (HG_PROFILE=1)."""
@@ -19,10 +20,11 @@ from ..device import runner
 from ..device import scene as sc
 
 
-def _row(label: str, s: Any, clk: int | None = None, mask: int | None = None) -> list[object]:
+def _row(label: str, s: Any, clk: int | None = None, mask: int | None = None,
+         gate: bool = True) -> list[object]:
     os.environ["HG_PROFILE"] = "1"
     try:
-        raw = runner.simulate(s, clk_hz=clk, mask=mask)
+        raw = runner.simulate(s, clk_hz=clk, mask=mask, gate=gate)
     finally:
         os.environ.pop("HG_PROFILE", None)
     m, per, _ = runner.metrics(s, raw)
@@ -47,6 +49,7 @@ def run(quick: bool = False) -> bool:
         {"run.duration_s": 0.25 if quick else 0.5, "fault": [], "expect": {}})
     rows = [
         _row("wall, 3 axes", base),
+        _row("wall, 3 axes, no stage clocks", base, gate=False),
         _row("wall, 3 axes, 10 kHz servo", base.override({"run.servo_hz": 10000})),
         _row("wall, axis 1 only", base.override({"run.axes": [1]})),
     ]

@@ -78,7 +78,8 @@ def run_cocotb(
     runner = get_runner(sim)
     args = list(build_args)
     if sim == "verilator":
-        args += ["-Wno-fatal", "--x-assign", "unique", "--x-initial", "unique"]
+        args += ["-Wno-fatal", "--x-assign", "unique", "--x-initial", "unique",
+                 "--output-split", "0"]   # (split output takes a PCH path the wheel breaks)
     with _locked(bdir):
         runner.build(
             sources=[*block.source_paths(), *extra_sources],
