@@ -28,6 +28,14 @@ module emif_slave #(
     output reg  [ADDR_BITS-1:0] m_addr,
     output reg  [31:0]          m_wdata,
     output wire                 m_proto_err      // one clock: an access was dropped
+`ifdef HG_SIM_GATE
+    ,
+    // simulation only (the virtual device, tb/native/device/README.md "Stage clocks"): the
+    // bus clock, driven by the harness as clk in the cycles whose enable sim_gate_en announced
+    // after the previous edge or in which it changed a pin; with HG_SIM_GATE undefined: clk
+    input  wire                 sim_gclk,
+    output wire                 sim_gate_en
+`endif
 );
     generate
         if (ADDR_BITS < 6 || ADDR_BITS > 30) begin : g_bad_addr_bits
@@ -35,11 +43,19 @@ module emif_slave #(
         end
     endgenerate
 
+    wire clk_g;   // every register here: clk, or the simulation's bus clock
+`ifdef HG_SIM_GATE
+    assign clk_g = sim_gclk;
+    wire unused_clk = &{1'b0, clk};   // (every register is on the bus clock)
+`else
+    assign clk_g = clk;
+`endif
+
     // ---------------------------------------------------------------- synchronisers
     // stage 0 and 1 are the synchroniser; stage 2 remembers the previous synchronised value.
     reg [2:0] ce_s, re_s, we_s;  // active-high "asserted" samples (inverted pins)
 
-    always @(posedge clk) begin
+    always @(posedge clk_g) begin
         if (rst) begin
             ce_s <= 3'b000;
             re_s <= 3'b000;
@@ -69,7 +85,7 @@ module emif_slave #(
 
     assign m_raddr = s_bus_addr;
 
-    always @(posedge clk) begin
+    always @(posedge clk_g) begin
         if (start_rd | start_wr) begin  // datapath: not reset
             m_addr  <= s_bus_addr;
             m_wdata <= s_bus_data_in;
@@ -82,7 +98,7 @@ module emif_slave #(
     assign m_req       = pend & still;
     assign m_proto_err = (pend & ~still) | both_q;
 
-    always @(posedge clk) begin
+    always @(posedge clk_g) begin
         if (rst) begin
             pend     <= 1'b0;
             pend_we  <= 1'b0;
@@ -109,6 +125,17 @@ module emif_slave #(
     wire wr_pin = ~s_bus_ce_n & ~s_bus_we_n;
     assign s_bus_data_oe = rd_pin & (served_q | (pend & ~pend_we));
     assign s_bus_ready   = (rd_pin | wr_pin) & served_q;
+
+`ifdef HG_SIM_GATE
+    // the bus clock's enable at the next edge, for the pins as they are now: reset, a
+    // synchroniser stage that differs from its pin (a strobe or select on its way in), a
+    // captured access, a protocol error, or a ready to drop. In any other cycle every register
+    // here keeps its value on clk (the stages shift in the values they hold, no access starts).
+    // The harness adds the cycles after it changes a pin.
+    wire sim_settled = (ce_s == {3{~s_bus_ce_n}}) && (re_s == {3{~s_bus_re_n}})
+                       && (we_s == {3{~s_bus_we_n}});
+    assign sim_gate_en = rst | ~sim_settled | pend | both_q | (served_q & ~(rd1 | wr1));
+`endif
 endmodule
 
 `default_nettype wire

@@ -68,6 +68,13 @@ module hg_regfile #(
     output wire                 wdog_expired,    // sticky: all torque to zero
     output wire                 irq,             // servo tick pending (level)
     output reg                  tick             // one clock after each servo tick (observation)
+`ifdef HG_SIM_GATE
+    ,
+    // simulation only (the virtual device, tb/native/device/README.md "Stage clocks"): the bus
+    // clock (emif_slave's) for the registers that change only with an access, and their enable
+    input  wire                 sim_gclk,
+    output wire                 sim_gate_en
+`endif
 );
     // ---------------------------------------------------------------- constants
     localparam integer CLK_PER_US = CLK_HZ / 1_000_000;
@@ -138,6 +145,16 @@ module hg_regfile #(
     endgenerate
 
     // ---------------------------------------------------------------- decode
+    // The registers written only by an access (configuration, harmonic table address, error
+    // flags) are on clk_g: clk, or the simulation's bus clock. The counters, the snapshot and
+    // the watchdog are on clk.
+    wire clk_g;
+`ifdef HG_SIM_GATE
+    assign clk_g = sim_gclk;
+`else
+    assign clk_g = clk;
+`endif
+
     wire [ADDR_BITS-1:0] wa = s_addr;
     wire hi_zero_w = (wa[ADDR_BITS-1:6] == {(ADDR_BITS - 6){1'b0}});
     wire glob_w    = hi_zero_w && (wa[5:4] == 2'b00);
@@ -180,7 +197,7 @@ module hg_regfile #(
     wire wd_ok       = s_wdata[31:20] == 12'd0 && s_wdata[19:0] >= WD_MIN && s_wdata[19:0] <= WD_MAX;
 
     integer i;
-    always @(posedge clk) begin
+    always @(posedge clk_g) begin
         if (rst) begin
             global_en_q     <= 1'b0;
             axis_en_q       <= 3'b000;
@@ -253,7 +270,7 @@ module hg_regfile #(
             reg [7:0] harm_addr_q;
             reg [1:0] harm_axis_q;
             wire      data_acc = s_req && glob_w && wa[3:0] == A_HARM_DATA[3:0];
-            always @(posedge clk) begin
+            always @(posedge clk_g) begin
                 if (rst) begin
                     harm_en_q   <= 3'b000;
                     harm_addr_q <= 8'd0;
@@ -410,13 +427,19 @@ module hg_regfile #(
 
     always @(posedge clk) begin
         if (rst) begin
-            index_seen  <= 3'b000;
+            index_seen <= 3'b000;
+        end else begin
+            for (i = 0; i < 3; i = i + 1)
+                if (in_index_count[16*i +: 16] != 16'd0) index_seen[i] <= 1'b1;
+        end
+    end
+
+    always @(posedge clk_g) begin
+        if (rst) begin
             cfg_err_q   <= 1'b0;
             bus_err_q   <= 1'b0;
             proto_err_q <= 1'b0;
         end else begin
-            for (i = 0; i < 3; i = i + 1)
-                if (in_index_count[16*i +: 16] != 16'd0) index_seen[i] <= 1'b1;
             cfg_err_q   <= cfg_err_set | (cfg_err_q & ~fault_clr_w);
             bus_err_q   <= (s_req && !mapped(s_addr)) | (bus_err_q & ~fault_clr_w);
             proto_err_q <= s_proto_err | (proto_err_q & ~fault_clr_w);
@@ -523,6 +546,14 @@ module hg_regfile #(
             end
         end
     end
+`ifdef HG_SIM_GATE
+    // the bus clock's enable for this module at the next edge: reset, an access (s_req, which
+    // needs the slave's enable a clock earlier too) or a pulse to clear. Without them every
+    // clk_g register keeps its value on clk: its writes need wr or data_acc, the pulses are 0,
+    // and the error flags hold (no cfg_err_set, s_req, s_proto_err or fault_clr_w).
+    assign sim_gate_en = rst | s_req | s_proto_err | ctl_fault_clear | (|ctl_home_arm) | snap_req
+                         | cfg_err_set;
+`endif
 endmodule
 
 `default_nettype wire

@@ -47,6 +47,15 @@ module commutator #(
     output wire [DAC_BITS-1:0]            dac_data,
     output wire [2:0]                     dac_addr,
     output wire                           dac_wr_n
+`ifdef HG_SIM_GATE
+    ,
+    // simulation only (the virtual device, tb/native/device/README.md "Stage clocks"): the
+    // datapath's stage clock, driven by the harness as clk in the cycles whose enable
+    // sim_gate_en announced after the previous edge (the frame latch, a request and the clocks
+    // of its pipeline); with HG_SIM_GATE undefined the datapath runs on clk
+    input  wire                           sim_gclk,
+    output wire                           sim_gate_en
+`endif
 );
     localparam integer AB    = ADDR_BITS + 2;          // electrical angle bits (the ROM's cycle)
     localparam integer CB    = COUNT_BITS;
@@ -110,6 +119,16 @@ module commutator #(
         end
     endgenerate
 
+    // The datapath's clock: clk in the design; in a HG_SIM_GATE simulation the harness's gated
+    // clock (with the serial multiplier its enable asks for every cycle). The valid pipeline
+    // and the scheduler stay on clk.
+    wire clk_d;
+`ifdef HG_SIM_GATE
+    assign clk_d = sim_gclk;
+`else
+    assign clk_d = clk;
+`endif
+
     // ---------------------------------------------------------------- scheduler
     wire       req;
     wire [2:0] req_ch;
@@ -139,7 +158,7 @@ module commutator #(
     reg          en_q;
 
     integer m;
-    always @(posedge clk) begin
+    always @(posedge clk_d) begin
         if (m_frame) begin
             for (m = 0; m < 3; m = m + 1)
                 u_q[m*CB +: CB] <= s_pos[m*CB +: CB] * PP;
@@ -156,7 +175,7 @@ module commutator #(
             // address alternates between two words (so synthesis keeps a memory: a constant
             // address would be folded back into flip-flops); the read takes the last written.
             reg wp;
-            always @(posedge clk) begin
+            always @(posedge clk_d) begin
                 if (rst)
                     wp <= 1'b0;
                 else if (m_frame)
@@ -172,7 +191,7 @@ module commutator #(
                 end
                 (* ram_style = "block" *) reg [LW-1:0] mem [0:1];
                 reg [LW-1:0] rd;
-                always @(posedge clk) begin
+                always @(posedge clk_d) begin
                     if (m_frame) mem[wp] <= wd;
                     rd <= mem[~wp];
                 end
@@ -184,7 +203,7 @@ module commutator #(
         end else begin : g_latch_ff
             reg [47:0]          tq_r;
             reg [16*LIMITS-1:0] lim_r;
-            always @(posedge clk) begin
+            always @(posedge clk_d) begin
                 if (m_frame) begin
                     tq_r  <= s_torque;
                     lim_r <= ctl_torque_limit;
@@ -195,7 +214,7 @@ module commutator #(
         end
     endgenerate
 
-    always @(posedge clk) begin
+    always @(posedge clk_d) begin
         if (rst) begin
             mode_q  <= {3{MODE_OFF}};
             fault_q <= 3'b111;
@@ -252,7 +271,7 @@ module commutator #(
     reg [2:0]    ch_a;
     reg          six_a, pos_a, neg_a, zero_a;
 
-    always @(posedge clk) begin
+    always @(posedge clk_d) begin
         ang_a  <= code_ch;
         ch_a   <= req_ch;
         six_a  <= (mode_m == MODE_SIX);
@@ -266,13 +285,13 @@ module commutator #(
     wire signed [VB-1:0] lut_value;
 
     sine_lut #(.ADDR_BITS(ADDR_BITS), .MAG_BITS(MAG_BITS), .LUT_FILE(LUT_FILE)) u_lut (
-        .clk(clk), .rst(rst), .in_valid(va), .in_angle(ang_a),
+        .clk(clk_d), .rst(rst), .in_valid(va), .in_angle(ang_a),
         .out_valid(lut_valid), .out_value(lut_value)
     );
 
     reg [2:0]  ch_b, ch_c;
     reg        six_b, pos_b, neg_b, zero_b, six_c, pos_c, neg_c, zero_c;
-    always @(posedge clk) begin
+    always @(posedge clk_d) begin
         {ch_b, six_b, pos_b, neg_b, zero_b} <= {ch_a, six_a, pos_a, neg_a, zero_a};
         {ch_c, six_c, pos_c, neg_c, zero_c} <= {ch_b, six_b, pos_b, neg_b, zero_b};
     end
@@ -312,7 +331,7 @@ module commutator #(
         if (SERIAL_MUL == 0) begin : g_mul_array
             // one clock, one multiplier (a DSP block where the device has one)
             reg signed [PB-1:0] prod_q;
-            always @(posedge clk) begin
+            always @(posedge clk_d) begin
                 prod_q  <= mul_a * $signed(tq_c);
                 ch_m    <= ch_c;
                 zero_mq <= zero_c;
@@ -328,7 +347,7 @@ module commutator #(
             reg [4:0]           step;      // 0..15 working, 16 idle
             wire                last = (step == 5'd15);
             wire signed [PB-1:0] addend = mplier[0] ? (last ? -mcand : mcand) : {PB{1'b0}};
-            always @(posedge clk) begin
+            always @(posedge clk_d) begin
                 if (lut_valid) begin
                     acc     <= {PB{1'b0}};
                     mcand   <= {{(PB - VB){mul_a[VB-1]}}, mul_a};
@@ -344,7 +363,7 @@ module commutator #(
             // acc holds the product from the clock after the last step until the next product
             // starts (>= SKEW clocks later), through stage R's clock
             assign prod = acc;
-            always @(posedge clk) begin
+            always @(posedge clk_d) begin
                 if (rst) begin
                     step <= 5'd16;
                 end else begin
@@ -370,7 +389,7 @@ module commutator #(
     reg                  vr;
     reg [DAC_BITS-1:0]   word;
     reg [2:0]            ch_r;
-    always @(posedge clk) begin
+    always @(posedge clk_d) begin
         word <= (OFFSET_BINARY != 0) ? {~code[DAC_BITS-1], code[DAC_BITS-2:0]} : code;
         ch_r <= ch_m;
     end
@@ -391,6 +410,22 @@ module commutator #(
     assign s_valid = vr;
     assign s_ch    = ch_r;
     assign s_data  = word;
+
+`ifdef HG_SIM_GATE
+    // the datapath clock's enable at the next edge (state after this one): reset, the frame
+    // latch, a request, and each stage of its pipeline while its valid is high (va; vb_sim, the
+    // sine ROM's read; lut_valid; vm). A request's pipeline then runs on consecutive clocks
+    // exactly as on clk, and every register it reads was written in one of them; outside them
+    // nothing is read (the scheduler reads word and ch_r in vr's clock: unchanged). The serial
+    // multiplier works outside them: every clock.
+    reg vb_sim;
+    always @(posedge clk) begin
+        if (rst) vb_sim <= 1'b0;
+        else     vb_sim <= va;
+    end
+    assign sim_gate_en = (SERIAL_MUL == 0) ? (rst | m_frame | req | va | vb_sim | lut_valid | vm)
+                                           : 1'b1;
+`endif
 endmodule
 
 `default_nettype wire

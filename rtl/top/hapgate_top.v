@@ -98,7 +98,10 @@ module hapgate_top #(
     input  wire                     sim_gclk_b,   // stage B (quadrant, table)
     input  wire                     sim_gclk_c,   // stage C (count, index, faults)
     input  wire                     sim_gclk_de,  // stages D and E (velocity, outputs)
-    output wire [3:0]               sim_gate_en   // their enables at the next edge {DE, C, B, A}
+    input  wire                     sim_gclk_comm, // the commutator's datapath (commutator)
+    input  wire                     sim_gclk_bus, // the bus slave and the access-written registers
+    output wire [5:0]               sim_gate_en   // their enables at the next edge
+                                                  // {bus, comm, DE, C, B, A}
 `endif
 `endif
 );
@@ -294,7 +297,7 @@ module hapgate_top #(
 `ifdef HG_SIM
 `ifdef HG_SIM_GATE
         , .sim_gclk({sim_gclk_de, sim_gclk_c, sim_gclk_b, sim_gclk_a}),
-        .sim_gate_en(sim_gate_en)
+        .sim_gate_en(sim_gate_en[3:0])
 `endif
 `endif
     );
@@ -408,6 +411,11 @@ module hapgate_top #(
         .ctl_tq_limit(tq_limit), .wdog_expired(wdog_expired), .irq(irq), .tick(tick),
         .dbg_req(dbg_req), .dbg_we(dbg_we), .dbg_addr(dbg_addr), .dbg_wdata(dbg_wdata),
         .dbg_proto_err(dbg_proto_err)
+`ifdef HG_SIM
+`ifdef HG_SIM_GATE
+        , .sim_gclk(sim_gclk_bus), .sim_gate_en(sim_gate_en[5])
+`endif
+`endif
     );
     wire unused_dbg = &{1'b0, tick, dbg_req, dbg_we, dbg_addr, dbg_wdata, dbg_proto_err};
 
@@ -448,6 +456,11 @@ module hapgate_top #(
         .ctl_mode(mode_eff), .ctl_enable(~kill_all), .ctl_torque_limit(tq_limit),
         .axis_fault(fault), .m_frame(m_frame),
         .dac_data(c_data), .dac_addr(c_addr), .dac_wr_n(c_wr_n)
+`ifdef HG_SIM
+`ifdef HG_SIM_GATE
+        , .sim_gclk(sim_gclk_comm), .sim_gate_en(sim_gate_en[4])
+`endif
+`endif
     );
     wire unused_frame = m_frame;
 

@@ -147,24 +147,30 @@ def test_link_garbage_is_dropped_and_the_pc_force_expires():
 
 
 
-@pytest.mark.parametrize("axes", [[0, 1, 2], [1]])
-def test_stage_clocks_change_nothing(axes):
-    """The interpolators on the simulation-only stage clocks (HG_SIM_GATE, the rtl fidelity's
-    default) against the same build with every stage on clk: through the homing sweep, the
-    wall and an encoder dropout (signal loss, the axis fault, zero torque), with encoder noise
-    and a third harmonic, every frame, firmware tick, DAC load and ADC word is bit-identical."""
+@pytest.mark.parametrize("axes, fault", [([0, 1, 2], "dropout"), ([1], "dropout"),
+                                         ([0, 1, 2], "watchdog")])
+def test_stage_clocks_change_nothing(axes, fault):
+    """The simulation-only stage clocks (HG_SIM_GATE, the rtl fidelity's default: the
+    interpolators' stages, the commutator's datapath, the bus slave and the access-written
+    registers) against the same build with everything on clk: through the homing sweep, the
+    firmware's bring-up and every servo tick's bus accesses, the wall, encoder noise and a third
+    harmonic, and a fault — an encoder dropout (signal loss, the axis fault, zero torque) or lost
+    watchdog keys (expiry, zero torque) — every frame, firmware tick, DAC load and ADC word is
+    bit-identical."""
+    at, dur = (0.009, 0.012) if fault == "dropout" else (0.001, 0.014)
+    f = {"at_s": at, "kind": fault} | ({"axis": axes[0]} if fault == "dropout" else {})
     s = _short(**{
-        "run.duration_s": 0.012, "run.axes": axes,
+        "run.duration_s": dur, "run.axes": axes,
         "run.record": ["q", "p", "f_hand", "tau", "dac", "adc"],
-        "fault": [{"at_s": 0.009, "kind": "dropout", "axis": axes[0]}], "expect": {},
+        "fault": [f], "expect": {},
         "encoder.noise_lsb": 1.5, "encoder.h3": 0.02})
     gated, plain = runner.simulate(s), runner.simulate(s, gate=False)
     assert gated.frames.size > 500 and gated.loads.size > 1000 and gated.adc is not None
     for a, b in ((gated.frames, plain.frames), (gated.ticks, plain.ticks),
                  (gated.loads, plain.loads), (gated.adc, plain.adc)):
         assert a.size == b.size and a.tobytes() == b.tobytes()
-    # the run did what the docstring says: the axis fault zeroed every DAC word after the loss
-    tk = gated.ticks[gated.ticks["t"] > 0.0095]
+    # the run did what the docstring says: the fault zeroed every DAC word after it
+    tk = gated.ticks[gated.ticks["t"] > dur - 0.0025]
     assert tk.size and np.all(tk["err"] == tk["err"][-1]) and int(tk["err"][-1]) != 0
     assert not np.any(gated.loads["code"][-200:])
-    assert np.abs(gated.frames["dac"]).max() > 300       # it was driving before the loss
+    assert np.abs(gated.frames["dac"]).max() > 300       # it was driving before the fault

@@ -121,14 +121,15 @@ def test_friction_dissipates():
     assert p.read()["energy"] < 0.5 * e1
 
 
-def test_encoder_front_end_is_the_encsig_model():
+@pytest.mark.parametrize("phase_deg", [1.3, 0.0])   # (0: the plant's one-sincos path)
+def test_encoder_front_end_is_the_encsig_model(phase_deg):
     """The same signal model as hapgate.golden.encsig: identical codes (noise-free) for
     imperfect signals over many lines, and the noise's standard deviation."""
     spec = encsig.SignalSpec(amplitude=112.0, offset_a=2.1, offset_b=-1.7, gain_a=1.013,
-                             gain_b=0.991, phase_deg=1.3, h2=0.011, h3=0.007)
+                             gain_b=0.991, phase_deg=phase_deg, h2=0.011, h3=0.007)
     p = Plant(config(enc_amplitude=[112.0] * 3, enc_offset_a=[2.1] * 3, enc_offset_b=[-1.7] * 3,
-                     enc_gain_a=[1.013] * 3, enc_gain_b=[0.991] * 3, enc_phase_deg=[1.3] * 3,
-                     enc_h2=[0.011] * 3, enc_h3=[0.007] * 3))
+                     enc_gain_a=[1.013] * 3, enc_gain_b=[0.991] * 3,
+                     enc_phase_deg=[phase_deg] * 3, enc_h2=[0.011] * 3, enc_h3=[0.007] * 3))
     lines = np.random.default_rng(5).uniform(-3000, 3000, 200_000)
     a, b = p.encode(1, lines)
     ra, rb = encsig.adc_codes(lines, spec)

@@ -43,6 +43,10 @@ def cmd_lint(args: argparse.Namespace) -> int:
         block = blocks.get(name)
         params = block.params()
         jobs += [(flow.lint_verilator, block, params), (flow.lint_icarus, block, params)]
+        if name == "hapgate_top":   # the virtual device's build: simulation-only ports and clocks
+            for mask, defs in ((7, ("HG_SIM", "HG_SIM_GATE")), (5, ("HG_SIM", "HG_SIM_GATE")),
+                               (5, ("HG_SIM",))):
+                jobs.append((flow.lint_verilator, block, params | {"AXIS_MASK": mask}, defs))
         if not args.no_synth:
             jobs += [(flow.synth, block, params, target) for target in block.lint_synth]
     with ThreadPoolExecutor(max_workers=os.cpu_count() or 2) as pool:  # tools are processes

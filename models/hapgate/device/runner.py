@@ -87,6 +87,26 @@ def axis_mask(scene: Any) -> int:
     return sum(1 << int(a) for a in scene.run.axes)
 
 
+def _top(clk_hz: int, mask: int, coarse: bool = False,
+         vel_obs: bool = False) -> tuple[TopConfig, list[Path], dict[str, Any]]:
+    """The top's configuration, sources and parameters of a virtual-device build."""
+    cfg = TopConfig(clk_hz=clk_hz, interp=InterpConfig(coarse=coarse, vel_obs=vel_obs),
+                    vel_obs_sel=vel_obs)
+    srcs = [ROOT / "rtl" / s for s in blocks()[0].sources]
+    return cfg, srcs, cfg.rtl_params() | {"AXIS_MASK": mask}
+
+
+def build_gate_equiv(clk_hz: int, mask: int, gate: bool) -> Path:
+    """The stage clocks' equivalence harness (tb/native/device/gate_equiv.cpp) on the device's
+    top, with the stage clocks (gate) or with every register on clk (cached)."""
+    _, srcs, params = _top(clk_hz, mask)
+    return native.verilate_harness(
+        "gate_equiv", blocks()[0].top, srcs, params, [HERE / "gate_equiv.cpp"],
+        cflags=f"-std=c++17 -DCLK_HZ={clk_hz} -DHG_SIM_GATE={int(gate)} -I{FW / 'include'}",
+        inputs=sorted((FW / "include").glob("*.h")),
+        vflags=["-DHG_SIM"] + (["-DHG_SIM_GATE"] if gate else []))
+
+
 def build(clk_hz: int, mask: int = 7, trace: bool = False, test_limits: bool = False,
           coarse: bool = False, vel_obs: bool = False, gate: bool = True) -> Path:
     """Verilate the top (HG_SIM, AXIS_MASK) with the harness, plant and firmware (cached).
@@ -95,11 +115,8 @@ def build(clk_hz: int, mask: int = 7, trace: bool = False, test_limits: bool = F
     vel_obs: the tracking velocity observer built and reported as VEL (run.velocity);
     gate: the interpolators' stages on simulation-only stage clocks (HG_SIM_GATE,
     tb/native/device/README.md "Stage clocks"; False: every stage on clk, the same results)."""
-    cfg = TopConfig(clk_hz=clk_hz, interp=InterpConfig(coarse=coarse, vel_obs=vel_obs),
-                    vel_obs_sel=vel_obs)
+    cfg, srcs, params = _top(clk_hz, mask, coarse, vel_obs)
     block = blocks()[0]
-    srcs = [ROOT / "rtl" / s for s in block.sources]
-    params = cfg.rtl_params() | {"AXIS_MASK": mask}
     fw_srcs = sorted((FW / "src").glob("*.c")) + sorted((FW / "include").glob("*.h"))
     vflags = (["-DHG_SIM"] + (["-DHG_SIM_GATE"] if gate else [])
               + (["--trace"] if trace else []))   # VCD: FST needs liblz4 headers

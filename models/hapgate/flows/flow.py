@@ -45,15 +45,21 @@ def _run(cmd: list[str], cwd: Path | None = None) -> tuple[int, str]:
     return out.returncode, (out.stdout + out.stderr)
 
 
-def lint_verilator(block: Block, params: Params) -> Finding:
+def lint_verilator(block: Block, params: Params, defines: tuple[str, ...] = ()) -> Finding:
+    """verilator --lint-only -Wall (with the waivers); `defines`: a simulation build's
+    (e.g. HG_SIM, HG_SIM_GATE: the virtual device's top), named in the finding's tool."""
     toolenv.apply()
     t0 = time.perf_counter()
     cmd = ["verilator", "--lint-only", "-Wall", "--top-module", block.top, str(WAIVERS)]
+    cmd += [f"-D{d}" for d in defines]
     cmd += [f"-G{k}={param_text(v)}" for k, v in params.items()]
     cmd += [str(p) for p in block.source_paths()]
     rc, text = _run(cmd)
     problems = [ln for ln in text.splitlines() if ln.startswith("%")]
-    return Finding("verilator -Wall", block.name, rc == 0 and not problems,
+    tool = "verilator -Wall" + "".join(f" -D{d}" for d in defines)
+    if defines and "AXIS_MASK" in params:
+        tool += f" AXIS_MASK={params['AXIS_MASK']}"
+    return Finding(tool, block.name, rc == 0 and not problems,
                    time.perf_counter() - t0, "\n".join(problems))
 
 

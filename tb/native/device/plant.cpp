@@ -323,14 +323,36 @@ inline int8_t quant(double x) {
 void encode_one(const Params& P, int i, double lines, double na, double nb, int8_t* a, int8_t* b) {
     const double phi = 2 * kPi * lines;
     const double ph = P.phase[i];
-    double sa = std::sin(phi), cb = std::cos(phi + ph);
+    // (without a quadrature error both channels share one argument: one sincos, whose values
+    // are glibc's sin and cos bit for bit)
+    double sa, cb;
+    if (ph == 0) {
+        sincos(phi, &sa, &cb);
+    } else {
+        sa = std::sin(phi);
+        cb = std::cos(phi + ph);
+    }
     if (P.h2[i] != 0) {
-        sa += P.h2[i] * std::sin(2 * phi);
-        cb += P.h2[i] * std::cos(2 * (phi + ph));
+        double s2, c2;
+        if (ph == 0) {
+            sincos(2 * phi, &s2, &c2);
+        } else {
+            s2 = std::sin(2 * phi);
+            c2 = std::cos(2 * (phi + ph));
+        }
+        sa += P.h2[i] * s2;
+        cb += P.h2[i] * c2;
     }
     if (P.h3[i] != 0) {
-        sa += P.h3[i] * std::sin(3 * phi);
-        cb += P.h3[i] * std::cos(3 * (phi + ph));
+        double s3, c3;
+        if (ph == 0) {
+            sincos(3 * phi, &s3, &c3);
+        } else {
+            s3 = std::sin(3 * phi);
+            c3 = std::cos(3 * (phi + ph));
+        }
+        sa += P.h3[i] * s3;
+        cb += P.h3[i] * c3;
     }
     *a = quant(P.amp[i] * P.gain_a[i] * sa + P.off_a[i] + na);
     *b = quant(P.amp[i] * P.gain_b[i] * cb + P.off_b[i] + nb);
