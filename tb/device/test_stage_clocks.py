@@ -15,7 +15,6 @@ import subprocess
 
 import numpy as np
 import pytest
-
 from hapgate.device import runner
 
 OUT_DT = np.dtype([("bus_data_out", "<u4"), ("dac_data", "<u2"), ("dac_addr", "u1"),
