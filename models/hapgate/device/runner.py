@@ -103,7 +103,7 @@ def build_gate_equiv(clk_hz: int, mask: int, gate: bool) -> Path:
     return native.verilate_harness(
         "gate_equiv", blocks()[0].top, srcs, params, [HERE / "gate_equiv.cpp"],
         cflags=f"-std=c++17 -DCLK_HZ={clk_hz} -DHG_SIM_GATE={int(gate)} -I{FW / 'include'}",
-        inputs=sorted((FW / "include").glob("*.h")),
+        inputs=[HERE / "stage_clocks.h", *sorted((FW / "include").glob("*.h"))],
         vflags=["-DHG_SIM"] + (["-DHG_SIM_GATE"] if gate else []))
 
 
@@ -128,7 +128,8 @@ def build(clk_hz: int, mask: int = 7, trace: bool = False, test_limits: bool = F
                 f"-DHG_LOAD_CLOCKS={cfg.comm.load_clocks + 1} "
                 f"-I{HERE} -I{FW / 'include'}" + "".join(f" -D{d}" for d in defs)),
         ldflags="fw/libhgfw.a -lm",
-        inputs=[HERE / "plant.h", HERE / "uart_link.h", HERE / "harness_common.h", *fw_srcs],
+        inputs=[HERE / "plant.h", HERE / "uart_link.h", HERE / "harness_common.h",
+                HERE / "stage_clocks.h", *fw_srcs],
         prepare=functools.partial(cosim._fw_lib, defines=defs), vflags=vflags)
 
 

@@ -25,6 +25,7 @@
 #include "Vhapgate_top___024root.h"
 #include "harness_common.h"
 #include "plant.h"
+#include "stage_clocks.h"
 #include "uart_link.h"
 #include "verilated.h"
 #if HG_TRACE
@@ -201,17 +202,10 @@ struct Bench {
     // the stage clocks (README "Stage clocks"): the interpolators' four, the commutator's
     // datapath, the bus; each ticks with clk in the cycles whose enable the design announced
     // after the previous edge, the bus clock also in the cycle after the HAL changed a pin
-    static constexpr unsigned kAllGates = 0x3F, kBusGate = 0x20;
+    static constexpr unsigned kAllGates = hg_dev::kAllGates, kBusGate = hg_dev::kBusGate;
     uint8_t gates = kAllGates;
     bool pins_changed = false;
-    void set_gates(unsigned g) {
-        top->sim_gclk_a = g & 1U;
-        top->sim_gclk_b = (g >> 1) & 1U;
-        top->sim_gclk_c = (g >> 2) & 1U;
-        top->sim_gclk_de = (g >> 3) & 1U;
-        top->sim_gclk_comm = (g >> 4) & 1U;
-        top->sim_gclk_bus = (g >> 5) & 1U;
-    }
+    void set_gates(unsigned g) { hg_dev::set_gates(*top, g); }
 #endif
     void pins() {   // the HAL changed a bus pin: the bus clock ticks at the next edge
         inputs_changed = true;

@@ -19,6 +19,7 @@
 
 #include "Vhapgate_top.h"
 #include "Vhapgate_top___024root.h"
+#include "stage_clocks.h"
 #include "verilated.h"
 
 extern "C" {
@@ -59,16 +60,9 @@ struct Dut {
     std::unique_ptr<VerilatedContext> ctx{new VerilatedContext};
     std::unique_ptr<Vhapgate_top> top{new Vhapgate_top(ctx.get())};
 #if HG_SIM_GATE
-    unsigned gates = 0x3F;
+    unsigned gates = hg_dev::kAllGates;
     bool pins_changed = false;
-    void set_gates(unsigned g) {
-        top->sim_gclk_a = g & 1U;
-        top->sim_gclk_b = (g >> 1) & 1U;
-        top->sim_gclk_c = (g >> 2) & 1U;
-        top->sim_gclk_de = (g >> 3) & 1U;
-        top->sim_gclk_comm = (g >> 4) & 1U;
-        top->sim_gclk_bus = (g >> 5) & 1U;
-    }
+    void set_gates(unsigned g) { hg_dev::set_gates(*top, g); }
 #endif
     void pins() {
 #if HG_SIM_GATE
@@ -78,7 +72,7 @@ struct Dut {
     void edge() {   // one full clock: rising edge (stage clocks as announced), falling edge
         top->clk = 1;
 #if HG_SIM_GATE
-        set_gates(top->rst ? 0x3FU : (pins_changed ? (gates | 0x20U) : gates));
+        set_gates(top->rst ? hg_dev::kAllGates : (pins_changed ? (gates | hg_dev::kBusGate) : gates));
         pins_changed = false;
 #endif
         top->eval();

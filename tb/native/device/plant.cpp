@@ -332,28 +332,19 @@ void encode_one(const Params& P, int i, double lines, double na, double nb, int8
         sa = std::sin(phi);
         cb = std::cos(phi + ph);
     }
-    if (P.h2[i] != 0) {
-        double s2, c2;
+    const auto harmonic = [&](int k, double h) {   // k-th harmonic of weight h on both channels
+        double sk, ck;
         if (ph == 0) {
-            sincos(2 * phi, &s2, &c2);
+            sincos(k * phi, &sk, &ck);
         } else {
-            s2 = std::sin(2 * phi);
-            c2 = std::cos(2 * (phi + ph));
+            sk = std::sin(k * phi);
+            ck = std::cos(k * (phi + ph));
         }
-        sa += P.h2[i] * s2;
-        cb += P.h2[i] * c2;
-    }
-    if (P.h3[i] != 0) {
-        double s3, c3;
-        if (ph == 0) {
-            sincos(3 * phi, &s3, &c3);
-        } else {
-            s3 = std::sin(3 * phi);
-            c3 = std::cos(3 * (phi + ph));
-        }
-        sa += P.h3[i] * s3;
-        cb += P.h3[i] * c3;
-    }
+        sa += h * sk;
+        cb += h * ck;
+    };
+    if (P.h2[i] != 0) harmonic(2, P.h2[i]);
+    if (P.h3[i] != 0) harmonic(3, P.h3[i]);
     *a = quant(P.amp[i] * P.gain_a[i] * sa + P.off_a[i] + na);
     *b = quant(P.amp[i] * P.gain_b[i] * cb + P.off_b[i] + nb);
 }

@@ -1,0 +1,24 @@
+// SPDX-License-Identifier: Apache-2.0
+// The simulation-only stage clocks of the virtual device's top (HG_SIM_GATE; README "Stage
+// clocks"): their bits in sim_gate_en and how a harness drives them. Shared by
+// device_harness.cpp and gate_equiv.cpp.
+#pragma once
+
+namespace hg_dev {
+
+// sim_gate_en bits: {bus, comm, DE, C, B, A}
+constexpr unsigned kAllGates = 0x3F;   // every stage clock (reset)
+constexpr unsigned kBusGate = 0x20;    // the bus clock: also after the harness changed a bus pin
+
+// Drive the stage clocks high whose bit is set (with clk's rising edge), or all low (g = 0).
+template <class Top>
+inline void set_gates(Top& t, unsigned g) {
+    t.sim_gclk_a = g & 1U;
+    t.sim_gclk_b = (g >> 1) & 1U;
+    t.sim_gclk_c = (g >> 2) & 1U;
+    t.sim_gclk_de = (g >> 3) & 1U;
+    t.sim_gclk_comm = (g >> 4) & 1U;
+    t.sim_gclk_bus = (g >> 5) & 1U;
+}
+
+}  // namespace hg_dev
