@@ -90,20 +90,30 @@ struct hg_plant {
     double J[9], Jprev[9];
     bool have_prev = false, held = false;
     double tau[3] = {0, 0, 0}, f_hand[3] = {0, 0, 0};
+    // mech_step's joint trigonometry (joint_trig): sin, cos of tc_q, steps since exact
+    double tc_s[3] = {0, 0, 0}, tc_c[3] = {1, 1, 1}, tc_q[3] = {0, 0, 0};
+    int tc_age = 0;
+    double pi_s[3] = {0, 0, 0}, pi_c[3] = {1, 1, 1};   // sin, cos of pole_pairs * q_index
 };
 
 namespace {
 
 struct Trig { double ca, sa, cb, sb, cg, sg, db, dg; };
 
-inline Trig trig(const double* q) {
+inline Trig trig_sc(const double* sn, const double* cs) {   // from sin, cos of the joints
     Trig r;
-    sincos(q[0], &r.sa, &r.ca);
-    sincos(q[1], &r.sb, &r.cb);
-    sincos(q[2], &r.sg, &r.cg);
+    r.sa = sn[0]; r.ca = cs[0];
+    r.sb = sn[1]; r.cb = cs[1];
+    r.sg = sn[2]; r.cg = cs[2];
     r.db = std::sqrt(r.cb * r.cb + r.ca * r.ca * r.sb * r.sb);
     r.dg = std::sqrt(r.cg * r.cg + r.ca * r.ca * r.sg * r.sg);
     return r;
+}
+
+inline Trig trig(const double* q) {
+    double sn[3], cs[3];
+    for (int i = 0; i < 3; ++i) sincos(q[i], &sn[i], &cs[i]);
+    return trig_sc(sn, cs);
 }
 
 void fk_t(double L, const Trig& k, double* p) {
@@ -203,15 +213,21 @@ void target(const Params& P, double t, double* pt, double* vt) {
 //     = kt * 2/3 * (ia (sin te - sin(te - 240)) + ib (sin(te - 120) - sin(te - 240)))
 //     = kt * 2/3 * sqrt(3) * (ia cos(te - 120) - ib cos(te))   (sum to product)
 // (tau2: optionally the torques of the amplifier's present currents as well, same angles)
+// (ste, cte: sin and cos of the electrical angles when the caller has them, else evaluated)
 void motor_torque_i(const hg_plant* s, const double* ia, const double* ib, double* tau, double* th,
-                    double* tau2 = nullptr) {
+                    double* tau2 = nullptr, const double* ste = nullptr, const double* cte = nullptr) {
     const Params& P = s->P;
     constexpr double kS120 = 0.86602540378443864676, kSqrt3 = 1.7320508075688772935;
     for (int m = 0; m < 3; ++m) {
         const double te = P.pole_pairs * (s->q[m] - P.q_index[m]);
         th[m] = te;
         double st, ct;
-        sincos(te, &st, &ct);
+        if (ste) {
+            st = ste[m];
+            ct = cte[m];
+        } else {
+            sincos(te, &st, &ct);
+        }
         tau[m] = P.kt * (2.0 / 3.0) * kSqrt3 * (ia[m] * (kS120 * st - 0.5 * ct) - ib[m] * ct);
         if (tau2) tau2[m] = P.kt * (2.0 / 3.0) * kSqrt3 * (s->ia[m] * (kS120 * st - 0.5 * ct) - s->ib[m] * ct);
     }
@@ -378,6 +394,7 @@ hg_plant* hg_plant_new(const char* config_text, char* err, int errlen) {
         s->mean_decay[n] = f / n;
     }
     jac(P.arm, s->q, s->J);
+    for (int i = 0; i < 3; ++i) sincos(P.pole_pairs * P.q_index[i], &s->pi_s[i], &s->pi_c[i]);
     return s;
 }
 
@@ -440,12 +457,52 @@ void fill_out(const hg_plant* s, const Trig& kq, const double* tau, const double
 
 // One semi-implicit Euler step of dt with the motor torques of phase currents (ia, ib); with
 // `out`, the read-out of the state before the step as well (its trigonometry shared).
+// sin and cos of the joint angles for mech_step, and of the motors' electrical angles: exact
+// (sincos) every kTrigResync steps and after a jump of more than 0.01 rad, else the last step's
+// rotated by its change d (Taylor to d^5: the rotation is exact to ~1e-18 for |d| < 0.01, so
+// the values stay within a few ulp of sincos between resyncs); the electrical angles'
+// pole_pairs * (q - q_index) from the joint's by complex powers and a fixed rotation.
+constexpr int kTrigResync = 64;
+void joint_trig(hg_plant* s, double* ste, double* cte) {
+    const Params& P = s->P;
+    bool exact = s->tc_age == 0 || s->tc_age >= kTrigResync;
+    for (int i = 0; i < 3 && !exact; ++i) exact = !(std::fabs(s->q[i] - s->tc_q[i]) <= 1e-2);
+    if (exact) {
+        for (int i = 0; i < 3; ++i) sincos(s->q[i], &s->tc_s[i], &s->tc_c[i]);
+        s->tc_age = 1;
+    } else {
+        for (int i = 0; i < 3; ++i) {
+            const double d = s->q[i] - s->tc_q[i];
+            if (d == 0) continue;
+            const double d2 = d * d;
+            const double cd = 1 - d2 * (0.5 - d2 * (1.0 / 24));
+            const double sd = d * (1 - d2 * (1.0 / 6 - d2 * (1.0 / 120)));
+            const double sn = s->tc_s[i] * cd + s->tc_c[i] * sd;
+            s->tc_c[i] = s->tc_c[i] * cd - s->tc_s[i] * sd;
+            s->tc_s[i] = sn;
+        }
+        ++s->tc_age;
+    }
+    for (int i = 0; i < 3; ++i) {
+        s->tc_q[i] = s->q[i];
+        double cr = 1, sr = 0;   // (cos + i sin)^pole_pairs
+        for (int k = 0; k < P.pole_pairs; ++k) {
+            const double c2 = cr * s->tc_c[i] - sr * s->tc_s[i];
+            sr = sr * s->tc_c[i] + cr * s->tc_s[i];
+            cr = c2;
+        }
+        ste[i] = sr * s->pi_c[i] - cr * s->pi_s[i];   // minus pole_pairs * q_index
+        cte[i] = cr * s->pi_c[i] + sr * s->pi_s[i];
+    }
+}
+
 void mech_step(hg_plant* s, double dt, const double* ia, const double* ib, hg_plant_out* out = nullptr) {
     const Params& P = s->P;
     const double m = P.m_link + P.m_handle;
-    double th[3], tau_now[3];
-    motor_torque_i(s, ia, ib, s->tau, th, out ? tau_now : nullptr);
-    const Trig kq = trig(s->q);
+    double th[3], tau_now[3], ste[3], cte[3];
+    joint_trig(s, ste, cte);
+    motor_torque_i(s, ia, ib, s->tau, th, out ? tau_now : nullptr, ste, cte);
+    const Trig kq = trig_sc(s->tc_s, s->tc_c);
     if (out) fill_out(s, kq, tau_now, th, out);
     jac_t(P.arm, kq, s->J);
     double p[3], v[3] = {0, 0, 0}, pt[3], vt[3], fdev[3] = {0, 0, 0};
