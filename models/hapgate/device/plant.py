@@ -51,6 +51,7 @@ def library() -> C.CDLL:
     lib.hg_plant_adc.argtypes = [C.c_void_p, C.POINTER(C.c_int8), C.POINTER(C.c_int8),
                                  C.POINTER(C.c_uint8)]
     lib.hg_plant_read.argtypes = [C.c_void_p, C.POINTER(Out)]
+    lib.hg_plant_mech_read.argtypes = [C.c_void_p, C.c_int, C.POINTER(Out)]
     lib.hg_plant_encode.argtypes = [C.c_void_p, C.c_int, d3, C.c_int, C.POINTER(C.c_int8),
                                     C.POINTER(C.c_int8)]
     return lib
@@ -58,6 +59,11 @@ def library() -> C.CDLL:
 
 class PlantError(ValueError):
     pass
+
+
+def _out(o: Out) -> dict[str, np.ndarray | float]:
+    return {name: (np.array(getattr(o, name)) if name not in ("t", "energy")
+                   else float(getattr(o, name))) for name, _ in Out._fields_}
 
 
 class Plant:
@@ -92,8 +98,14 @@ class Plant:
     def read(self) -> dict[str, np.ndarray | float]:
         o = Out()
         self.lib.hg_plant_read(self.h, C.byref(o))
-        return {name: (np.array(getattr(o, name)) if name not in ("t", "energy")
-                       else float(getattr(o, name))) for name, _ in Out._fields_}
+        return _out(o)
+
+    def mech_read(self, n_us: int = 1) -> dict[str, np.ndarray | float]:
+        """One mechanics step of n_us (the multirate plant's), and the read-out of the state
+        before it as the step itself evaluated it (its own trigonometry)."""
+        o = Out()
+        self.lib.hg_plant_mech_read(self.h, int(n_us), C.byref(o))
+        return _out(o)
 
     def adc(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         a, b, ix = (C.c_int8 * 3)(), (C.c_int8 * 3)(), (C.c_uint8 * 3)()

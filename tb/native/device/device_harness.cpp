@@ -48,7 +48,7 @@ extern "C" {
 // The generated model's evaluation phases, called directly in the clock loop:
 // Vhapgate_top::eval() adds a message-queue flush and a deleter pass per call (~14 % of the run
 // here) that only matter for $display/$finish from other threads; the model has neither. The
-// first eval() goes through the public entry (it runs the initial blocks). Bench::eval_edge is
+// first eval() goes through the public entry (it runs the initial blocks). Bench::eval is
 // the generated ___eval loop (the input-combinational phase, then the active and NBA phases
 // until they settle), except that the input phase runs only when an input other than a clock
 // changed since the last evaluation: it computes the logic that reads inputs, whose values are
@@ -202,8 +202,7 @@ struct Bench {
     // the stage clocks (README "Stage clocks"): the interpolators' four, the commutator's
     // datapath, the bus; each ticks with clk in the cycles whose enable the design announced
     // after the previous edge, the bus clock also in the cycle after the HAL changed a pin
-    static constexpr unsigned kAllGates = hg_dev::kAllGates, kBusGate = hg_dev::kBusGate;
-    uint8_t gates = kAllGates;
+    uint8_t gates = hg_dev::kAllGates;
     bool pins_changed = false;
     void set_gates(unsigned g) { hg_dev::set_gates(*top, g); }
 #endif
@@ -217,12 +216,12 @@ struct Bench {
     void tick() {
         top->clk = 1;
 #if HG_SIM_GATE
-        set_gates(pins_changed ? (gates | kBusGate) : gates);
+        set_gates(pins_changed ? (gates | hg_dev::kBusGate) : gates);
         pins_changed = false;
 #endif
         eval();
 #if HG_SIM_GATE
-        gates = static_cast<uint8_t>(top->sim_gate_en | (top->rst ? kAllGates : 0U));
+        gates = static_cast<uint8_t>(top->sim_gate_en | (top->rst ? hg_dev::kAllGates : 0U));
 #endif
         ++edge;
 #if HG_TRACE
@@ -400,7 +399,7 @@ int main(int argc, char** argv) {
     for (int i = 0; i < 4; ++i) {
         top.clk = 1;
 #if HG_SIM_GATE
-        bench.set_gates(Bench::kAllGates);
+        bench.set_gates(hg_dev::kAllGates);
 #endif
         top.eval();
         top.clk = 0;

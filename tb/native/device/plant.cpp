@@ -339,16 +339,11 @@ inline int8_t quant(double x) {
 void encode_one(const Params& P, int i, double lines, double na, double nb, int8_t* a, int8_t* b) {
     const double phi = 2 * kPi * lines;
     const double ph = P.phase[i];
-    // (without a quadrature error both channels share one argument: one sincos, whose values
-    // are glibc's sin and cos bit for bit)
-    double sa, cb;
-    if (ph == 0) {
-        sincos(phi, &sa, &cb);
-    } else {
-        sa = std::sin(phi);
-        cb = std::cos(phi + ph);
-    }
-    const auto harmonic = [&](int k, double h) {   // k-th harmonic of weight h on both channels
+    // The k-th harmonic of weight h on both channels (k = 1: the fundamental, weight 1, exactly
+    // sin(phi) and cos(phi + ph)). Without a quadrature error both channels share one argument:
+    // one sincos, whose values are glibc's sin and cos bit for bit.
+    double sa = 0, cb = 0;
+    const auto harmonic = [&](int k, double h) {
         double sk, ck;
         if (ph == 0) {
             sincos(k * phi, &sk, &ck);
@@ -359,6 +354,7 @@ void encode_one(const Params& P, int i, double lines, double na, double nb, int8
         sa += h * sk;
         cb += h * ck;
     };
+    harmonic(1, 1.0);
     if (P.h2[i] != 0) harmonic(2, P.h2[i]);
     if (P.h3[i] != 0) harmonic(3, P.h3[i]);
     *a = quant(P.amp[i] * P.gain_a[i] * sa + P.off_a[i] + na);
@@ -455,8 +451,6 @@ void fill_out(const hg_plant* s, const Trig& kq, const double* tau, const double
     o->energy = e;
 }
 
-// One semi-implicit Euler step of dt with the motor torques of phase currents (ia, ib); with
-// `out`, the read-out of the state before the step as well (its trigonometry shared).
 // sin and cos of the joint angles for mech_step, and of the motors' electrical angles: exact
 // (sincos) every kTrigResync steps and after a jump of more than 0.01 rad, else the last step's
 // rotated by its change d (Taylor to d^5: the rotation is exact to ~1e-18 for |d| < 0.01, so
@@ -496,6 +490,8 @@ void joint_trig(hg_plant* s, double* ste, double* cte) {
     }
 }
 
+// One semi-implicit Euler step of dt with the motor torques of phase currents (ia, ib); with
+// `out`, the read-out of the state before the step as well (its trigonometry shared).
 void mech_step(hg_plant* s, double dt, const double* ia, const double* ib, hg_plant_out* out = nullptr) {
     const Params& P = s->P;
     const double m = P.m_link + P.m_handle;
