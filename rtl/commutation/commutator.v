@@ -227,44 +227,54 @@ module commutator #(
     end
 
     // ---------------------------------------------------------------- stage A: angle, level
-    reg [CB-1:0] u_m;
-    reg [AB-1:0] off_m;
-    reg [1:0]    mode_m;
-    reg          fault_m;
-    always @* begin
-        case (req_ch[2:1])
-            2'd0:    begin
-                u_m = u_q[0*CB +: CB]; off_m = off_q[0*AB +: AB];
-                mode_m = mode_q[0*2 +: 2]; fault_m = fault_q[0];
-            end
-            2'd1:    begin
-                u_m = u_q[1*CB +: CB]; off_m = off_q[1*AB +: AB];
-                mode_m = mode_q[1*2 +: 2]; fault_m = fault_q[1];
-            end
-            default: begin
-                u_m = u_q[2*CB +: CB]; off_m = off_q[2*AB +: AB];
-                mode_m = mode_q[2*2 +: 2]; fault_m = fault_q[2];
-            end
-        endcase
-    end
-
-    wire          phase_b = req_ch[0];
-    // channel a's angle: theta + offset (ALIGN: the offset alone), fine and on the ROM grid
-    wire [CB-1:0] u_a     = ((mode_m == MODE_ALIGN) ? {CB{1'b0}} : u_m) + {off_m, {(CB - AB){1'b0}}};
-    wire [AB-1:0] code_a  = u_a[CB-1 -: AB];
-    // channel b: 120 deg later = round(2**AB / 3) codes (341 of 1024: 1/3 code short of 120 deg)
-    wire [AB-1:0] code_ch = code_a - (phase_b ? PHASE_B : {AB{1'b0}});
-
-    // Six-step (Hall-sector) level from the number of sector edges passed, n = 0..6:
-    // a: + for n = 1, 2; - for n = 4, 5.   b: + for n = 3, 4; - for n = 0, 1, 6.
-    wire [2:0] n_edges = {2'b00, u_a >= D1} + {2'b00, u_a >= D3} + {2'b00, u_a >= D5}
-                       + {2'b00, u_a >= D7} + {2'b00, u_a >= D9} + {2'b00, u_a >= D11};
-    wire lvl_pos = phase_b ? (n_edges == 3'd3 || n_edges == 3'd4)
-                           : (n_edges == 3'd1 || n_edges == 3'd2);
-    wire lvl_neg = phase_b ? (n_edges == 3'd0 || n_edges == 3'd1 || n_edges == 3'd6)
-                           : (n_edges == 3'd4 || n_edges == 3'd5);
-
-    wire zero_m = !en_q || fault_m || (mode_m == MODE_OFF);
+    // A function called in stage A's clocked block rather than continuous logic: its inputs are
+    // the scheduler's channel (on clk) and the frame's latched state, so in a simulation on
+    // stage clocks (HG_SIM_GATE) continuous logic would be re-evaluated at every clock although
+    // only stage A reads it. Synthesis builds the same logic either way.
+    function [AB+3:0] stage_a;   // {code, six-step, level +, level -, zero}
+        input [2:0]      ch;     // the channel asked for (motor = ch / 2, phase b = ch[0])
+        input [3*CB-1:0] u;
+        input [3*AB-1:0] off;
+        input [5:0]      mode;
+        input [2:0]      fault;
+        input            en;
+        reg [CB-1:0] u_m, u_a;
+        reg [AB-1:0] off_m, code_ch;
+        reg [1:0]    mode_m;
+        reg          fault_m, lvl_pos, lvl_neg;
+        reg [2:0]    n_edges;
+        begin
+            case (ch[2:1])
+                2'd0:    begin
+                    u_m = u[0*CB +: CB]; off_m = off[0*AB +: AB];
+                    mode_m = mode[0*2 +: 2]; fault_m = fault[0];
+                end
+                2'd1:    begin
+                    u_m = u[1*CB +: CB]; off_m = off[1*AB +: AB];
+                    mode_m = mode[1*2 +: 2]; fault_m = fault[1];
+                end
+                default: begin
+                    u_m = u[2*CB +: CB]; off_m = off[2*AB +: AB];
+                    mode_m = mode[2*2 +: 2]; fault_m = fault[2];
+                end
+            endcase
+            // channel a's angle: theta + offset (ALIGN: the offset alone), fine and on the ROM
+            // grid; channel b: 120 deg later = round(2**AB / 3) codes (341 of 1024: 1/3 code
+            // short of 120 deg)
+            u_a     = ((mode_m == MODE_ALIGN) ? {CB{1'b0}} : u_m) + {off_m, {(CB - AB){1'b0}}};
+            code_ch = u_a[CB-1 -: AB] - (ch[0] ? PHASE_B : {AB{1'b0}});
+            // Six-step (Hall-sector) level from the number of sector edges passed, n = 0..6:
+            // a: + for n = 1, 2; - for n = 4, 5.   b: + for n = 3, 4; - for n = 0, 1, 6.
+            n_edges = {2'b00, u_a >= D1} + {2'b00, u_a >= D3} + {2'b00, u_a >= D5}
+                    + {2'b00, u_a >= D7} + {2'b00, u_a >= D9} + {2'b00, u_a >= D11};
+            lvl_pos = ch[0] ? (n_edges == 3'd3 || n_edges == 3'd4)
+                            : (n_edges == 3'd1 || n_edges == 3'd2);
+            lvl_neg = ch[0] ? (n_edges == 3'd0 || n_edges == 3'd1 || n_edges == 3'd6)
+                            : (n_edges == 3'd4 || n_edges == 3'd5);
+            stage_a = {code_ch, mode_m == MODE_SIX, lvl_pos, lvl_neg,
+                       !en || fault_m || (mode_m == MODE_OFF)};
+        end
+    endfunction
 
     reg          va;
     reg [AB-1:0] ang_a;
@@ -272,12 +282,8 @@ module commutator #(
     reg          six_a, pos_a, neg_a, zero_a;
 
     always @(posedge clk_d) begin
-        ang_a  <= code_ch;
-        ch_a   <= req_ch;
-        six_a  <= (mode_m == MODE_SIX);
-        pos_a  <= lvl_pos;
-        neg_a  <= lvl_neg;
-        zero_a <= zero_m;
+        {ang_a, six_a, pos_a, neg_a, zero_a} <= stage_a(req_ch, u_q, off_q, mode_q, fault_q, en_q);
+        ch_a <= req_ch;
     end
 
     // ---------------------------------------------------------------- stages B, C: the sine ROM

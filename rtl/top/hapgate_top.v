@@ -100,8 +100,12 @@ module hapgate_top #(
     input  wire                     sim_gclk_de,  // stages D and E (velocity, outputs)
     input  wire                     sim_gclk_comm, // the commutator's datapath (commutator)
     input  wire                     sim_gclk_bus, // the bus slave and the access-written registers
-    output wire [5:0]               sim_gate_en   // their enables at the next edge
-                                                  // {bus, comm, DE, C, B, A}
+    output wire [4:0]               sim_gate_en,  // their enables at the next edge
+                                                  // {comm, DE, C, B, A}
+    output wire                     sim_gate_en_bus  // the bus clock's (a port of its own: it
+                                                  // reads only the bus clock's registers and
+                                                  // the pins, so it is evaluated only when
+                                                  // they change, not at every clock)
 `endif
 `endif
 );
@@ -413,7 +417,7 @@ module hapgate_top #(
         .dbg_proto_err(dbg_proto_err)
 `ifdef HG_SIM
 `ifdef HG_SIM_GATE
-        , .sim_gclk(sim_gclk_bus), .sim_gate_en(sim_gate_en[5])
+        , .sim_gclk(sim_gclk_bus), .sim_gate_en(sim_gate_en_bus)
 `endif
 `endif
     );

@@ -174,3 +174,28 @@ def test_stage_clocks_change_nothing(axes, fault):
     assert tk.size and np.all(tk["err"] == tk["err"][-1]) and int(tk["err"][-1]) != 0
     assert not np.any(gated.loads["code"][-200:])
     assert np.abs(gated.frames["dac"]).max() > 300       # it was driving before the fault
+
+
+def test_pgo_build_changes_nothing(monkeypatch):
+    """The rtl fidelity's default build for users (profile-guided optimisation, trained on a short
+    wall scene: runner.build(pgo=True)) against the plain build the suite uses: a scene unlike
+    the training (one fault, encoder noise and a third harmonic, two axes) gives bit-identical
+    frames, ticks, DAC loads and ADC words; and the build really was trained (its log says so)."""
+    s = _short(**{"run.duration_s": 0.012, "run.axes": [0, 2],
+                  "run.record": ["q", "p", "f_hand", "tau", "dac", "adc"],
+                  "fault": [{"at_s": 0.006, "kind": "dropout", "axis": 2}], "expect": {},
+                  "encoder.noise_lsb": 1.5, "encoder.h3": 0.02})
+    clk, mask = runner.choose_clock(s), runner.axis_mask(s)
+    exe = runner.build(clk, mask, pgo=True)
+    assert exe != runner.build(clk, mask, pgo=False)
+    assert "== pgo: trained ==" in (exe.parent / "build.log").read_text()
+    assert list(exe.parent.glob("*.gcda")), "the training run wrote no profile"
+    monkeypatch.setenv("HG_PGO", "1")
+    opt = runner.simulate(s)
+    monkeypatch.setenv("HG_PGO", "0")
+    plain = runner.simulate(s)
+    assert opt.frames.size > 500 and opt.loads.size > 1000 and opt.adc is not None
+    for a, b in ((opt.frames, plain.frames), (opt.ticks, plain.ticks),
+                 (opt.loads, plain.loads), (opt.adc, plain.adc)):
+        assert a.size == b.size and a.tobytes() == b.tobytes()
+    assert int(opt.ticks["err"][-1]) != 0      # the dropout happened in both

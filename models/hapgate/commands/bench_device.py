@@ -3,7 +3,8 @@ fidelity, clock and set of axes, and where the time goes (gateware, firmware, pl
 
 Rows: the wall scene (scenes/wall.toml: three axes, a hand pushing into a 20 N/cm wall, 1 kHz
 servo; the dropout fault dropped so the whole run renders the wall) at the lowest bit-identical
-clock (with the interpolators' simulation-only stage clocks, and without them), at 10 kHz servo,
+clock (the users' build: stage clocks and profile-guided optimisation; without the profile;
+without the stage clocks), at 10 kHz servo,
 with one axis built, and at the shipped 48 MHz with everything built.
 The real-time factor is simulated time over the harness's wall time (build excluded), and over
 its CPU time (the one-core figure, meaningful on a busy machine), of the run with the median CPU
@@ -24,10 +25,11 @@ RTL_REPEATS = 3   # runs per rtl row: the run of median CPU time is reported (a 
 
 
 def _row(label: str, s: Any, clk: int | None = None, mask: int | None = None,
-         gate: bool = True) -> list[object]:
+         gate: bool = True, pgo: bool = True) -> list[object]:
     os.environ["HG_PROFILE"] = "1"
     try:
-        raws = [runner.simulate(s, clk_hz=clk, mask=mask, gate=gate) for _ in range(RTL_REPEATS)]
+        raws = [runner.simulate(s, clk_hz=clk, mask=mask, gate=gate, pgo=pgo)
+                for _ in range(RTL_REPEATS)]
     finally:
         os.environ.pop("HG_PROFILE", None)
     raws.sort(key=lambda r: float(r.summary.get("cpu_s", "nan")))
@@ -54,6 +56,7 @@ def run(quick: bool = False) -> bool:
         {"run.duration_s": 0.25 if quick else 0.5, "fault": [], "expect": {}})
     rows = [
         _row("wall, 3 axes", base),
+        _row("wall, 3 axes, no profile-guided build", base, pgo=False),
         _row("wall, 3 axes, no stage clocks", base, gate=False),
         _row("wall, 3 axes, 10 kHz servo", base.override({"run.servo_hz": 10000})),
         _row("wall, axis 1 only", base.override({"run.axes": [1]})),

@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import functools
 import math
+import os
 import subprocess
 import tempfile
 import time
@@ -107,14 +108,47 @@ def build_gate_equiv(clk_hz: int, mask: int, gate: bool) -> Path:
         vflags=["-DHG_SIM"] + (["-DHG_SIM_GATE"] if gate else []))
 
 
+def pgo_enabled() -> bool:
+    """Profile-guided optimisation of the rtl fidelity's build (README "Simulation speed"): on
+    unless HG_PGO=0 (the test suite turns it off: it doubles a build's compile time and changes
+    no result, which tb/device/test_closed_loop.py checks)."""
+    return os.environ.get("HG_PGO", "1") != "0"
+
+
+def _train(clk_hz: int, mask: int, test_limits: bool, coarse: bool, vel_obs: bool,
+           exe: Path) -> None:
+    """The PGO training run of a device build: TRAIN_S of scenes/wall.toml (homing, the hand
+    pushing into the wall) on the build's own clock and axes."""
+    from . import scene as sc
+    s = sc.load(ROOT / "scenes" / "wall.toml").override({
+        "run.duration_s": TRAIN_S, "run.clk_hz": clk_hz, "fault": [], "expect": {},
+        "run.axes": [a for a in range(3) if mask >> a & 1],
+        "run.position": "quadrature" if coarse else "interpolated",
+        "run.velocity": "observer" if vel_obs else "fir", "firmware.test_limits": test_limits})
+    q0 = start_pose(s)
+    with tempfile.TemporaryDirectory(prefix="train-", dir=ensure(BUILD / "native" / "runs")) as t:
+        (Path(t) / "plant.cfg").write_text(plant_config(s, q0))
+        (Path(t) / "run.cfg").write_text(run_config(s, q0))
+        subprocess.run([str(exe), str(Path(t) / "plant.cfg"), str(Path(t) / "run.cfg"), t],
+                       check=True, capture_output=True, timeout=300)
+
+
+TRAIN_S = 0.03   # s of scene time in a PGO training run (after the 9.1 ms homing)
+
+
 def build(clk_hz: int, mask: int = 7, trace: bool = False, test_limits: bool = False,
-          coarse: bool = False, vel_obs: bool = False, gate: bool = True) -> Path:
+          coarse: bool = False, vel_obs: bool = False, gate: bool = True,
+          pgo: bool | None = None) -> Path:
     """Verilate the top (HG_SIM, AXIS_MASK) with the harness, plant and firmware (cached).
     test_limits: the firmware built with HG_SCENE_K_MAX_TEST (scene key firmware.test_limits);
     coarse: plain quadrature, the interpolator's fine angle zeroed (run.position);
     vel_obs: the tracking velocity observer built and reported as VEL (run.velocity);
     gate: the interpolators' stages on simulation-only stage clocks (HG_SIM_GATE,
-    tb/native/device/README.md "Stage clocks"; False: every stage on clk, the same results)."""
+    tb/native/device/README.md "Stage clocks"; False: every stage on clk, the same results);
+    pgo: compiled with a profile of a short training run (pgo_enabled() when None; never with
+    a trace), the same results."""
+    if pgo is None:
+        pgo = pgo_enabled()
     cfg, srcs, params = _top(clk_hz, mask, coarse, vel_obs)
     block = blocks()[0]
     fw_srcs = sorted((FW / "src").glob("*.c")) + sorted((FW / "include").glob("*.h"))
@@ -130,7 +164,9 @@ def build(clk_hz: int, mask: int = 7, trace: bool = False, test_limits: bool = F
         ldflags="fw/libhgfw.a -lm",
         inputs=[HERE / "plant.h", HERE / "uart_link.h", HERE / "harness_common.h",
                 HERE / "stage_clocks.h", *fw_srcs],
-        prepare=functools.partial(cosim._fw_lib, defines=defs), vflags=vflags)
+        prepare=functools.partial(cosim._fw_lib, defines=defs), vflags=vflags,
+        train=functools.partial(_train, clk_hz, mask, test_limits, coarse, vel_obs)
+        if pgo and not trace else None)
 
 
 # ---------------------------------------------------------------------------------- configs
@@ -358,10 +394,12 @@ def _progress_reader(proc: subprocess.Popen, duration: float, progress: Any) -> 
 
 
 def simulate(scene: Any, clk_hz: int | None = None, mask: int | None = None,
-             progress: Any = None, out_dir: Path | None = None, gate: bool = True) -> Raw:
+             progress: Any = None, out_dir: Path | None = None, gate: bool = True,
+             pgo: bool | None = None) -> Raw:
     """Build what the scene needs (or the given clock/mask) and run it once; at model fidelity
     the golden models' harness (hapgate.device.model). gate=False: the rtl build without the
-    interpolators' simulation-only stage clocks (build(); the same results, slower)."""
+    interpolators' simulation-only stage clocks; pgo: with or without profile-guided
+    optimisation (None: pgo_enabled()); build(): the same results either way, slower."""
     if scene.run.fidelity == "model":
         from . import model
         return model.simulate(scene, clk_hz, mask, progress, out_dir)
@@ -369,7 +407,7 @@ def simulate(scene: Any, clk_hz: int | None = None, mask: int | None = None,
     m = axis_mask(scene) if mask is None else int(mask)
     trace = bool(scene.run.trace)
     exe = build(clk, m, trace, bool(getattr(scene.firmware, "test_limits", False)),
-                _coarse(scene), _observer(scene), gate=gate)
+                _coarse(scene), _observer(scene), gate=gate, pgo=pgo)
     q0 = start_pose(scene)
     built = [f"interpolator axis {i}" for i in range(3) if m >> i & 1]
     built += ["commutator + DAC scheduler", "bus + register file", "firmware (dsp-fw)",

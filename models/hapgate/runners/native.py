@@ -53,16 +53,22 @@ def verilate_harness(name: str, top: str, sources: Sequence[Path], params: Param
                      harness: Sequence[Path], cflags: str = "", ldflags: str = "",
                      inputs: Sequence[Path] = (),
                      prepare: Callable[[Path], None] | None = None,
-                     vflags: Sequence[str] = ()) -> Path:
+                     vflags: Sequence[str] = (),
+                     train: Callable[[Path], None] | None = None) -> Path:
     """Verilate `top` with a C++ harness into build/native/<name>-<hash>/ and return the
     executable. The hash covers the parameters, flags and the bytes of every source, harness and
     extra input, so a change rebuilds and an unchanged scene is reused (parallel callers wait on a
     lock). `prepare(build_dir)` runs before Verilator (e.g. to build a library to link);
-    `vflags` are extra Verilator options (defines, tracing)."""
+    `vflags` are extra Verilator options (defines, tracing). With `train`, the executable is
+    compiled twice (profile-guided optimisation, `_pgo_build`): instrumented, `train(exe)` runs
+    it on a representative input, then optimised with that profile. The compiler flags keep the
+    IEEE semantics (no fast-math), so the optimised executable computes the same results bit for
+    bit (tb/device/test_closed_loop.py checks it), only faster."""
     toolenv.apply()
     key = json.dumps({k: param_text(v) for k, v in sorted(params.items())} |
                      {"_cflags": cflags, "_ldflags": ldflags} |
-                     ({"_vflags": list(vflags)} if vflags else {}))
+                     ({"_vflags": list(vflags)} if vflags else {}) |
+                     ({"_pgo": PGO_FLAGS} if train is not None else {}))
     digest = hashlib.sha1(key.encode())
     for src in [*sources, *harness, *inputs]:
         digest.update(src.read_bytes())
@@ -73,7 +79,7 @@ def verilate_harness(name: str, top: str, sources: Sequence[Path], params: Param
             return exe
         if prepare is not None:
             prepare(bdir)
-        cmd = ["verilator", "--cc", "--exe", "--build", "-j", "2", "-O3",
+        cmd = ["verilator", "--cc", "--exe"] + ([] if train else ["--build", "-j", "2"]) + ["-O3",
                "--x-assign", "fast", "--x-initial", "fast", "-Wno-fatal",
                "--top-module", top, "-Mdir", str(bdir), "-o", name,
                "-CFLAGS", f"-O2 {cflags}".strip(),
@@ -84,10 +90,49 @@ def verilate_harness(name: str, top: str, sources: Sequence[Path], params: Param
         cmd += [f"-G{k}={param_text(v)}" for k, v in params.items()]
         cmd += [str(s) for s in [*sources, *harness]]
         out = subprocess.run(cmd, capture_output=True, text=True)
-        (bdir / "build.log").write_text(out.stdout + out.stderr)
+        log = out.stdout + out.stderr
+        if out.returncode == 0 and train is not None:
+            log += _pgo_build(bdir, f"V{top}.mk", exe, train)
+        (bdir / "build.log").write_text(log)
         if out.returncode != 0 or not exe.exists():
             raise RuntimeError(f"native harness {name} failed to build; see {bdir / 'build.log'}")
     return exe
+
+
+# Profile-guided optimisation of a Verilated harness (verilate_harness(train=...)): gcc's
+# -fprofile-generate / -fprofile-use on every object of the executable (the generated model, the
+# Verilator runtime, the harness; a `prepare`d library keeps its own flags), and the optimised
+# build linked with link-time optimisation (the plant's and the model's calls from the clock loop
+# inline across files). Partial training: code the training run never reached is optimised as
+# usual, not for size. Profile and LTO change only the code's layout, inlining and branch order;
+# without -ffast-math (and without an FMA target) the results are the same.
+PGO_FLAGS = {"generate": "-O2 -fprofile-generate -fprofile-update=single",
+             "use": "-O2 -flto=2 -fprofile-use -fprofile-partial-training -Wno-missing-profile"}
+
+
+def _pgo_build(bdir: Path, makefile: str, exe: Path, train: Callable[[Path], None]) -> str:
+    """Compile the generated model twice around a training run; returns the log. A failed
+    training run costs only the speed: the second compile then has no profile to use."""
+    def make(stage: str) -> str:
+        for f in [exe, *bdir.glob("*.o"), *bdir.glob("*.a")]:
+            f.unlink(missing_ok=True)
+        flags = PGO_FLAGS[stage]
+        link = "-fprofile-generate" if stage == "generate" else flags
+        out = subprocess.run(["make", "-C", str(bdir), "-f", makefile, "-j", "2", exe.name,
+                              f"OPT_FAST={flags}", f"OPT_SLOW={flags}", f"OPT_GLOBAL={flags}",
+                              f"USER_LDFLAGS={link}"], capture_output=True, text=True)
+        return f"== pgo: {stage} ==\n" + out.stdout + out.stderr
+
+    for f in bdir.glob("*.gcda"):
+        f.unlink()
+    log = make("generate")
+    if exe.exists():
+        try:
+            train(exe)
+            log += "== pgo: trained ==\n"
+        except Exception as e:   # noqa: BLE001 -- any failure only loses the profile
+            log += f"== pgo: training failed ({e}); compiled without a profile ==\n"
+    return log + make("use")
 
 
 def build_interp(cfg: InterpConfig = InterpConfig(), clk_hz: int = interp.MIN_CLK_HZ,

@@ -77,7 +77,7 @@ struct Dut {
 #endif
         top->eval();
 #if HG_SIM_GATE
-        gates = top->sim_gate_en;
+        gates = hg_dev::announced(*top);
 #endif
         top->clk = 0;
 #if HG_SIM_GATE
