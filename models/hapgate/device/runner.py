@@ -115,6 +115,9 @@ def pgo_enabled() -> bool:
     return os.environ.get("HG_PGO", "1") != "0"
 
 
+TRAIN_S = 0.03   # s of scene time in a PGO training run (after the 9.1 ms homing)
+
+
 def _train(clk_hz: int, mask: int, test_limits: bool, coarse: bool, vel_obs: bool,
            exe: Path) -> None:
     """The PGO training run of a device build: TRAIN_S of scenes/wall.toml (homing, the hand
@@ -131,9 +134,6 @@ def _train(clk_hz: int, mask: int, test_limits: bool, coarse: bool, vel_obs: boo
         (Path(t) / "run.cfg").write_text(run_config(s, q0))
         subprocess.run([str(exe), str(Path(t) / "plant.cfg"), str(Path(t) / "run.cfg"), t],
                        check=True, capture_output=True, timeout=300)
-
-
-TRAIN_S = 0.03   # s of scene time in a PGO training run (after the 9.1 ms homing)
 
 
 def build(clk_hz: int, mask: int = 7, trace: bool = False, test_limits: bool = False,

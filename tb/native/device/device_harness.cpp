@@ -48,20 +48,17 @@ extern "C" {
 // The generated model's evaluation phases, called directly in the clock loop:
 // Vhapgate_top::eval() adds a message-queue flush and a deleter pass per call (~14 % of the run
 // here) that only matter for $display/$finish from other threads; the model has neither. The
-// first eval() goes through the public entry (it runs the initial blocks). Bench::eval is
-// the generated ___eval loop (the input-combinational phase, then the active and NBA phases
-// until they settle), except that the input phase runs only when an input other than a clock
-// changed since the last evaluation: it computes the logic that reads inputs, whose values are
-// otherwise those of the last evaluation (logic that also reads registers is re-evaluated in
-// the NBA phase of their clocks). That skips it in ~5 of 6 clocks (~7 % of a run); and the
-// active/NBA loop makes one pass (below).
-// The active phase computes the trigger vector (which clocks rose) from the clock inputs and
-// their previous values; but every clock of the design is a top-level input that this harness
-// drives itself, so it knows which rise at each edge: Bench::learn_triggers asks the generated
-// trigger function once per combination of stage clocks, and each edge then sets the NBA trigger
-// vector from that table and runs the NBA evaluation directly (the clock inputs, their previous
-// values and the active phase are never touched again: nothing but the trigger function reads
-// them). The same registers update as through eval(); ~5 % of a run.
+// first eval() goes through the public entry (it runs the initial blocks). Bench::eval_edge is
+// the generated ___eval loop with three things left out: the input-combinational phase runs
+// only when an input other than a clock changed since the last evaluation (it computes the logic
+// that reads inputs, whose values are otherwise those of the last evaluation; logic that also
+// reads registers is re-evaluated in the NBA phase of their clocks: skipped in ~5 of 6 clocks,
+// ~7 % of a run); the active phase is not run (it computes the trigger vector, which clocks
+// rose, from the clock inputs and their previous values; but every clock is a top-level input
+// this harness drives itself, so Bench::learn_triggers asks the generated trigger function once
+// per combination of stage clocks and each edge sets the NBA trigger vector from that table:
+// the clock inputs and their previous values are never touched again, nothing else reads them;
+// ~5 % of a run); and the NBA phase runs once (no register drives a clock).
 bool Vhapgate_top___024root___eval_phase__ico(Vhapgate_top___024root* vlSelf);
 void Vhapgate_top___024root___eval_triggers_vec__act(Vhapgate_top___024root* vlSelf);
 void Vhapgate_top___024root___eval_nba(Vhapgate_top___024root* vlSelf);
