@@ -5,6 +5,7 @@
 
 #include <stddef.h>
 #include <stdint.h>
+#include "hg_proto.h"
 
 /* CRC-16/CCITT-FALSE: poly 0x1021, init 0xFFFF, not reflected, xorout 0; "123456789" -> 0x29B1 */
 uint16_t hg_crc16(const uint8_t *d, size_t n);
@@ -15,5 +16,17 @@ size_t hg_cobs_encode(const uint8_t *in, size_t n, uint8_t *out, size_t cap);
 /* Decode one frame without its delimiter. Returns the length, or HG_COBS_ERR if the frame is
  * malformed (a zero byte, a code running past the end) or does not fit in cap. */
 size_t hg_cobs_decode(const uint8_t *in, size_t n, uint8_t *out, size_t cap);
+
+/* One link frame, delimiter included: COBS(version, type, seq, data[n], CRC-16 big-endian), 0x00.
+ * Returns its length, or 0 if n > HG_LINK_MAX_DATA. Both ends build their frames with it. */
+size_t hg_frame_encode(uint8_t version, uint8_t type, uint8_t seq, const uint8_t *data, size_t n,
+                       uint8_t out[HG_LINK_MAX_FRAME]);
+
+enum { HG_FRAME_OK = 0, HG_FRAME_BAD_FRAMING = 1, HG_FRAME_BAD_CRC = 2 };
+/* Check one received chunk (delimiter stripped): valid COBS decoding to HG_LINK_HDR + 2 ...
+ * HG_LINK_MAX_RAW bytes (else HG_FRAME_BAD_FRAMING), then the CRC (else HG_FRAME_BAD_CRC).
+ * The raw frame (header, data, CRC) goes to raw and its length to *raw_n. Version, type and
+ * length are the caller's to check. */
+int hg_frame_check(const uint8_t *chunk, size_t n, uint8_t raw[HG_LINK_MAX_RAW], size_t *raw_n);
 
 #endif /* HG_FRAME_H */

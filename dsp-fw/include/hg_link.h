@@ -11,45 +11,8 @@
 #include <stdbool.h>
 #include <stddef.h>
 #include <stdint.h>
+#include "hg_proto.h"
 #include "hg_servo.h"
-
-#define HG_PROTO_V1 1u         /* the first protocol: frames with it are answered as in v1 */
-#define HG_PROTO_VERSION 2u    /* the highest version this firmware speaks                 */
-#define HG_LINK_HDR 3u        /* version, type, seq */
-#define HG_LINK_MAX_DATA 64u
-#define HG_LINK_MAX_RAW (HG_LINK_HDR + HG_LINK_MAX_DATA + 2u)
-#define HG_LINK_MAX_FRAME (HG_LINK_MAX_RAW + HG_LINK_MAX_RAW / 254u + 2u) /* COBS + 0x00 */
-
-/* Request types; a reply has type | HG_MSG_REPLY and the request's seq. */
-enum {
-    HG_MSG_PING = 0x01,
-    HG_MSG_GET_STATE = 0x02,
-    HG_MSG_SET_FORCE = 0x03,
-    HG_MSG_SET_SCENE = 0x04,
-    HG_MSG_ENABLE = 0x05,
-    HG_MSG_GET_STATS = 0x06,
-    HG_MSG_CLEAR_ERROR = 0x07,
-    HG_MSG_INFO = 0x08,      /* v2: identity, rates and limits                          */
-    HG_MSG_STREAM = 0x09,    /* v2: push STATE_PUSH every N servo ticks (0 = stop)      */
-    HG_MSG_FORCE = 0x0A,     /* v2: PC force with TTL, counter and the state it answers */
-    HG_MSG_STATE_PUSH = 0x8A, /* v2, device -> PC only: the compact streamed state       */
-    HG_MSG_REPLY = 0x80,     /* reply bit                                          */
-    HG_MSG_NAK = 0xFF,       /* reply refusing a good frame: data = type, reason   */
-};
-
-enum { HG_NAK_RANGE = 1, HG_NAK_ERROR_LATCHED = 2, HG_NAK_REPLAY = 3 };
-
-/* Reply data lengths */
-#define HG_PING_LEN 8u
-#define HG_STATE_LEN 60u
-#define HG_STATS_LEN 28u
-#define HG_STATS2_LEN 44u      /* GET_STATS in a version-2 frame */
-#define HG_INFO_LEN 56u
-#define HG_STREAM_ACK_LEN 2u
-#define HG_PUSH_LEN 54u
-#define HG_FORCE_LEN 20u
-#define HG_STREAM_MAX_PERIOD 1000u  /* ticks */
-#define HG_LINK_TIMEOUT_MS 250u     /* default link-silence timeout */
 
 typedef struct {
     uint32_t good;        /* frames acted on (including rejected ones)           */

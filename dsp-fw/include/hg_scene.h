@@ -5,17 +5,10 @@
 
 #include <stdbool.h>
 #include <stdint.h>
+#include "hg_proto.h"
 #include "hg_real.h"
 
-enum {
-    HG_SCENE_NONE = 0,     /* F = 0                                                     */
-    HG_SCENE_WALL = 1,     /* plane through p0, normal n into free space:               */
-                           /*   depth d = (p0 - p).n; F = n max(0, k d - b v.n) if d > 0 */
-    HG_SCENE_SPRING = 2,   /* PID to the point p0: F = -k e - b v - ki int(e), e = p - p0 */
-    HG_SCENE_VISCOUS = 3,  /* F = -b v                                                  */
-    HG_SCENE_PC_FORCE = 4, /* F = the force last sent by the PC (until it times out)     */
-    HG_SCENE_COUNT
-};
+/* The scene kinds (HG_SCENE_NONE ... HG_SCENE_PC_FORCE) are protocol values: hg_proto.h. */
 
 /* Parameter ranges accepted by hg_scene_check() */
 #define HG_SCENE_K_MAX  HG_C(3500.0)  /* N/m = 35 N/cm, the PHANToM-class stiffness target */

@@ -61,3 +61,35 @@ size_t hg_cobs_decode(const uint8_t *in, size_t n, uint8_t *out, size_t cap)
     }
     return o;
 }
+
+size_t hg_frame_encode(uint8_t version, uint8_t type, uint8_t seq, const uint8_t *data, size_t n,
+                       uint8_t out[HG_LINK_MAX_FRAME])
+{
+    uint8_t raw[HG_LINK_MAX_RAW];
+    if (n > HG_LINK_MAX_DATA)
+        return 0;
+    raw[0] = version;
+    raw[1] = type;
+    raw[2] = seq;
+    for (size_t i = 0; i < n; i++)
+        raw[HG_LINK_HDR + i] = data[i];
+    const uint16_t crc = hg_crc16(raw, HG_LINK_HDR + n);
+    raw[HG_LINK_HDR + n] = (uint8_t)(crc >> 8);
+    raw[HG_LINK_HDR + n + 1] = (uint8_t)crc;
+    const size_t m = hg_cobs_encode(raw, HG_LINK_HDR + n + 2, out, HG_LINK_MAX_FRAME - 1);
+    if (m == 0)
+        return 0;
+    out[m] = 0;
+    return m + 1;
+}
+
+int hg_frame_check(const uint8_t *chunk, size_t n, uint8_t raw[HG_LINK_MAX_RAW], size_t *raw_n)
+{
+    const size_t m = hg_cobs_decode(chunk, n, raw, HG_LINK_MAX_RAW);
+    if (m == HG_COBS_ERR || m < HG_LINK_HDR + 2)
+        return HG_FRAME_BAD_FRAMING;
+    *raw_n = m;
+    if (hg_crc16(raw, m - 2) != (uint16_t)(raw[m - 2] << 8 | raw[m - 1]))
+        return HG_FRAME_BAD_CRC;
+    return HG_FRAME_OK;
+}

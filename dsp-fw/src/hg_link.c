@@ -255,10 +255,11 @@ static const struct {
     handler_fn fn;
 } msgs[] = {
     { HG_MSG_PING, 0, 1, h_ping },           { HG_MSG_GET_STATE, 0, 1, h_get_state },
-    { HG_MSG_SET_FORCE, 12, 1, h_set_force }, { HG_MSG_SET_SCENE, 37, 1, h_set_scene },
-    { HG_MSG_ENABLE, 1, 1, h_enable },        { HG_MSG_GET_STATS, 0, 1, h_get_stats },
+    { HG_MSG_SET_FORCE, HG_SET_FORCE_LEN, 1, h_set_force },
+    { HG_MSG_SET_SCENE, HG_SET_SCENE_LEN, 1, h_set_scene },
+    { HG_MSG_ENABLE, HG_ENABLE_LEN, 1, h_enable },        { HG_MSG_GET_STATS, 0, 1, h_get_stats },
     { HG_MSG_CLEAR_ERROR, 0, 1, h_clear_error }, { HG_MSG_INFO, 0, 2, h_info },
-    { HG_MSG_STREAM, 2, 2, h_stream },        { HG_MSG_FORCE, HG_FORCE_LEN, 2, h_force },
+    { HG_MSG_STREAM, HG_STREAM_LEN, 2, h_stream },        { HG_MSG_FORCE, HG_FORCE_LEN, 2, h_force },
 };
 
 void hg_link_init(hg_link_t *l, hg_servo_t *servo)
@@ -283,34 +284,20 @@ size_t hg_link_encode(uint8_t type, uint8_t seq, const uint8_t *data, size_t n,
 size_t hg_link_encode_v(uint8_t version, uint8_t type, uint8_t seq, const uint8_t *data,
                         size_t n, uint8_t out[HG_LINK_MAX_FRAME])
 {
-    uint8_t raw[HG_LINK_MAX_RAW];
-    if (n > HG_LINK_MAX_DATA)
-        return 0;
-    raw[0] = version;
-    raw[1] = type;
-    raw[2] = seq;
-    for (size_t i = 0; i < n; i++)
-        raw[HG_LINK_HDR + i] = data[i];
-    const uint16_t crc = hg_crc16(raw, HG_LINK_HDR + n);
-    raw[HG_LINK_HDR + n] = (uint8_t)(crc >> 8);
-    raw[HG_LINK_HDR + n + 1] = (uint8_t)crc;
-    const size_t m = hg_cobs_encode(raw, HG_LINK_HDR + n + 2, out, HG_LINK_MAX_FRAME - 1);
-    if (m == 0)
-        return 0;
-    out[m] = 0;
-    return m + 1;
+    return hg_frame_encode(version, type, seq, data, n, out);
 }
 
 /* One complete frame (delimiter stripped): check, dispatch, build the reply. */
 static size_t handle_frame(hg_link_t *l, uint8_t tx[HG_LINK_MAX_FRAME])
 {
     uint8_t raw[HG_LINK_MAX_RAW];
-    const size_t n = hg_cobs_decode(l->rx, l->n, raw, sizeof raw);
-    if (n == HG_COBS_ERR || n < HG_LINK_HDR + 2) {
+    size_t n = 0;
+    const int chk = hg_frame_check(l->rx, l->n, raw, &n);
+    if (chk == HG_FRAME_BAD_FRAMING) {
         l->st.bad_framing++;
         return 0;
     }
-    if (hg_crc16(raw, n - 2) != (uint16_t)(raw[n - 2] << 8 | raw[n - 1])) {
+    if (chk == HG_FRAME_BAD_CRC) {
         l->st.bad_crc++;
         return 0;
     }

@@ -1,0 +1,70 @@
+/* SPDX-License-Identifier: Apache-2.0 */
+/* The PC-link protocol's constants: versions, frame sizes, message types, NAK reasons, data
+ * lengths and flag bits. One header for both ends: the firmware (hg_link.c) and the PC-side C
+ * library (host/). The layouts are tabled in dsp-fw/README.md, "PC link protocol". */
+#ifndef HG_PROTO_H
+#define HG_PROTO_H
+
+#define HG_PROTO_V1 1u         /* the first protocol: frames with it are answered as in v1 */
+#define HG_PROTO_VERSION 2u    /* the highest version this firmware speaks                 */
+#define HG_LINK_HDR 3u        /* version, type, seq */
+#define HG_LINK_MAX_DATA 64u
+#define HG_LINK_MAX_RAW (HG_LINK_HDR + HG_LINK_MAX_DATA + 2u)
+#define HG_LINK_MAX_FRAME (HG_LINK_MAX_RAW + HG_LINK_MAX_RAW / 254u + 2u) /* COBS + 0x00 */
+
+/* Request types; a reply has type | HG_MSG_REPLY and the request's seq. */
+enum {
+    HG_MSG_PING = 0x01,
+    HG_MSG_GET_STATE = 0x02,
+    HG_MSG_SET_FORCE = 0x03,
+    HG_MSG_SET_SCENE = 0x04,
+    HG_MSG_ENABLE = 0x05,
+    HG_MSG_GET_STATS = 0x06,
+    HG_MSG_CLEAR_ERROR = 0x07,
+    HG_MSG_INFO = 0x08,      /* v2: identity, rates and limits                          */
+    HG_MSG_STREAM = 0x09,    /* v2: push STATE_PUSH every N servo ticks (0 = stop)      */
+    HG_MSG_FORCE = 0x0A,     /* v2: PC force with TTL, counter and the state it answers */
+    HG_MSG_STATE_PUSH = 0x8A, /* v2, device -> PC only: the compact streamed state       */
+    HG_MSG_REPLY = 0x80,     /* reply bit                                          */
+    HG_MSG_NAK = 0xFF,       /* reply refusing a good frame: data = type, reason   */
+};
+
+enum { HG_NAK_RANGE = 1, HG_NAK_ERROR_LATCHED = 2, HG_NAK_REPLAY = 3 };
+
+/* Reply data lengths (HG_FORCE_LEN: the FORCE request) */
+#define HG_PING_LEN 8u
+#define HG_STATE_LEN 60u
+#define HG_STATS_LEN 28u
+#define HG_STATS2_LEN 44u      /* GET_STATS in a version-2 frame */
+#define HG_INFO_LEN 56u
+#define HG_STREAM_ACK_LEN 2u
+#define HG_PUSH_LEN 54u
+#define HG_FORCE_LEN 20u
+/* Request data lengths */
+#define HG_SET_FORCE_LEN 12u
+#define HG_SET_SCENE_LEN 37u
+#define HG_ENABLE_LEN 1u
+#define HG_STREAM_LEN 2u
+#define HG_STREAM_MAX_PERIOD 1000u  /* ticks */
+#define HG_LINK_TIMEOUT_MS 250u     /* default link-silence timeout */
+
+/* Scene kinds: SET_SCENE's type byte (the laws are in hg_scene.h and dsp-fw/README.md) */
+enum {
+    HG_SCENE_NONE = 0,     /* F = 0                                                     */
+    HG_SCENE_WALL = 1,     /* plane through p0, normal n into free space:               */
+                           /*   depth d = (p0 - p).n; F = n max(0, k d - b v.n) if d > 0 */
+    HG_SCENE_SPRING = 2,   /* PID to the point p0: F = -k e - b v - ki int(e), e = p - p0 */
+    HG_SCENE_VISCOUS = 3,  /* F = -b v                                                  */
+    HG_SCENE_PC_FORCE = 4, /* F = the force last sent by the PC (until it times out)     */
+    HG_SCENE_COUNT
+};
+
+/* flags byte of GET_STATE (bits 0-2) and STATE_PUSH (bits 0-3) */
+enum {
+    HG_FLAG_ENABLED = 1u << 0,
+    HG_FLAG_ERROR = 1u << 1,
+    HG_FLAG_PC_FORCE = 1u << 2, /* GET_STATE: a PC force is live; push: that tick rendered one */
+    HG_FLAG_ARMED = 1u << 3,    /* push only: the link-silence timeout is armed              */
+};
+
+#endif /* HG_PROTO_H */
