@@ -10,7 +10,7 @@ module hapgate_top #(
     parameter integer CLK_HZ        = 48_000_000, // FPGA clock: a multiple of 1 MHz and of SAMPLE_HZ
     parameter integer SAMPLE_HZ     = 1_000_000,  // ADC sample rate
     parameter integer LUT_BITS      = 7,          // arcsine LUT codes per 45 deg (1024 counts/line)
-    parameter         ASIN_FILE     = "asin.hex", // arcsine table (hapgate.interp.write_lut)
+    parameter         ASIN_FILE     = "asin.hex", // arcsine table (hapgate.golden.interp.write_lut)
     parameter integer VEL_LOG2W     = 8,          // velocity window 2**VEL_LOG2W samples
     parameter integer AMP_MIN       = 40,         // signal-loss amplitude window, ADC codes
     parameter integer AMP_MAX       = 170,        // (upper bound of that window)
@@ -51,7 +51,7 @@ module hapgate_top #(
     parameter integer ADDR_BITS     = 8,          // sine ROM: 2**ADDR_BITS quarter-wave entries
     parameter integer MAG_BITS      = 13,         // sine ROM entry width
     parameter integer FS            = 8191,       // sine ROM full scale
-    parameter         SINE_FILE     = "sine.hex", // sine ROM (hapgate.sine.write_rom)
+    parameter         SINE_FILE     = "sine.hex", // sine ROM (hapgate.golden.sine.write_rom)
     parameter integer DAC_BITS      = 14,         // DAC width
     parameter integer OFFSET_BINARY = 0,          // DAC coding: 0 two's complement, 1 offset binary
     parameter integer BUS_ADDR_BITS = 8,          // DSP word-address lines decoded

@@ -4,7 +4,7 @@
 // three encoders along a prescribed "hand" trajectory (into a virtual wall and back), feeds the
 // ADC codes at every adc_strobe, calls hg_servo_isr() on every rising edge of irq, records every
 // DAC load, and checks the result itself: it exits 0 and prints "result=PASS" only if every
-// check holds. Driven by models/hapgate/cosim.py, which re-checks the outputs independently.
+// check holds. Driven by models/hapgate/runners/cosim.py, which re-checks the outputs independently.
 //
 // usage: cosim_harness SCENARIO RATE_HZ OUTDIR [setup strobe hold use_ready]
 //   SCENARIO: wall    normal run: home, enable, push into the wall and back
