@@ -2,7 +2,7 @@
 # package (models/hapgate/) and in pytest (tb/); this file only wires them together.
 #
 #   make demo     the main job (what it runs grows with each block)
-#   make test     lint + every test (pytest -n auto, Verilator and Icarus)
+#   make test     lint + the docs site + every test (pytest -n auto, Verilator and Icarus)
 #   make lint     ruff, verilator -Wall, Icarus elaboration, Yosys synthesis checks
 #   make bench    benchmarks: tables on stdout and in docs/figures.md, CSV/PNG in build/reports/
 #                 (BENCH_ARGS="--only sine fw" runs some parts, "--quick" smaller sizes)
@@ -44,7 +44,7 @@ lint: $(STAMP)
 	$(VENV)/bin/ruff check models tb
 	$(HG) lint
 
-test: lint
+test: lint docs
 	$(HG) check-sims
 	$(PYTEST) $(PYTEST_ARGS) tb
 
