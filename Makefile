@@ -2,9 +2,11 @@
 # package (models/hapgate/) and in pytest (tb/); this file only wires them together.
 #
 #   make demo     the main job (what it runs grows with each block)
-#   make test     lint + every test (pytest -n auto, Verilator and Icarus)
+#   make test     lint + the docs site + every test (pytest -n auto, Verilator and Icarus)
 #   make lint     ruff, verilator -Wall, Icarus elaboration, Yosys synthesis checks
-#   make bench    benchmarks: tables on stdout, CSV/PNG in build/reports/
+#   make bench    benchmarks: tables on stdout and in docs/figures.md, CSV/PNG in build/reports/
+#                 (BENCH_ARGS="--only sine fw" runs some parts, "--quick" smaller sizes)
+#   make docs     the documentation site (MkDocs, strict: a broken link fails) into build/site/
 #   make soak     10^9 ADC samples through the interpolator on Dask (scenes/sweeps/soak.toml)
 #   make synth    Yosys resource table per block, then nextpnr place and route of the board tops
 #                 (bitstreams; fails on a fit or timing failure)
@@ -21,7 +23,7 @@ HG      := $(VENV)/bin/hapgate
 PYTEST  := $(VENV)/bin/pytest
 PYTEST_ARGS ?= -n auto
 
-.PHONY: all venv demo test lint bench soak versions synth gatelevel formal regs mutants clean distclean
+.PHONY: all venv demo test lint bench docs soak versions synth gatelevel formal regs mutants clean distclean
 
 all: test
 
@@ -42,7 +44,7 @@ lint: $(STAMP)
 	$(VENV)/bin/ruff check models tb
 	$(HG) lint
 
-test: lint
+test: lint docs
 	$(HG) check-sims
 	$(PYTEST) $(PYTEST_ARGS) tb
 
@@ -50,7 +52,10 @@ demo: $(STAMP)
 	$(HG) demo
 
 bench: $(STAMP)
-	$(HG) bench
+	$(VENV)/bin/python -m hapgate.commands.bench $(BENCH_ARGS)
+
+docs: $(STAMP)
+	$(VENV)/bin/mkdocs build --strict --quiet
 
 # Mutation testing (not part of `make test`): MUTANTS_ARGS="--only NAME ..." or "--jobs 2"
 mutants: $(STAMP)

@@ -8,7 +8,7 @@
 #include "hg_real.h"
 
 /* Encoder calibration. q = dir * (counts - offset) * 2 pi / counts_per_rev; q = 0 with the
- * crank in the x-z plane (KINEMATICS.md). */
+ * crank in the x-z plane (docs/design/KINEMATICS.md). */
 typedef struct {
     int8_t dir;              /* +1 / -1: sign of counts against the right-handed joint angle */
     int32_t offset;          /* counts at q = 0; set by hg_enc_home()                        */

@@ -1,5 +1,5 @@
 /* SPDX-License-Identifier: Apache-2.0 */
-/* Linkage kinematics of ../shared/KINEMATICS.md: forward kinematics, Jacobian, inverse
+/* Linkage kinematics of docs/design/KINEMATICS.md: forward kinematics, Jacobian, inverse
  * kinematics and the singularity guard. q = (alpha, beta, gamma) in rad, p = (x, y, z) in m. */
 #ifndef HG_KIN_H
 #define HG_KIN_H

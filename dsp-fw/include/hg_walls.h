@@ -1,7 +1,7 @@
 /* SPDX-License-Identifier: Apache-2.0 */
 /* Workspace-boundary walls in actuator-angle space: each wall bounds s = c . q to [lo, hi] with
  * a one-sided spring-damper, so the user cannot drive the linkage into itself, the housing or a
- * singular set (KINEMATICS.md: keep the walls away from cos alpha = 0, sin(beta+gamma) = 0). */
+ * singular set (docs/design/KINEMATICS.md: keep the walls away from cos alpha = 0, sin(beta+gamma) = 0). */
 #ifndef HG_WALLS_H
 #define HG_WALLS_H
 

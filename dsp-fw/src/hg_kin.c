@@ -1,5 +1,5 @@
 /* SPDX-License-Identifier: Apache-2.0 */
-/* Forward kinematics, Jacobian, inverse kinematics and singularity guard (KINEMATICS.md). */
+/* Forward kinematics, Jacobian, inverse kinematics and singularity guard (docs/design/KINEMATICS.md). */
 #include "hg_kin.h"
 
 void hg_kin_eval(const hg_linkage_t *lk, const hg_real q[3], hg_kin_t *k)

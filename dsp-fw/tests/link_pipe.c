@@ -1,6 +1,6 @@
 /* SPDX-License-Identifier: Apache-2.0 */
 /* link-pipe: the PC link on stdin/stdout over the host HAL, for host-side tools and tests
- * (tb/fw drives it with models/hapgate/pclink.py). The servo is stepped once per received
+ * (tb/fw drives it with models/hapgate/golden/pclink.py). The servo is stepped once per received
  * byte with the pose q = (0, 45, 45) deg, so GET_STATE reports p = (0, 70.7 mm, 0). */
 #include <stdio.h>
 #include "hal_sim.h"

@@ -1,5 +1,5 @@
 /* SPDX-License-Identifier: Apache-2.0 */
-/* Kinematics in the firmware's float build: the KINEMATICS.md check point, IK round trip and
+/* Kinematics in the firmware's float build: the docs/design/KINEMATICS.md check point, IK round trip and
  * the guard. (Exhaustive checks against the numpy model run from tb/fw via kin-dump.) */
 #include "hg_kin.h"
 #include "hg_test.h"

@@ -52,7 +52,7 @@ void test_servo_init(void)
 }
 
 /* Wall 1 mm into the check pose: F = (0, -1, 0) N, so tau = (0, 0.0354, 0.0354) N m
- * (KINEMATICS.md), written as codes, only while enabled. */
+ * (docs/design/KINEMATICS.md), written as codes, only while enabled. */
 void test_servo_wall_torque(void)
 {
     hg_servo_t s;

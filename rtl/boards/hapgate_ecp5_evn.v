@@ -10,8 +10,8 @@
 module hapgate_ecp5_evn #(
     parameter integer CLK_HZ    = 48_000_000, // core clock: the PLL output (a multiple of 1 MHz)
     parameter integer USE_PLL   = 1,          // 0: simulation bypass, the core runs on clk
-    parameter         ASIN_FILE = "asin.hex", // arcsine table (hapgate.interp.write_lut)
-    parameter         SINE_FILE = "sine.hex"  // sine ROM (hapgate.sine.write_rom)
+    parameter         ASIN_FILE = "asin.hex", // arcsine table (hapgate.golden.interp.write_lut)
+    parameter         SINE_FILE = "sine.hex"  // sine ROM (hapgate.golden.sine.write_rom)
 ) (
     input  wire        clk,            // 12 MHz board clock
     input  wire        rst_n,          // push button, active low, asynchronous

@@ -13,8 +13,8 @@ module hapgate_ice40_hx8k #(
     parameter integer SQ_RAM     = 1,          // signal-loss squares from block RAM (fit)
     parameter integer HOLD_C     = 1,          // interpolators without stage-D copies (fit)
     parameter integer LATCH_RAM  = 1,          // frame-latched torques/limits in block RAM (fit)
-    parameter         ASIN_FILE  = "asin.hex", // arcsine table (hapgate.interp.write_lut)
-    parameter         SINE_FILE  = "sine.hex"  // sine ROM (hapgate.sine.write_rom)
+    parameter         ASIN_FILE  = "asin.hex", // arcsine table (hapgate.golden.interp.write_lut)
+    parameter         SINE_FILE  = "sine.hex"  // sine ROM (hapgate.golden.sine.write_rom)
 ) (
     input  wire        clk,
     input  wire        rst_n,          // header pin with pull-up, active low, asynchronous

@@ -2,7 +2,7 @@
 // Sinusoidal commutation of three motors through ONE shared quarter-wave sine ROM, time-multiplexed
 // over six DAC channels (m0a, m0b, m1a, m1b, m2a, m2b) by dac_sched. Every per-motor input is
 // latched at the frame start, so a change takes effect at the next frame, never mid-frame.
-// Bit-exact model and full description: models/hapgate/commutation.py.
+// Bit-exact model and full description: models/hapgate/golden/commutation.py.
 // Latency: channel k loads (dac_wr_n rises) k*SKEW + 8 clocks after the frame start (WR_CYCLES=1),
 // + 16 clocks with SERIAL_MUL=1 (one shift-add multiplier, 16 clocks per product: the LUT-only
 // iCE40-HX8K build; the codes are bit-identical, the load times shift by MUL_EXTRA clocks).
@@ -23,7 +23,7 @@ module commutator #(
     parameter integer ADDR_BITS     = 8,          // sine ROM: 2**ADDR_BITS quarter-wave entries
     parameter integer MAG_BITS      = 13,         // sine ROM entry width (FS < 2**MAG_BITS)
     parameter integer FS            = 8191,       // sine ROM full scale (six-step level)
-    parameter         LUT_FILE      = "sine.hex", // sine ROM contents (models/hapgate/sine.py)
+    parameter         LUT_FILE      = "sine.hex", // sine ROM contents (models/hapgate/golden/sine.py)
     parameter integer DAC_BITS      = 14,         // DAC width; codes saturate to +-(2**(DAC_BITS-1)-1)
     parameter integer OFFSET_BINARY = 0,          // DAC coding: 0 two's complement, 1 offset binary
     parameter integer SERIAL_MUL    = 0,          // 1: shift-add multiplier, 16 clocks (no DSP/LUT array)

@@ -1,7 +1,7 @@
 // SPDX-License-Identifier: Apache-2.0
 // Quarter-wave sine ROM unfolded over a full cycle: angle code k of 2**(ADDR_BITS+2) codes gives
 // round(FS*sin) of the angle (k + 1/2) * 360deg / 2**(ADDR_BITS+2). Contents come from
-// models/hapgate/sine.py (build/gen/*.hex); the path arrives in LUT_FILE.
+// models/hapgate/golden/sine.py (build/gen/*.hex); the path arrives in LUT_FILE.
 // Latency: 2 clocks from in_valid to out_valid (synchronous ROM read, then sign).
 `timescale 1ns / 1ps
 `default_nettype none

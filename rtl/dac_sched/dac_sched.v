@@ -2,7 +2,7 @@
 // Six-channel DAC scheduler: a frame of FRAME_NS in which channel k (0..CHANNELS-1) is requested
 // from the producer at k*SKEW_NS after the frame start, and each result is written to the
 // parallel DAC port (data, channel address, active-low write strobe). All counts come from CLK_HZ.
-// Bit-exact timing model: models/hapgate/commutation.py (load_times_ns).
+// Bit-exact timing model: models/hapgate/golden/commutation.py (load_times_ns).
 //
 // Frame start = the rising edge that ends the clock with m_frame high (the producer latches its
 // inputs there); channel k is requested in clock k*SKEW_CYCLES after it (m_req, m_req_ch).

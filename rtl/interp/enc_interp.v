@@ -1,9 +1,9 @@
 // SPDX-License-Identifier: Apache-2.0
 // Sin/cos encoder interpolator, one axis: sign-bit quadrant + arcsine LUT on the smaller channel
 // (the paper's method), 32-bit position, index latch and homing, window-difference velocity,
-// sticky faults. Bit-exact model and full description: models/hapgate/interp.py.
+// sticky faults. Bit-exact model and full description: models/hapgate/golden/interp.py.
 // Latency: 5 clocks from the cycle with s_valid high to the cycle with m_valid high, + 1 with CAL = 1
-// (the online calibration stage enc_calib.v between capture and angle, models/hapgate/enccal.py),
+// (the online calibration stage enc_calib.v between capture and angle, models/hapgate/golden/enccal.py),
 // + ANGLE_REG, + RATIO_BITS + 1 with ANGLE = 1 (the ratio divider ratio_div.v; golden/angle.py),
 // + HARM (the harmonic correction table lookup).
 `timescale 1ns / 1ps
@@ -11,7 +11,7 @@
 
 module enc_interp #(
     parameter integer LUT_BITS     = 7,         // arcsine LUT codes per 45 deg = 2**LUT_BITS (5..9)
-    parameter         LUT_FILE     = "asin.hex", // $readmemh file, 129 entries (models/hapgate/interp.py)
+    parameter         LUT_FILE     = "asin.hex", // $readmemh file, 129 entries (models/hapgate/golden/interp.py)
     parameter integer VEL_LOG2W    = 8,         // velocity window W = 2**VEL_LOG2W samples (2..12)
     parameter integer AMP_MIN      = 40,        // signal-loss window on sqrt(a^2+b^2), ADC codes
     parameter integer AMP_MAX      = 170,

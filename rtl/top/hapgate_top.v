@@ -1,8 +1,8 @@
 // SPDX-License-Identifier: Apache-2.0
 // The hapgate FPGA: three encoder interpolators, sinusoidal commutation of three motors through
 // the six-channel DAC scheduler, and the DSP bus with the register file (snapshot, servo-tick
-// interrupt, watchdog). A DAC output stage forces zero torque within one frame on a watchdog
-// timeout, global or axis disable, or axis fault. Signals and timing: rtl/top/README.md.
+// interrupt, watchdog). A DAC output stage forces zero torque on a watchdog timeout, global or
+// axis disable, or axis fault. Signals, timing and that bound: rtl/top/README.md.
 `timescale 1ns / 1ps
 `default_nettype none
 
@@ -10,7 +10,7 @@ module hapgate_top #(
     parameter integer CLK_HZ        = 48_000_000, // FPGA clock: a multiple of 1 MHz and of SAMPLE_HZ
     parameter integer SAMPLE_HZ     = 1_000_000,  // ADC sample rate
     parameter integer LUT_BITS      = 7,          // arcsine LUT codes per 45 deg (1024 counts/line)
-    parameter         ASIN_FILE     = "asin.hex", // arcsine table (hapgate.interp.write_lut)
+    parameter         ASIN_FILE     = "asin.hex", // arcsine table (hapgate.golden.interp.write_lut)
     parameter integer VEL_LOG2W     = 8,          // velocity window 2**VEL_LOG2W samples
     parameter integer AMP_MIN       = 40,         // signal-loss amplitude window, ADC codes
     parameter integer AMP_MAX       = 170,        // (upper bound of that window)
@@ -51,7 +51,7 @@ module hapgate_top #(
     parameter integer ADDR_BITS     = 8,          // sine ROM: 2**ADDR_BITS quarter-wave entries
     parameter integer MAG_BITS      = 13,         // sine ROM entry width
     parameter integer FS            = 8191,       // sine ROM full scale
-    parameter         SINE_FILE     = "sine.hex", // sine ROM (hapgate.sine.write_rom)
+    parameter         SINE_FILE     = "sine.hex", // sine ROM (hapgate.golden.sine.write_rom)
     parameter integer DAC_BITS      = 14,         // DAC width
     parameter integer OFFSET_BINARY = 0,          // DAC coding: 0 two's complement, 1 offset binary
     parameter integer BUS_ADDR_BITS = 8,          // DSP word-address lines decoded
@@ -473,8 +473,8 @@ module hapgate_top #(
     // word of a channel whose motor must not move (watchdog expired, global or axis disabled,
     // axis fault) is replaced by ZERO. The decision may change at any clock except inside a load
     // (from the clock the commutator's strobe falls to the clock after the pins' strobe rises),
-    // so a load in progress completes unchanged and every later load is zero: all six channels
-    // are at zero torque at most one frame (+ 3 clocks) after the cause.
+    // so a load in progress completes unchanged and every later load is zero (the bound on when
+    // all six channels are at zero torque: rtl/top/README.md, "Zero torque within one frame").
     wire       [1:0] c_motor = (c_addr[2:1] == 2'd3) ? 2'd0 : c_addr[2:1];
     wire             kill_ch = kill_all | fault[c_motor] | ~axis_en[c_motor];
     wire             in_load = ~c_wr_n | ~dac_wr_n;

@@ -1,6 +1,6 @@
-"""cocotb tests of rtl/commutation/commutator.v against models/hapgate/commutation.py: bit-exact
-codes on all six channels, the DAC port's timing from simulation time, saturation, the safety
-paths, the paper's figures from the RTL's own codes, and the replay engine."""
+"""cocotb tests of rtl/commutation/commutator.v against models/hapgate/golden/commutation.py:
+bit-exact codes on all six channels, the DAC port's timing from simulation time, saturation, the
+safety paths, the paper's figures from the RTL's own codes, and the replay engine."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""cocotb tests of rtl/commutation/sine_lut.v against models/hapgate/sine.py."""
+"""cocotb tests of rtl/commutation/sine_lut.v against models/hapgate/golden/sine.py."""
 
 from __future__ import annotations
 

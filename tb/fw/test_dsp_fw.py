@@ -1,5 +1,6 @@
 """dsp-fw: C unit tests, PC-link fuzz, firmware kinematics against the numpy model of
-shared/KINEMATICS.md (models/hapgate/kinematics.py), and the PC link driven from Python."""
+docs/design/KINEMATICS.md (models/hapgate/golden/kinematics.py), and the PC link driven from
+Python."""
 
 from __future__ import annotations
 

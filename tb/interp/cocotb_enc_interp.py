@@ -1,4 +1,4 @@
-"""cocotb tests of rtl/interp/enc_interp.v (one axis) against models/hapgate/interp.py.
+"""cocotb tests of rtl/interp/enc_interp.v (one axis) against models/hapgate/golden/interp.py.
 
 The stimulus is one of hapgate.golden.encsig's named scenarios (HG_SCENARIO, HG_SAMPLES); every
 output column is compared with the bit-exact model on every sample. Inputs are driven and

@@ -335,7 +335,7 @@ async def firmware_like_run(dut) -> None:
 
 TRUTH_REV_S = 230.0        # fast enough to reach the index from anywhere within the run
 TRUTH_AMP = 120.0          # ideal signals below full scale (no clipping fault)
-POLE_PAIRS = 2             # SPEC.md: four-pole motors
+POLE_PAIRS = 2             # docs/design/SPEC.md: four-pole motors
 
 
 def truth_stimulus(seed: int, n: int) -> tuple[np.ndarray, ...]:
@@ -424,8 +424,9 @@ async def homed_truth(dut) -> None:
     counts = 2**20                                                          # per revolution
     homed_counts = np.mod(x_now * 1024, counts)       # 1024 counts per line; index = line 0
     tq = np.array(torque, dtype=np.float64)[mot]
-    # the float truth, written from the spec (SPEC.md: 2 pole pairs, a 1024-code electrical
-    # cycle, +-8191 at full torque 32767, b 120 deg after a), not from the configuration under test
+    # the float truth, written from the spec (docs/design/SPEC.md: 2 pole pairs, a 1024-code
+    # electrical cycle, +-8191 at full torque 32767, b 120 deg after a), not from the
+    # configuration under test
     theta = 2 * np.pi * (POLE_PAIRS * homed_counts / 2**20 + np.array(offset)[mot] / 1024)
     want = 8191 * tq / 32767 * np.sin(theta - (ch % 2) * 2 * np.pi / 3)
     # budget, in electrical angle: 1/2 ROM code (a code stands for the middle of its bin), the

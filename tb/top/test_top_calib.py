@@ -27,8 +27,8 @@ def config(simulator: str) -> top.TopConfig:
 def test_top_calibration(simulator: str, monkeypatch: pytest.MonkeyPatch) -> None:
     cfg = config(simulator)
     if simulator == "verilator":
-        # the larger model needs the precompiled-header flag (TOOLCHAIN.md); cocotb's runner
-        # calls make itself, which reads variable assignments from MAKEFLAGS
+        # the larger model needs the precompiled-header flag (docs/design/TOOLCHAIN.md); cocotb's
+        # runner calls make itself, which reads variable assignments from MAKEFLAGS
         monkeypatch.setenv("MAKEFLAGS", "CFG_CXXFLAGS_PCH_I=-include")
     sim.run_cocotb(blocks.get("hapgate_top"), simulator, "cocotb_top_calib", HERE,
                    params=cfg.rtl_params(), extra_env={"HG_SAMPLES": str(SAMPLES[simulator])})

@@ -31,7 +31,8 @@ def config(simulator: str) -> top.TopConfig:
 @pytest.mark.parametrize("simulator", sim.simulators())
 def test_top_harmonic_table(simulator: str, monkeypatch: pytest.MonkeyPatch) -> None:
     if simulator == "verilator":
-        monkeypatch.setenv("MAKEFLAGS", "CFG_CXXFLAGS_PCH_I=-include")   # (TOOLCHAIN.md)
+        # the precompiled-header flag (docs/design/TOOLCHAIN.md)
+        monkeypatch.setenv("MAKEFLAGS", "CFG_CXXFLAGS_PCH_I=-include")
     sim.run_cocotb(blocks.get("hapgate_top"), simulator, "cocotb_top_harm", HERE,
                    params=config(simulator).rtl_params(), extra_env=RUN[simulator])
 

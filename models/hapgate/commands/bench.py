@@ -1,10 +1,27 @@
 """`make bench`: run time beside error for every engine, as tables on stdout and CSV/PNG in
-build/reports/. Speed is printed here, never asserted in a test."""
+build/reports/. Speed is printed here, never asserted in a test.
+
+The same tables go into the generated figures page, docs/figures.md, one section per part of
+the bench, each headed by the date, the commit (`git rev-parse --short HEAD`, "-dirty" when the
+tracked tree has changes) and the machine (CPU model, cores, load average) it was measured on. A
+run with `--only` replaces the sections it ran and keeps the others as they were measured.
+The page is written atomically (a temporary file in docs/, then a rename).
+
+    python -m hapgate.commands.bench [--quick] [--only sine fw ...]   (make bench BENCH_ARGS=...)
+"""
 
 from __future__ import annotations
 
 import argparse
+import datetime as dt
+import io
+import os
+import re
 import subprocess
+import sys
+import tempfile
+from collections.abc import Callable
+from pathlib import Path
 
 from ..base import toolenv
 from ..base.paths import ROOT
@@ -12,33 +29,167 @@ from ..base.report import table, write_csv
 from ..runners import cosim
 from . import bench_calib, bench_commutation, bench_host, bench_interp, bench_velobs
 
+FIGURES = ROOT / "docs" / "figures.md"
+MARK = "<!-- bench section: {} -->"
+MARK_RE = re.compile(r"^<!-- bench section: ([\w-]+) -->$", re.M)
 
-def main(args: argparse.Namespace) -> int:
+
+def _sine(quick: bool) -> bool:
     from . import demo
 
-    toolenv.apply()
-    ok = True
     headers = ["engine", "samples", "seconds", "rms err", "max err", "mismatches vs model"]
-    rows, sine_ok = demo.sine_section()
+    rows, ok = demo.sine_section()
     print("== sine ROM (1024 codes; error in DAC LSB) ==")
     print(table(headers, rows))
-    print(f"csv: {write_csv('bench_sine_rom.csv', headers, rows)}\n")
-    ok &= sine_ok
-    ok &= bench_interp.run(args.quick)
-    print()
-    ok &= bench_calib.run(args.quick)
-    print()
-    ok &= bench_velobs.run(args.quick)
-    print()
-    ok &= bench_commutation.run(args.quick)
-    print()
-    ok &= cosim.bench_section(args.quick)
-    print()
+    print(f"csv: {write_csv('bench_sine_rom.csv', headers, rows)}")
+    return ok
+
+
+def _device(quick: bool) -> bool:
     from . import bench_device
-    ok &= bench_device.run(args.quick)
-    print()
-    ok &= bench_host.run(args.quick)
-    print("\n== DSP firmware: servo step cost (make -C dsp-fw bench) ==", flush=True)
-    ok &= subprocess.run(["make", "-s", "-C", str(ROOT / "dsp-fw"), "bench"]).returncode == 0
+
+    return bench_device.run(quick)
+
+
+def _fw(quick: bool) -> bool:
+    print("== DSP firmware: servo step cost (make -C dsp-fw bench) ==", flush=True)
+    r = subprocess.run(["make", "-s", "-C", str(ROOT / "dsp-fw"), "bench"],
+                       stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+    print(r.stdout, end="")
+    return r.returncode == 0
+
+
+# name -> (title on the figures page, runner); the order of `make bench`
+SECTIONS: dict[str, tuple[str, Callable[[bool], bool]]] = {
+    "sine": ("Sine ROM", _sine),
+    "interp": ("Encoder interpolator", bench_interp.run),
+    "calib": ("Encoder calibration", bench_calib.run),
+    "velobs": ("Velocity: window FIR and tracking observer", bench_velobs.run),
+    "commutation": ("Commutation and DAC scheduler", bench_commutation.run),
+    "cosim": ("Firmware co-simulation", cosim.bench_section),
+    "device": ("Virtual device", _device),
+    "host": ("Host API over the PC link", bench_host.run),
+    "fw": ("DSP firmware: servo step cost", _fw),
+}
+
+
+def add_arguments(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--quick", action="store_true", help="smaller runs")
+    p.add_argument("--only", nargs="+", metavar="PART", choices=list(SECTIONS),
+                   help=f"run only these parts ({', '.join(SECTIONS)}); the figures page keeps "
+                        "the others as they were")
+
+
+class _Tee(io.TextIOBase):
+    """Everything printed goes to the terminal and into a buffer for the figures page."""
+
+    def __init__(self, out: io.TextIOBase) -> None:
+        self.out, self.buf = out, io.StringIO()
+
+    def write(self, s: str) -> int:
+        self.out.write(s)
+        return self.buf.write(s)
+
+    def flush(self) -> None:
+        self.out.flush()
+
+
+def _git(*argv: str) -> str:
+    try:
+        return subprocess.run(["git", *argv], cwd=ROOT, capture_output=True, text=True,
+                              check=True).stdout.strip()
+    except (OSError, subprocess.CalledProcessError):
+        return ""
+
+
+def commit() -> str:
+    """Short hash of HEAD, with "-dirty" when tracked files differ from it."""
+    head = _git("rev-parse", "--short", "HEAD") or "unknown"
+    return head + ("-dirty" if _git("status", "--porcelain", "--untracked-files=no") else "")
+
+
+def machine() -> str:
+    model = "unknown CPU"
+    try:
+        for line in Path("/proc/cpuinfo").read_text().splitlines():
+            if line.startswith("model name"):
+                model = line.split(":", 1)[1].strip()
+                break
+    except OSError:
+        pass
+    load = ""
+    if hasattr(os, "getloadavg"):
+        load = f", load average {os.getloadavg()[0]:.1f} at the start"
+    return f"{model}, {os.cpu_count()} cores{load}"
+
+
+def _sections(text: str) -> dict[str, str]:
+    """The sections of an existing figures page, by name, each from its marker to the next."""
+    marks = list(MARK_RE.finditer(text))
+    return {m.group(1): text[m.start():marks[i + 1].start() if i + 1 < len(marks) else None]
+            .rstrip() + "\n" for i, m in enumerate(marks)}
+
+
+def section_text(name: str, stamp: str, output: str, ok: bool) -> str:
+    title = SECTIONS[name][0]
+    verdict = "" if ok else "\n**This part reported a mismatch or a failure.**\n"
+    return (f"{MARK.format(name)}\n## {title}\n\n{stamp}\n{verdict}\n```text\n"
+            f"{output.strip()}\n```\n")
+
+
+def render(sections: dict[str, str]) -> str:
+    head = ("# Figures\n\n"
+            "Generated by `make bench` (`models/hapgate/commands/bench.py`); do not edit by hand.\n"
+            "Each part says when, at which commit and on which machine it was measured: run\n"
+            "times depend on the machine and its load, errors and mismatches do not. Tables:\n"
+            "run time beside error for every engine; CSVs and plots go to `build/reports/`.\n"
+            "Re-run one part with `make bench BENCH_ARGS=\"--only PART\"`.\n")
+    parts = [sections[n] if n in sections else
+             f"{MARK.format(n)}\n## {SECTIONS[n][0]}\n\nNot measured yet.\n" for n in SECTIONS]
+    return head + "\n" + "\n".join(parts)
+
+
+def write_atomic(path: Path, text: str) -> None:
+    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
+    try:
+        with os.fdopen(fd, "w", encoding="utf-8") as f:
+            f.write(text)
+            f.flush()
+            os.fsync(f.fileno())
+        os.chmod(tmp, 0o644)
+        os.replace(tmp, path)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
+
+
+def main(args: argparse.Namespace) -> int:
+    toolenv.apply()
+    only = getattr(args, "only", None) or list(SECTIONS)
+    quick = bool(getattr(args, "quick", False))
+    stamp = (f"Measured {dt.date.today().isoformat()} at commit `{commit()}` on {machine()}"
+             f"{' (`--quick`)' if quick else ''}.")
+    old = _sections(FIGURES.read_text(encoding="utf-8")) if FIGURES.exists() else {}
+    ok = True
+    for name in only:
+        tee = _Tee(sys.stdout)
+        real, sys.stdout = sys.stdout, tee
+        try:
+            part_ok = bool(SECTIONS[name][1](quick))
+        finally:
+            sys.stdout = real
+        print()
+        output = tee.buf.getvalue().replace(f"{ROOT}/", "")   # paths as the repository names them
+        old[name] = section_text(name, stamp, output, part_ok)
+        ok &= part_ok
+    write_atomic(FIGURES, render(old))
+    print(f"figures: {FIGURES}")
     print("bench:", "all engines agree with the models" if ok else "MISMATCH or failure above")
     return 0 if ok else 1
+
+
+if __name__ == "__main__":
+    parser = argparse.ArgumentParser(prog="python -m hapgate.commands.bench",
+                                     description=__doc__.split("\n\n")[0])
+    add_arguments(parser)
+    sys.exit(main(parser.parse_args()))

@@ -4,7 +4,7 @@
 // three encoders along a prescribed "hand" trajectory (into a virtual wall and back), feeds the
 // ADC codes at every adc_strobe, calls hg_servo_isr() on every rising edge of irq, records every
 // DAC load, and checks the result itself: it exits 0 and prints "result=PASS" only if every
-// check holds. Driven by models/hapgate/cosim.py, which re-checks the outputs independently.
+// check holds. Driven by models/hapgate/runners/cosim.py, which re-checks the outputs independently.
 //
 // usage: cosim_harness SCENARIO RATE_HZ OUTDIR [setup strobe hold use_ready]
 //   SCENARIO: wall    normal run: home, enable, push into the wall and back
@@ -44,7 +44,7 @@ constexpr double kPi = 3.14159265358979323846;
 constexpr double kLines = 1024.0;        // encoder lines per revolution
 constexpr double kAdcR = 110.0;          // ADC amplitude (codes)
 constexpr int kPolePairs = 2;
-constexpr double kL = 0.05;              // arm lengths (KINEMATICS.md default), m
+constexpr double kL = 0.05;              // arm lengths (docs/design/KINEMATICS.md default), m
 constexpr double kDacFs = 8191.0;        // DAC code at full scale (14-bit, symmetric)
 #if !defined(HG_LOAD_CLOCKS) || !defined(HG_WR_CYCLES)
 #error "HG_LOAD_CLOCKS and HG_WR_CYCLES (from the top's configuration) must be defined"
@@ -57,7 +57,7 @@ constexpr double kWallK = 2000.0;        // N/m (20 N/cm)
 double deg(double x) { return x * kPi / 180.0; }
 
 // ------------------------------------------------------------------ kinematics (independent
-// double implementation of shared/KINEMATICS.md, h = 0; the firmware's is the code under test)
+// double implementation of docs/design/KINEMATICS.md, h = 0; the firmware's is the code under test)
 Vec3 fk(const Vec3& q) {
     const double ca = std::cos(q[0]), sa = std::sin(q[0]);
     const double cb = std::cos(q[1]), sb = std::sin(q[1]), cg = std::cos(q[2]), sg = std::sin(q[2]);

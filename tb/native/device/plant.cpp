@@ -26,7 +26,7 @@ struct Params {
     double bw_hz = 2000.0;            // current-loop bandwidth (first-order lag)
     double i_fs = 8.0;                // A at DAC code dac_fs (10 V x 0.8 A/V)
     double dac_fs = 8191.0;
-    double arm = 0.05;                // m, L_beta = L_gamma (KINEMATICS.md)
+    double arm = 0.05;                // m, L_beta = L_gamma (docs/design/KINEMATICS.md)
     double m_link = 0.02, m_handle = 0.01;  // kg, lumped at the endpoint
     double b_visc[3] = {2e-4, 2e-4, 2e-4};  // N m s / rad
     double tau_c[3] = {0, 0, 0};            // N m, Coulomb
@@ -137,7 +137,7 @@ inline void fk_t(double L, const Trig& k, double* p) {
     p[2] = k.ca * (lg * k.sg - lb * k.sb);
 }
 
-// J = dp/dq (row-major), KINEMATICS.md with h = 0. Column 1 depends on beta only through kb,
+// J = dp/dq (row-major), docs/design/KINEMATICS.md with h = 0. Column 1 depends on beta only through kb,
 // column 2 on gamma only through kg: their common factors are formed once.
 inline void jac_t(double L, const Trig& k, double* m) {
     const double ca = k.ca, sa = k.sa, cb = k.cb, sb = k.sb, cg = k.cg, sg = k.sg;

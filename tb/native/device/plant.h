@@ -1,6 +1,6 @@
 // SPDX-License-Identifier: Apache-2.0
 // The plant of the virtual device: three BLDC motors behind current amplifiers, the linkage
-// (shared/KINEMATICS.md geometry) with a hand on it, and the encoder front end. Parameters, units
+// (docs/design/KINEMATICS.md geometry) with a hand on it, and the encoder front end. Parameters, units
 // and sources: tb/native/device/README.md. C ABI so that the same code serves the closed-loop
 // harness (device_harness.cpp) and Python (hapgate.device.plant, through ctypes).
 #pragma once

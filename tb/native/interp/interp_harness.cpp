@@ -1,7 +1,7 @@
 // SPDX-License-Identifier: Apache-2.0
 // Native long-run harness for rtl/interp/enc_interp3.v: streams ADC samples from a binary file
 // through the Verilated RTL and writes the per-sample outputs. The path for 10^7..10^9 samples
-// (cocotb pays ~15 us of Python per clock). Driven by models/hapgate/native.py.
+// (cocotb pays ~15 us of Python per clock). Driven by models/hapgate/runners/native.py.
 //
 // usage: interp_harness IN OUT N_SAMPLES COLMASK [CAL_MU]
 //   IN : N_SAMPLES records of AXES x {int8 a, int8 b, uint8 flags}; flags bit0 index,
