@@ -94,8 +94,9 @@ static int write_csv(const char *path, const wall_t *w, uint16_t first_counter)
         fprintf(stderr, "hg-wall: --csv %s: cannot write it\n", path);
         return 2;
     }
-    fprintf(f, "# first_counter=%u\nseq,px,py,pz,vx,vy,vz,fx,fy,fz,ctr,lat,live,enabled,"
-               "c0,c1,c2,cmd_fx,cmd_fy,cmd_fz\n", (unsigned)first_counter);
+    fprintf(f, "# first_counter=%u p0=%.17g,%.17g,%.17g\nseq,px,py,pz,vx,vy,vz,fx,fy,fz,ctr,lat,live,enabled,"
+               "c0,c1,c2,cmd_fx,cmd_fy,cmd_fz\n", (unsigned)first_counter, w->p0[0], w->p0[1],
+            w->p0[2]);
     for (size_t i = 0; i < w->n_rows; i++) {
         const hg_dev_state_t *s = &w->rows[i].s;
         const double *c = w->rows[i].cmd;

@@ -36,6 +36,7 @@ static int g_live;           /* the stream runs and forces are enabled */
 static unsigned g_ttl_ms;
 static double g_timeout_s;
 static uint32_t g_answered;  /* seq of the newest state handed to the application */
+static hg_dev_state_t g_given; /* the state GetPosition handed out last */
 static uint32_t g_paced;     /* seq of the state that released the last SetForce */
 static FILE *g_log;
 static int g_warned;
@@ -90,8 +91,10 @@ static void force_to_device(double fx, double fy, double fz, double out[3])
 static void log_push(const hg_dev_state_t *s, void *user)
 {
     (void)user;
-    fprintf(g_log, "P,%lu,%.9g,%.9g,%.9g,%.9g,%.9g,%.9g,%u,%u\n", (unsigned long)s->seq, s->p[0],
-            s->p[1], s->p[2], s->f[0], s->f[1], s->f[2], (unsigned)s->force_counter, s->flags);
+    fprintf(g_log, "P,%lu,%.9g,%.9g,%.9g,%.9g,%.9g,%.9g,%.9g,%.9g,%.9g,%u,%u,%u\n",
+            (unsigned long)s->seq, s->p[0], s->p[1], s->p[2], s->v[0], s->v[1], s->v[2],
+            s->f[0], s->f[1], s->f[2], (unsigned)s->force_counter,
+            (unsigned)s->force_latency_ticks, s->flags);
 }
 
 /* Open the port named by HAPGATE_PORT (forces off) if it is not open yet. g_mu held. */
@@ -155,6 +158,7 @@ static int start_link(void)
         return -1;
     }
     g_answered = g_paced = s.seq;
+    g_given = s;
     g_live = 1;
     return 0;
 }
@@ -212,8 +216,9 @@ static int send_force(double fx, double fy, double fz)
     if (r != HG_OK)
         return -1;
     if (g_log)
-        fprintf(g_log, "F,%u,%.17g,%.17g,%.17g,%.9g,%.9g,%.9g\n", (unsigned)ctr, fx, fy, fz,
-                (double)(float)f[0], (double)(float)f[1], (double)(float)f[2]);
+        fprintf(g_log, "F,%u,%.17g,%.17g,%.17g,%.9g,%.9g,%.9g,%lu\n", (unsigned)ctr, fx, fy, fz,
+                (double)(float)f[0], (double)(float)f[1], (double)(float)f[2],
+                (unsigned long)g_answered);
     hg_dev_state_t s;
     r = hg_wait_push(g_dev, g_paced, &s, g_timeout_s);
     if (r == HG_E_REFUSED)
@@ -262,6 +267,7 @@ int hdPhantomGetPosition(int a_deviceID, double *a_posX, double *a_posY, double 
     const int r = newest(&s);
     double p[3];
     if (r == 0) {
+        g_given = s;
         to_chai(s.p, g_c, p);
         *a_posX = p[0];
         *a_posY = p[1];
@@ -280,7 +286,8 @@ int hdPhantomGetLinearVelocity(int a_deviceID, double *a_velX, double *a_velY, d
     if (a_deviceID != 0 || !a_velX || !a_velY || !a_velZ)
         return -1;
     pthread_mutex_lock(&g_mu);
-    const int r = newest(&s);
+    /* the velocity of the state GetPosition handed out last, so that the two agree */
+    const int r = g_dev && g_live && g_given.is_push ? (s = g_given, 0) : newest(&s);
     double v[3];
     if (r == 0) {
         to_chai(s.v, zero, v);

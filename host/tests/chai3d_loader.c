@@ -14,8 +14,9 @@
  *
  *     chai3d-loader count                  prints "devices N" (N = GetNumDevices)
  *     chai3d-loader wall SECONDS [K B DEPTH_MM]
- *         a horizontal floor DEPTH_MM below the resting handle (CHAI3D frame: normal +z),
- *         F = n max(0, K d - B v.n); prints "G,i,x,y,z" for the first position, "R,..." per
+ *         a horizontal plane DEPTH_MM into the resting handle, free space below (CHAI3D
+ *         frame: normal -z): F = n max(0, K d - B v.n) with d = (p0 - p).n pushes the handle
+ *         down and the hand holds it. Prints "G,0,x,y,z" for the first position, "R,..." every
  *         100 iterations, and "DONE,iterations,seconds,radius,type".
  * Exit 0, 1 when a call fails, 2 on bad arguments, 3 when a library or symbol is missing. */
 #include <dlfcn.h>
@@ -117,7 +118,7 @@ static void *haptic(void *arg)
         return NULL;
     }
     printf("G,0,%.17g,%.17g,%.17g\n", p[0], p[1], p[2]);
-    const double floor_z = p[2] - h->depth * 1e-3; /* the plane; free space above (+z) */
+    const double plane_z = p[2] - h->depth * 1e-3; /* the plane; free space below (-z) */
     const double t0 = now_s();
     while (now_s() - t0 < h->seconds) {
         if (P.pos(0, &p[0], &p[1], &p[2]) != 0 || P.vel(0, &v[0], &v[1], &v[2]) != 0
@@ -127,8 +128,8 @@ static void *haptic(void *arg)
             h->failed = 1;
             break;
         }
-        const double d = floor_z - p[2]; /* depth below the floor */
-        double f[3] = { 0.0, 0.0, d > 0.0 ? fmax(0.0, h->k * d - h->b * v[2]) : 0.0 };
+        const double d = p[2] - plane_z; /* depth: (p0 - p).n with n = (0, 0, -1) */
+        double f[3] = { 0.0, 0.0, d > 0.0 ? -fmax(0.0, h->k * d + h->b * v[2]) : 0.0 };
         double t[3] = { 0.0, 0.0, 0.0 };
         if (P.force_torque(0, &f[0], &f[1], &f[2], &t[0], &t[1], &t[2]) != 0) {
             h->failed = 1;
