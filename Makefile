@@ -1,11 +1,13 @@
 # hapgate — the people's entry points. Everything real lives in the `hapgate` Python
 # package (models/hapgate/) and in pytest (tb/); this file only wires them together.
 #
+#   make          the venv, the C host library and the CHAI3D shims (build/host/lib/)
 #   make demo     the main job (what it runs grows with each block)
 #   make test     lint + the docs site + every test (pytest -n auto, Verilator and Icarus)
 #   make lint     ruff, verilator -Wall, Icarus elaboration, Yosys synthesis checks
 #   make bench    benchmarks: tables on stdout and in docs/figures.md, CSV/PNG in build/reports/
 #                 (BENCH_ARGS="--only sine fw" runs some parts, "--quick" smaller sizes)
+#   make host     the C host library, the CHAI3D shims and the C example (host/, into build/host/)
 #   make docs     the documentation site (MkDocs, strict: a broken link fails) into build/site/
 #   make soak     10^9 ADC samples through the interpolator on Dask (scenes/sweeps/soak.toml)
 #   make synth    Yosys resource table per block, then nextpnr place and route of the board tops
@@ -23,9 +25,12 @@ HG      := $(VENV)/bin/hapgate
 PYTEST  := $(VENV)/bin/pytest
 PYTEST_ARGS ?= -n auto
 
-.PHONY: all venv demo test lint bench docs soak versions synth gatelevel formal regs mutants clean distclean
+.PHONY: all host venv demo test lint bench docs soak versions synth gatelevel formal regs mutants clean distclean
 
-all: test
+all: venv host
+
+host:
+	$(MAKE) -C host BUILD=$(CURDIR)/build/host
 
 # The venv is (re)built only when the pin file or the package metadata change.
 $(STAMP): requirements.lock pyproject.toml
@@ -44,7 +49,7 @@ lint: $(STAMP)
 	$(VENV)/bin/ruff check models tb
 	$(HG) lint
 
-test: lint docs
+test: lint docs host
 	$(HG) check-sims
 	$(PYTEST) $(PYTEST_ARGS) tb
 

@@ -210,7 +210,7 @@ def test_chai3d_loader_renders_a_wall_through_the_shims(served: Server, host: Pa
     G = np.array([[float(x) for x in ln.split(",")[1:]] for ln in lines if ln[0] == "G"])
     # the device's floats, logged with 9 digits: float32 gives back their exact values
     pseq, pp, pv, pf = P[:, 0], *(F32(P[:, i:i + 3]).astype(float) for i in (1, 4, 7))
-    pctr, plat, pflags = P[:, 10].astype(int), P[:, 11], P[:, 12].astype(int)
+    pctr, pflags = P[:, 10].astype(int), P[:, 12].astype(int)
     # positions: each one handed to the application is R (p - c) of the push it came from
     by_seq = {int(s): i for i, s in enumerate(pseq)}
     idx = np.array([by_seq[int(s)] for s in G[:, 0]])
@@ -225,7 +225,8 @@ def test_chai3d_loader_renders_a_wall_through_the_shims(served: Server, host: Pa
     # pacing: never more forces than states, and the loop runs (does not stall)
     assert len(F) <= len(P) + 2 and len(F) > 0.5 * len(P) and iterations >= len(F) - 1
     # the law in CHAI3D's frame, recomputed here at the state each rendered force answered
-    # (the one GetPosition handed out before it was set): rendered in the device's frame within float32 rounding
+    # (the one GetPosition handed out before it was set): rendered in the device's frame,
+    # within float32 rounding
     n = np.array([0.0, 0.0, -1.0])
     pc, vc = (pp - c) @ R.T, pv @ R.T
     p0 = g0 + [0.0, 0.0, -1e-3]

@@ -69,6 +69,7 @@ SECTIONS: dict[str, tuple[str, Callable[[bool], bool]]] = {
     "cosim": ("Firmware co-simulation", cosim.bench_section),
     "device": ("Virtual device", _device),
     "host": ("Host API over the PC link", bench_host.run),
+    "host-c": ("The C servo loop beside the Python loop", bench_host.run_c),
     "fw": ("DSP firmware: servo step cost", _fw),
 }
 
