@@ -17,6 +17,44 @@ size_t hg_cobs_encode(const uint8_t *in, size_t n, uint8_t *out, size_t cap);
  * malformed (a zero byte, a code running past the end) or does not fit in cap. */
 size_t hg_cobs_decode(const uint8_t *in, size_t n, uint8_t *out, size_t cap);
 
+/* Little-endian fields of the messages' data (both ends read and write them with these). */
+static inline void hg_put_u16(uint8_t *d, uint32_t v)
+{
+    d[0] = (uint8_t)v;
+    d[1] = (uint8_t)(v >> 8);
+}
+
+static inline void hg_put_u32(uint8_t *d, uint32_t v)
+{
+    hg_put_u16(d, v);
+    hg_put_u16(d + 2, v >> 16);
+}
+
+static inline uint32_t hg_get_u16(const uint8_t *d)
+{
+    return (uint32_t)d[0] | (uint32_t)d[1] << 8;
+}
+
+static inline uint32_t hg_get_u32(const uint8_t *d)
+{
+    return hg_get_u16(d) | hg_get_u16(d + 2) << 16;
+}
+
+/* f32 = IEEE-754 binary32, through a union (no aliasing cast) */
+static inline void hg_put_f32(uint8_t *d, float x)
+{
+    union { float f; uint32_t u; } b;
+    b.f = x;
+    hg_put_u32(d, b.u);
+}
+
+static inline float hg_get_f32(const uint8_t *d)
+{
+    union { float f; uint32_t u; } b;
+    b.u = hg_get_u32(d);
+    return b.f;
+}
+
 /* One link frame, delimiter included: COBS(version, type, seq, data[n], CRC-16 big-endian), 0x00.
  * Returns its length, or 0 if n > HG_LINK_MAX_DATA. Both ends build their frames with it. */
 size_t hg_frame_encode(uint8_t version, uint8_t type, uint8_t seq, const uint8_t *data, size_t n,

@@ -4,35 +4,14 @@
 #include "hg_hal.h"
 #include "hg_link.h"
 
-typedef union {
-    float f;
-    uint32_t u;
-} f32_bits;
-
-static void put_u16(uint8_t *d, uint32_t v)
-{
-    d[0] = (uint8_t)v;
-    d[1] = (uint8_t)(v >> 8);
-}
-
-static void put_u32(uint8_t *d, uint32_t v)
-{
-    put_u16(d, v);
-    put_u16(d + 2, v >> 16);
-}
-
 static void put_f32(uint8_t *d, hg_real x)
 {
-    f32_bits b;
-    b.f = (float)x;
-    put_u32(d, b.u);
+    hg_put_f32(d, (float)x);
 }
 
 static hg_real get_f32(const uint8_t *d)
 {
-    f32_bits b;
-    b.u = (uint32_t)d[0] | (uint32_t)d[1] << 8 | (uint32_t)d[2] << 16 | (uint32_t)d[3] << 24;
-    return (hg_real)b.f;
+    return (hg_real)hg_get_f32(d);
 }
 
 static void put_vec(uint8_t *d, const hg_real v[3])
@@ -47,16 +26,6 @@ static void get_vec(const uint8_t *d, hg_real v[3])
         v[i] = get_f32(d + 4 * i);
 }
 
-static uint32_t get_u16(const uint8_t *d)
-{
-    return (uint32_t)d[0] | (uint32_t)d[1] << 8;
-}
-
-static uint32_t get_u32(const uint8_t *d)
-{
-    return get_u16(d) | get_u16(d + 2) << 16;
-}
-
 #define NO_REPLY (-1) /* a handler's "accepted, answer nothing" (FORCE) */
 
 /* A handler reads req (its exact length is guaranteed), writes reply data to out and its
@@ -67,9 +36,9 @@ typedef int (*handler_fn)(hg_link_t *l, const uint8_t *req, uint8_t *out, size_t
 static int h_ping(hg_link_t *l, const uint8_t *req, uint8_t *out, size_t *n)
 {
     (void)req;
-    put_u16(out, HG_FW_VERSION);
-    put_u32(out + 2, l->servo->fpga_id);
-    put_u16(out + 6, l->servo->cfg.rate_hz);
+    hg_put_u16(out, HG_FW_VERSION);
+    hg_put_u32(out + 2, l->servo->fpga_id);
+    hg_put_u16(out + 6, l->servo->cfg.rate_hz);
     *n = HG_PING_LEN;
     return 0;
 }
@@ -79,7 +48,7 @@ static int h_get_state(hg_link_t *l, const uint8_t *req, uint8_t *out, size_t *n
     const hg_servo_t *s = l->servo;
     (void)req;
     const uint32_t t = hg_hal_irq_save();
-    put_u32(out, s->seq);
+    hg_put_u32(out, s->seq);
     put_vec(out + 4, s->p);
     put_vec(out + 16, s->v);
     put_vec(out + 28, s->q);
@@ -89,7 +58,7 @@ static int h_get_state(hg_link_t *l, const uint8_t *req, uint8_t *out, size_t *n
     out[53] = s->err;
     out[54] = s->err_axis;
     out[55] = s->scene.type;
-    put_u32(out + 56, s->status);
+    hg_put_u32(out + 56, s->status);
     hg_hal_irq_restore(t);
     *n = HG_STATE_LEN;
     return 0;
@@ -167,7 +136,7 @@ static int h_get_stats(hg_link_t *l, const uint8_t *req, uint8_t *out, size_t *n
     const size_t k = l->ver == HG_PROTO_V1 ? 7u : 11u; /* a v1 request gets the v1 reply */
     (void)req;
     for (size_t i = 0; i < k; i++)
-        put_u32(out + 4 * i, v[i]);
+        hg_put_u32(out + 4 * i, v[i]);
     *n = 4u * k;
     return 0;
 }
@@ -181,32 +150,32 @@ static int h_info(hg_link_t *l, const uint8_t *req, uint8_t *out, size_t *n)
 {
     const hg_servo_t *s = l->servo;
     (void)req;
-    put_u16(out, HG_FW_VERSION);
+    hg_put_u16(out, HG_FW_VERSION);
     out[2] = HG_PROTO_VERSION;
     out[3] = 0;
-    put_u32(out + 4, s->fpga_id);
-    put_u16(out + 8, s->cfg.rate_hz);
-    put_u16(out + 10, l->cfg.timeout_ms);
-    put_u32(out + 12, l->cfg.baud);
+    hg_put_u32(out + 4, s->fpga_id);
+    hg_put_u16(out + 8, s->cfg.rate_hz);
+    hg_put_u16(out + 10, l->cfg.timeout_ms);
+    hg_put_u32(out + 12, l->cfg.baud);
     put_vec(out + 16, l->cfg.box_lo);
     put_vec(out + 28, l->cfg.box_hi);
     put_f32(out + 40, s->cfg.f_max);
     put_f32(out + 44, HG_SCENE_K_MAX);
     put_f32(out + 48, HG_SCENE_B_MAX);
-    put_u16(out + 52, (uint32_t)((uint64_t)s->cfg.pc_force_timeout * 1000u / s->cfg.rate_hz));
-    put_u16(out + 54, l->force_ctr);
+    hg_put_u16(out + 52, (uint32_t)((uint64_t)s->cfg.pc_force_timeout * 1000u / s->cfg.rate_hz));
+    hg_put_u16(out + 54, l->force_ctr);
     *n = HG_INFO_LEN;
     return 0;
 }
 
 static int h_stream(hg_link_t *l, const uint8_t *req, uint8_t *out, size_t *n)
 {
-    const uint32_t period = get_u16(req);
+    const uint32_t period = hg_get_u16(req);
     if (period > HG_STREAM_MAX_PERIOD)
         return HG_NAK_RANGE;
     l->period = period;
     l->last_push = l->servo->seq - period; /* the first push goes out at the next poll */
-    put_u16(out, period);
+    hg_put_u16(out, period);
     *n = HG_STREAM_ACK_LEN;
     return 0;
 }
@@ -219,8 +188,8 @@ static int h_force(hg_link_t *l, const uint8_t *req, uint8_t *out, size_t *n)
     (void)out;
     (void)n;
     get_vec(req, f);
-    const uint32_t ttl = ms_to_ticks(s, get_u16(req + 12));
-    const uint16_t ctr = (uint16_t)get_u16(req + 14);
+    const uint32_t ttl = ms_to_ticks(s, hg_get_u16(req + 12));
+    const uint16_t ctr = (uint16_t)hg_get_u16(req + 14);
     if (ttl == 0 || ttl > s->cfg.pc_force_timeout)
         return HG_NAK_RANGE;
     if (l->have_force && (uint16_t)(ctr - l->force_ctr) - 1u >= 0x7FFFu) {
@@ -231,7 +200,7 @@ static int h_force(hg_link_t *l, const uint8_t *req, uint8_t *out, size_t *n)
         return HG_NAK_RANGE;
     const uint32_t t = hg_hal_irq_save();
     s->f_pc_age = s->cfg.pc_force_timeout - ttl; /* live for exactly ttl ticks */
-    const uint32_t lat = s->seq + 1u - get_u32(req + 16);
+    const uint32_t lat = s->seq + 1u - hg_get_u32(req + 16);
     hg_hal_irq_restore(t);
     l->have_force = true;
     l->force_ctr = ctr;
@@ -357,7 +326,7 @@ size_t hg_link_poll(hg_link_t *l, bool tx_free, uint8_t tx[HG_LINK_MAX_FRAME])
     l->last_push = seq;
     uint8_t d[HG_PUSH_LEN];
     const uint32_t t = hg_hal_irq_save();
-    put_u32(d, s->seq);
+    hg_put_u32(d, s->seq);
     put_vec(d + 4, s->p);
     put_vec(d + 16, s->v);
     put_vec(d + 28, s->f);
@@ -368,10 +337,10 @@ size_t hg_link_poll(hg_link_t *l, bool tx_free, uint8_t tx[HG_LINK_MAX_FRAME])
     d[42] = s->err_axis;
     d[43] = s->scene.type;
     for (int i = 0; i < 3; i++)
-        put_u16(d + 44 + 2 * i, (uint32_t)(uint16_t)s->code[i]);
+        hg_put_u16(d + 44 + 2 * i, (uint32_t)(uint16_t)s->code[i]);
     hg_hal_irq_restore(t);
-    put_u16(d + 50, l->live_ctr);
-    put_u16(d + 52, l->live_lat);
+    hg_put_u16(d + 50, l->live_ctr);
+    hg_put_u16(d + 52, l->live_lat);
     l->st.pushed++;
     return hg_link_encode_v(HG_PROTO_VERSION, HG_MSG_STATE_PUSH, l->push_seq++, d, HG_PUSH_LEN, tx);
 }

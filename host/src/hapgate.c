@@ -105,16 +105,7 @@ int hg_torque_zero(const hg_dev_state_t *s)
 }
 
 /* ---------------------------------------------------------------- bytes and time */
-static uint32_t get_u16(const uint8_t *d) { return (uint32_t)d[0] | (uint32_t)d[1] << 8; }
-static uint32_t get_u32(const uint8_t *d) { return get_u16(d) | get_u16(d + 2) << 16; }
-
-static double get_f32(const uint8_t *d)
-{
-    const uint32_t u = get_u32(d);
-    float f;
-    memcpy(&f, &u, sizeof f);
-    return (double)f;
-}
+static double get_f32(const uint8_t *d) { return (double)hg_get_f32(d); }
 
 static void get_vec(const uint8_t *d, double v[3])
 {
@@ -122,25 +113,7 @@ static void get_vec(const uint8_t *d, double v[3])
         v[i] = get_f32(d + 4 * i);
 }
 
-static void put_u16(uint8_t *d, uint32_t v)
-{
-    d[0] = (uint8_t)v;
-    d[1] = (uint8_t)(v >> 8);
-}
-
-static void put_u32(uint8_t *d, uint32_t v)
-{
-    put_u16(d, v);
-    put_u16(d + 2, v >> 16);
-}
-
-static void put_f32(uint8_t *d, double x)
-{
-    const float f = (float)x;
-    uint32_t u;
-    memcpy(&u, &f, sizeof u);
-    put_u32(d, u);
-}
+static void put_f32(uint8_t *d, double x) { hg_put_f32(d, (float)x); }
 
 static struct timespec now_mono(void)
 {
@@ -236,7 +209,7 @@ static void parse_push(const hg_dev_t *d, const uint8_t *b, hg_dev_state_t *s)
 {
     memset(s, 0, sizeof *s);
     s->is_push = 1;
-    s->seq = get_u32(b);
+    s->seq = hg_get_u32(b);
     s->t_s = d->have_info && d->info.servo_hz ? (double)s->seq / d->info.servo_hz : 0.0;
     get_vec(b + 4, s->p);
     get_vec(b + 16, s->v);
@@ -249,9 +222,9 @@ static void parse_push(const hg_dev_t *d, const uint8_t *b, hg_dev_state_t *s)
     s->error_axis = b[42];
     s->scene = b[43];
     for (int i = 0; i < 3; i++)
-        s->code[i] = (int16_t)get_u16(b + 44 + 2 * i);
-    s->force_counter = (uint16_t)get_u16(b + 50);
-    s->force_latency_ticks = (uint16_t)get_u16(b + 52);
+        s->code[i] = (int16_t)hg_get_u16(b + 44 + 2 * i);
+    s->force_counter = (uint16_t)hg_get_u16(b + 50);
+    s->force_latency_ticks = (uint16_t)hg_get_u16(b + 52);
 }
 
 static void on_push(hg_dev_t *d, uint8_t frame_seq, const uint8_t *b) /* mu held */
@@ -447,19 +420,19 @@ int hg_get_info(hg_dev_t *d, hg_dev_info_t *out)
         return r;
     hg_dev_info_t i;
     memset(&i, 0, sizeof i);
-    i.fw_version = get_u16(b);
+    i.fw_version = hg_get_u16(b);
     i.protocol = b[2];
-    i.fpga_id = get_u32(b + 4);
-    i.servo_hz = get_u16(b + 8);
-    i.link_timeout_ms = get_u16(b + 10);
-    i.baud = get_u32(b + 12);
+    i.fpga_id = hg_get_u32(b + 4);
+    i.servo_hz = hg_get_u16(b + 8);
+    i.link_timeout_ms = hg_get_u16(b + 10);
+    i.baud = hg_get_u32(b + 12);
     get_vec(b + 16, i.box_lo);
     get_vec(b + 28, i.box_hi);
     i.f_max_n = get_f32(b + 40);
     i.k_max_n_per_m = get_f32(b + 44);
     i.b_max_ns_per_m = get_f32(b + 48);
-    i.ttl_max_ms = get_u16(b + 52);
-    i.force_counter = (uint16_t)get_u16(b + 54);
+    i.ttl_max_ms = hg_get_u16(b + 52);
+    i.force_counter = (uint16_t)hg_get_u16(b + 54);
     max_stream(&i);
     pthread_mutex_lock(&d->mu);
     d->info = i;
@@ -479,7 +452,7 @@ int hg_get_state(hg_dev_t *d, hg_dev_state_t *s)
     if (r != HG_OK)
         return r;
     memset(s, 0, sizeof *s);
-    s->seq = get_u32(b);
+    s->seq = hg_get_u32(b);
     pthread_mutex_lock(&d->mu);
     s->t_s = d->info.servo_hz ? (double)s->seq / d->info.servo_hz : 0.0;
     pthread_mutex_unlock(&d->mu);
@@ -493,7 +466,7 @@ int hg_get_state(hg_dev_t *d, hg_dev_state_t *s)
     s->error = b[53];
     s->error_axis = b[54];
     s->scene = b[55];
-    s->fpga_status = get_u32(b + 56);
+    s->fpga_status = hg_get_u32(b + 56);
     return HG_OK;
 }
 
@@ -555,9 +528,9 @@ int hg_set_force(hg_dev_t *d, const double f[3], unsigned ttl_ms, uint32_t answe
     pthread_mutex_unlock(&d->mu);
     for (int i = 0; i < 3; i++)
         put_f32(q + 4 * i, f[i]);
-    put_u16(q + 12, ttl_ms);
-    put_u16(q + 14, ctr);
-    put_u32(q + 16, answers);
+    hg_put_u16(q + 12, ttl_ms);
+    hg_put_u16(q + 14, ctr);
+    hg_put_u32(q + 16, answers);
     if (counter)
         *counter = ctr;
     return send_frame(d, HG_MSG_FORCE, seq, q, sizeof q);
@@ -579,7 +552,7 @@ int hg_stream_start(hg_dev_t *d, double rate_hz, double *rate_set)
         period = 1;
     if (period < i.max_loop_period)
         return HG_E_REFUSED;
-    put_u16(q, period);
+    hg_put_u16(q, period);
     pthread_mutex_lock(&d->mu);
     d->streaming = 0; /* no silence check until the first push of this stream */
     d->have_push_seq = 0;
@@ -684,7 +657,7 @@ int hg_get_stats(hg_dev_t *d, hg_dev_stats_t *out)
                               &out->bad_type, &out->bad_len,     &out->rejected, &out->replayed,
                               &out->pushed,   &out->push_dropped, &out->timeouts };
     for (int i = 0; i < 11; i++)
-        *dev_ctr[i] = get_u32(b + 4 * i);
+        *dev_ctr[i] = hg_get_u32(b + 4 * i);
     return HG_OK;
 }
 

@@ -52,6 +52,9 @@ class WallResult:
     ctr: np.ndarray
     live: np.ndarray
     stats: object
+    v: np.ndarray | None = None       # per push: the device's velocity
+    answered: np.ndarray | None = None  # per push: the tick of the state its force answered
+    p0: np.ndarray | None = None      # the wall plane's point (normal: `normal`)
 
 
 def _pct(x: np.ndarray, scale: float = 1.0) -> dict[str, float]:
@@ -120,7 +123,9 @@ def run_wall(dev: Device, duration_s: float = 2.0, k: float = 2000.0, b: float =
                       interval_ms=_pct(np.diff(first_tick).astype(float), tick_s * 1e3),
                       latency_ms=_pct(lat[new].astype(float), tick_s * 1e3),
                       force_err_n=_pct(err), contact_samples=int(contact.sum()), exact=exact,
-                      seq=seq, p=p, f=f, ctr=ctr, live=live, stats=stats)
+                      seq=seq, p=p, f=f, ctr=ctr, live=live, stats=stats, v=v,
+                      answered=np.array([sent_ref.get(int(c), -1) for c in ctr], dtype=np.int64),
+                      p0=p0)
 
 
 def report(r: WallResult) -> str:
