@@ -13,12 +13,12 @@ from dataclasses import asdict
 import numpy as np
 
 from ..base import toolenv
-from ..base.paths import BUILD, TB, ensure
+from ..base.paths import BUILD, ROOT, TB, ensure
 from ..base.report import figure_path, pyplot, table
 from ..flows import blocks
 from ..golden import encsig, interp, sine
 from ..runners import cosim, native, sim
-from . import bench_commutation
+from . import bench_commutation, scene
 
 
 def sine_section() -> tuple[list[list[object]], bool]:
@@ -132,8 +132,6 @@ def main(_: argparse.Namespace) -> int:
     print()
     print("Virtual device, closed loop (scenes/short.toml: gateware + unchanged firmware + plant "
           "+ hand, `hapgate scene run`)", flush=True)
-    from ..base.paths import ROOT
-    from . import scene
     ok &= scene.run_file(ROOT / "scenes" / "short.toml") == 0
     print("demo:", "RTL matches the models bit for bit" if ok else "RTL DIFFERS from a model")
     return 0 if ok else 1

@@ -31,6 +31,7 @@ import numpy as np
 from ..base.capture import CaptureError, Column, check_output, read_table, write_csv
 from ..base.report import table
 from ..golden import commutation as cm
+from ..runners import native_comm
 
 MODE_WORDS = {word: val for word, val in cm.MODES.items()}
 MAX_CLK_HZ = 2_147_000_000   # a 32-bit Verilog integer parameter
@@ -95,8 +96,6 @@ def run_rtl(frames: cm.Frames, cfg: cm.CommutationConfig, simulator: str = "veri
     clocked at cfg.clk_hz: (codes (n, 6), load times ns (n, 6), seconds with the build). The DAC
     port is checked clock by clock and every load against the documented schedule; a violation
     raises RuntimeError, a clock the RTL refuses raises ValueError (before any build)."""
-    from ..runners import native_comm
-
     if simulator != "verilator":
         raise ValueError(f"the replay engine runs on Verilator only, not {simulator}")
     t0 = time.perf_counter()

@@ -18,7 +18,7 @@ from pathlib import Path
 
 from ..base.paths import BUILD
 from ..base.report import table
-from ..device import sweep
+from ..device import sweep, zwidth
 from . import sweep_report
 
 EXIT_OK, EXIT_FAIL, EXIT_BAD_INPUT, EXIT_NO_RUN = 0, 1, 2, 3
@@ -88,7 +88,6 @@ def main(args: argparse.Namespace) -> int:
     status = EXIT_OK
     rows = res.rows()
     if spec.kind == "zwidth":
-        from ..device import zwidth
         for d in args.compare:
             rows = rows + read_rows(d / "results.csv")
         tab = sweep_report.kmax_table(rows)

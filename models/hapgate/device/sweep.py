@@ -30,6 +30,7 @@ import tomllib
 
 from ..base.paths import BUILD, ROOT, ensure
 from ..base.progress import Progress
+from .scene import load as load_scene
 
 Record = dict[str, Any]
 # what a job runs (the commands' reporting is not part of a job's result)
@@ -247,7 +248,6 @@ def sources_digest(root: Path = ROOT, kind: str | None = None) -> str:
 def job_key(kind: str, params: Mapping[str, Any], sources: str) -> str:
     p = dict(params)
     if "base" in p:                       # the base scene by content, not by path
-        from .scene import load as load_scene
         p["base"] = load_scene(p["base"]).digest()
     blob = json.dumps({"kind": kind, "params": p, "sources": sources}, sort_keys=True,
                       default=str)
