@@ -11,13 +11,12 @@ makes before it hands the parameters to a tool.
 
 from __future__ import annotations
 
-import os
-import tempfile
 from collections.abc import Callable, Mapping
 from pathlib import Path, PosixPath
 
 import numpy as np
 
+from .atomic import write_bytes
 from .paths import GEN, ensure
 
 
@@ -41,12 +40,7 @@ def write_hex(name: str, values: np.ndarray, width: int, directory: Path | None 
     text = hex_text(values, width)
     if path.exists() and path.read_text() == text:
         return path
-    fd, tmp = tempfile.mkstemp(dir=out_dir, prefix=f".{name}.", suffix=".tmp")
-    with os.fdopen(fd, "w") as f:
-        f.write(text)
-    os.chmod(tmp, 0o644)        # mkstemp makes 0600; a table is an ordinary build product
-    os.replace(tmp, path)
-    return path
+    return write_bytes(path, text)
 
 
 def read_hex(path: Path, width: int, signed: bool = False) -> np.ndarray:

@@ -14,7 +14,7 @@ import numpy as np
 
 from ..base import toolenv
 from ..base.paths import BUILD, ROOT, TB, ensure
-from ..base.report import figure_path, pyplot, table
+from ..base.report import figure_path, pyplot, save_figure, table
 from ..flows import blocks
 from ..golden import encsig, interp, sine
 from ..runners import cosim, native, sim
@@ -58,7 +58,7 @@ def sine_section() -> tuple[list[list[object]], bool]:
     ax[1].set_ylabel("RTL - FS*sin [LSB]")
     ax[1].set_xlabel("angle code")
     fig.tight_layout()
-    fig.savefig(figure_path("demo_sine_rom.png"), dpi=100)
+    save_figure(fig, figure_path("demo_sine_rom.png"), dpi=100)
     plt.close(fig)
     return rows, mism == 0
 
@@ -105,7 +105,7 @@ def interp_section(n: int = 1_000_000) -> tuple[list[list[object]], bool]:
         ax[i].set_title(sc.name, fontsize=9)
     ax[-1].set_xlabel("time [ms]")
     fig.tight_layout()
-    fig.savefig(figure_path("demo_interp.png"), dpi=100)
+    save_figure(fig, figure_path("demo_interp.png"), dpi=100)
     plt.close(fig)
     return rows, ok
 

@@ -16,6 +16,7 @@ import sys
 import traceback
 from pathlib import Path
 
+from ..base.atomic import OutputError
 from ..base.paths import BUILD
 from ..base.progress import Progress
 from ..device import result as res
@@ -90,7 +91,11 @@ def run_file(file: Path, out_dir: Path | None = None) -> int:
     print(res.summary_text(r, outcomes))
     for name in OUTPUT_NAMES:          # no stale plot of an earlier run beside this one
         (out / name).unlink(missing_ok=True)
-    written = res.write(r, out, outcomes)
+    try:
+        written = res.write(r, out, outcomes)
+    except OutputError as exc:         # a path in DIR that is not a regular file, a full disk
+        _err(str(exc))
+        return EXIT_BAD_INPUT
     print(f"wrote {out}/: " + ", ".join(p.name for p in written))
     return EXIT_PASS if res.verdict(outcomes) == "PASS" else EXIT_FAIL
 

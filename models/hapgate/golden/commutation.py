@@ -43,7 +43,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from ..base.block import Block, Params
-from ..base.report import figure_path, pyplot
+from ..base.report import figure_path, pyplot, save_figure
 from .sine import SineRomConfig, quarter_table, rom_file, unfold
 
 SINE, SIX_STEP, ALIGN, OFF = 0, 1, 2, 3
@@ -402,7 +402,7 @@ def plot_figures(cfg: CommutationConfig, codes_by_mode: Mapping[int, np.ndarray]
                      f"(cf. paper Fig. {fig_no})")
         fig.tight_layout()
         p = figure_path(f"{name}_fig{fig_no}_{'six_step' if mode == SIX_STEP else 'sine'}.png")
-        fig.savefig(p, dpi=100)
+        save_figure(fig, p, dpi=100)
         plt.close(fig)
         paths.append(str(p))
     return paths
