@@ -16,16 +16,7 @@ import numpy as np
 import pytest
 from hapgate.base import atomic
 from hapgate.commands import cli
-
-COMMANDS = {
-    "interp": ("a,b", "1,2"),
-    "commutation": ("pos0,pos1,pos2,torque0,torque1,torque2", "0,0,0,1,2,3"),
-}
-
-
-def replay(cmd: str, *args: str) -> subprocess.CompletedProcess[str]:
-    return subprocess.run([sys.executable, "-m", "hapgate.commands.cli", "replay", cmd,
-                           "--engine", "model", *args], capture_output=True, text=True)
+from test_capture_rules import COMMANDS, replay
 
 
 def capture(tmp_path: Path, cmd: str) -> Path:
