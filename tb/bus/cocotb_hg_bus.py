@@ -17,7 +17,7 @@ from cocotb.triggers import ClockCycles, FallingEdge, RisingEdge, Timer
 from cocotb.utils import get_sim_time
 from hapgate.golden import emif, regmap
 from hapgate.golden.regmodel import WDOG_KEY, AxisInputs, RegModel
-from hapgate.runners import tbutil
+from hapgate.runners import cocotb_emif, tbutil
 
 P = tbutil.params()
 CLK_HZ = int(P["CLK_HZ"])  # type: ignore[arg-type]
@@ -91,15 +91,15 @@ def random_axes(rng: random.Random) -> list[AxisInputs]:
 
 
 async def setup(dut, watch: tuple[str, ...] = ("tick", "wdog_expired")
-                ) -> tuple[emif.EmifMaster, emif.Monitor, Inputs]:
+                ) -> tuple[cocotb_emif.EmifMaster, cocotb_emif.Monitor, Inputs]:
     cocotb.start_soon(Clock(dut.clk, PERIOD_PS, unit="ps").start())
-    master = emif.EmifMaster(dut)
+    master = cocotb_emif.EmifMaster(dut)
     inputs = Inputs(dut)
     dut.rst.value = 1
     await ClockCycles(dut.clk, 4)
     ref = int(get_sim_time(unit="ps"))      # the last edge that samples rst high: edge 0
     dut.rst.value = 0
-    mon = emif.Monitor(dut, PERIOD_PS, ref)
+    mon = cocotb_emif.Monitor(dut, PERIOD_PS, ref)
     mon.start(*watch)
     await Timer(PERIOD_PS // 3, unit="ps")  # the bus is asynchronous: start off the clock grid
     return master, mon, inputs
@@ -110,7 +110,7 @@ def std_timing() -> emif.Timing:
                        hold=PERIOD_PS, idle=2 * PERIOD_PS)
 
 
-def replay(model: RegModel, master: emif.EmifMaster, mon: emif.Monitor,
+def replay(model: RegModel, master: cocotb_emif.EmifMaster, mon: cocotb_emif.Monitor,
            first: int = 0) -> tuple[int, list[str]]:
     """Check the monitor saw exactly the master's accesses, then run them through the model and
     compare every read. Returns (reads checked, mismatch descriptions)."""

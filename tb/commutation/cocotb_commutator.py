@@ -9,8 +9,9 @@ import os
 import cocotb
 import numpy as np
 from hapgate.golden import commutation as cm
-from hapgate.golden.dacsched import Bench, check_schedule, random_frames
+from hapgate.golden.dacsched import check_schedule, random_frames
 from hapgate.runners import tbutil
+from hapgate.runners.cocotb_dac import Bench
 
 
 def config() -> cm.CommutationConfig:

@@ -12,7 +12,7 @@ from pathlib import Path
 
 import numpy as np
 from hapgate.device import soak, sweep
-from hapgate.golden import interp
+from hapgate.golden import encsig, interp
 
 SPECS = Path(__file__).resolve().parents[2] / "scenes" / "sweeps"
 
@@ -77,7 +77,6 @@ def test_soak_checks_catch_slip_latch_and_overspeed_errors() -> None:
 
 
 def test_safe_speed_of_ideal_signals_is_the_quadrant_limit() -> None:
-    from hapgate.golden import encsig
     v = soak.safe_speed(encsig.IDEAL)
     # only the 1/2-LSB rounding margin: 0.5/127 rad of a quadrant's 90 degrees
     assert v == np.float64(v) and 240.0 < v < soak.V_LIMIT

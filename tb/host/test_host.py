@@ -14,6 +14,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from hapgate.commands import cli
 from hapgate.commands.device import Server
 from hapgate.golden import pclink
 from hapgate.host import Device, LinkLost, Refused, Scene
@@ -244,8 +245,6 @@ def test_115200_baud_reports_the_rate_the_link_carries() -> None:
 
 def test_bad_serve_arguments_exit_2(capsys: pytest.CaptureFixture[str],
                                     tmp_path: Path) -> None:
-    from hapgate.commands import cli
-
     assert cli.main(["device", "serve", "--baud", "10"]) == 2
     out, err = capsys.readouterr()
     assert "port:" not in out and "--baud 10" in err

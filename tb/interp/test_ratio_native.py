@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from hapgate.base import tables
 from hapgate.golden import angle, enccal, encsig, interp
 from hapgate.runners import native
 
@@ -63,7 +64,8 @@ def test_ratio_table_entry_by_entry() -> None:
             assert np.array_equal(angle.ratio_table(lb, rb), definition(lb, rb)), (lb, rb)
     for lb in (7, 9):
         want = definition(lb + QF)
-        path = interp.InterpConfig(ratio=True, lut_bits=lb).rtl_params()["RATIO_FILE"]
+        path, = tables.write_tables({"RATIO_FILE": interp.InterpConfig(
+            ratio=True, lut_bits=lb).rtl_params()["RATIO_FILE"]})
         words = path.read_text().split()  # type: ignore[union-attr]
         assert np.array_equal(np.array([int(w, 16) for w in words]), want), lb
         # the last bin's middle is 0.03 % short of 45 deg: within a quarter count of it

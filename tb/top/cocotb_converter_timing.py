@@ -28,9 +28,10 @@ from cocotb.types import LogicArray
 from hapgate.golden import converters as cv
 from hapgate.golden import emif, regmap
 from hapgate.golden import top as topm
-from hapgate.golden.dacsched import now_ps, period_ps
+from hapgate.golden.dacsched import period_ps
 from hapgate.golden.regmodel import WDOG_KEY
-from hapgate.runners import tbutil
+from hapgate.runners import cocotb_emif, tbutil
+from hapgate.runners.cocotb_dac import now_ps
 
 P = tbutil.params()
 CLK_HZ = int(P["CLK_HZ"])  # type: ignore[arg-type]
@@ -167,7 +168,7 @@ async def converter_timing(dut):
     strobes: list[tuple[int, int]] = []   # ADC strobe (rise ps, fall ps)
     cocotb.start_soon(model.run())
     cocotb.start_soon(watch_strobe(dut, strobes))
-    master = emif.EmifMaster(dut)
+    master = cocotb_emif.EmifMaster(dut)
     await reset(dut)
     await ClockCycles(dut.clk, 3 * CFG.div)
     await Timer(PERIOD // 3, unit="ps")

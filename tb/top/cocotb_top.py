@@ -30,9 +30,9 @@ from cocotb.utils import get_sim_time
 from hapgate.golden import commutation, emif, encsig, interp, regmap
 from hapgate.golden import top as topm
 from hapgate.golden.commutation import SINE, SIX_STEP, CommutationConfig
-from hapgate.golden.dacsched import DacModel
 from hapgate.golden.regmodel import WDOG_KEY, AxisInputs, RegModel
-from hapgate.runners import tbutil
+from hapgate.runners import cocotb_emif, tbutil
+from hapgate.runners.cocotb_dac import DacModel
 
 P = tbutil.params()
 CLK_HZ = int(P["CLK_HZ"])  # type: ignore[arg-type]
@@ -116,7 +116,7 @@ async def firmware_like_run(dut) -> None:
     a, b, idx = stimulus(N_SAMPLES + 400)   # margin: the last servo loop may run past N
     # (the models run after the simulation: homing and fault-clear pulses come from the bus)
     cocotb.start_soon(Clock(dut.clk, PERIOD_PS, unit="ps").start())
-    master = emif.EmifMaster(dut)
+    master = cocotb_emif.EmifMaster(dut)
     dac = DacModel(dut, CFG.comm)
     dut.adc_a.value = 0
     dut.adc_b.value = 0
@@ -130,7 +130,7 @@ async def firmware_like_run(dut) -> None:
     scope = dut
     for part in BUS_SCOPE.split("."):
         scope = getattr(scope, part)
-    mon = emif.Monitor(dut, PERIOD_PS, ref, scope=scope)
+    mon = cocotb_emif.Monitor(dut, PERIOD_PS, ref, scope=scope)
     mon.start("tick", "wdog_expired")
     cocotb.start_soon(drive_adc(dut, a, b, idx))
     end_ps = ref + (N_SAMPLES * CFG.div - 200) * PERIOD_PS
@@ -368,7 +368,7 @@ async def homed_truth(dut) -> None:
     n = N_SAMPLES
     x, a, b, idx = truth_stimulus(seed, n + 50)
     cocotb.start_soon(Clock(dut.clk, PERIOD_PS, unit="ps").start())
-    master = emif.EmifMaster(dut)
+    master = cocotb_emif.EmifMaster(dut)
     dac = DacModel(dut, CFG.comm)
     dut.adc_a.value = 0
     dut.adc_b.value = 0

@@ -12,7 +12,8 @@ from __future__ import annotations
 from pathlib import Path
 
 import pytest
-from hapgate.flows import blocks
+from hapgate.base import tables
+from hapgate.flows import blocks, flow
 from hapgate.golden import interp, top
 from hapgate.runners import sim
 
@@ -46,8 +47,6 @@ def test_top_harmonic_table(simulator: str, monkeypatch: pytest.MonkeyPatch) -> 
 def test_refused_configurations(change: dict[str, int], stop: str) -> None:
     """Combinations that cannot work stop the elaboration with a message naming the parameter
     (Icarus elaboration, no simulation), and TopConfig refuses them before any build."""
-    from hapgate.flows import flow
-
     block = blocks.get("hapgate_top_harm")
     good = flow.lint_icarus(block, block.params())
     assert good.ok, good.detail
@@ -64,5 +63,6 @@ def test_top_config_refusals() -> None:
         top.TopConfig(interp=interp.InterpConfig(harm=True))
     p = top.TopConfig(interp=interp.InterpConfig(ratio=True, harm=True)).rtl_params()
     assert (p["ANGLE"], p["HARM"], p["HARM_LOG2"], p["RATIO_BITS"]) == (1, 1, 6, 10)
+    assert Path(str(p["RATIO_FILE"])) in tables.write_tables(p)
     assert Path(str(p["RATIO_FILE"])).is_file()
     assert not {"ANGLE", "HARM", "RATIO_FILE", "ANGLE_REG"} & set(top.TopConfig().rtl_params())

@@ -22,13 +22,16 @@ The rules (the same for every command; each command only declares its columns):
 
 from __future__ import annotations
 
+import io
 import os
 import tempfile
-from collections.abc import Mapping, Sequence
+from collections.abc import Iterable, Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
+
+from .atomic import AtomicFile, OutputError, check_output_path
 
 MAX_LINE_BYTES = 4096          # longer lines are rejected (a capture line is ~20-80 bytes)
 CHUNK_BYTES = 1 << 20          # read this much at a time
@@ -183,16 +186,18 @@ def raw_cell(line: str, j: int) -> str:
     return parts[j].strip() if j < len(parts) else ""
 
 
-def read_table(path: Path, columns: Sequence[Column], max_line_bytes: int = MAX_LINE_BYTES,
-               chunk_bytes: int = CHUNK_BYTES) -> CaptureTable:
-    """Read the declared columns of a capture CSV with the module's rule set."""
+def iter_table(path: Path, columns: Sequence[Column], max_line_bytes: int = MAX_LINE_BYTES,
+               chunk_bytes: int = CHUNK_BYTES) -> Iterator[CaptureTable]:
+    """The declared columns of a capture CSV with the module's rule set, one table per block of
+    the file read (memory bounded by chunk_bytes, whatever the file's size). An error in the
+    file is raised when its block is reached: a consumer that writes as it goes writes through
+    CsvWriter, so an error still leaves nothing behind."""
     path = Path(path)
     if path.is_dir():
         raise CaptureError(f"{path}: is a folder, not a CSV file")
     header: list[str] | None = None
     idx: dict[str, int] = {}
-    parts: dict[str, list[np.ndarray]] = {c.name: [] for c in columns}
-    line_parts: list[np.ndarray] = []
+    any_rows = False
     last_line = 0
     for first, text in _chunks(path, max_line_bytes, chunk_bytes):
         raw = text.replace("\r\n", "\n").split("\n")
@@ -232,39 +237,69 @@ def read_table(path: Path, columns: Sequence[Column], max_line_bytes: int = MAX_
                                f"has {len(header)}")
         grid = np.char.strip(np.array(cells.tolist(), dtype=str).reshape(len(rows),
                                                                           len(header)))
+        out: dict[str, np.ndarray] = {}
         for c in columns:
             if c.name in idx:
-                parts[c.name].append(_parse(path, c, idx[c.name], grid[:, idx[c.name]], rows,
-                                            rlines))
-        line_parts.append(rlines)
+                out[c.name] = _parse(path, c, idx[c.name], grid[:, idx[c.name]], rows, rlines)
+            elif c.default is not None:
+                out[c.name] = np.full(len(rows), c.default, dtype=np.float64 if c.kind == "float"
+                                      else np.int64)
+        known = {c.name for c in columns}
+        any_rows = True
+        yield CaptureTable(out, rlines, [h for h in header if h not in known])
     if header is None:
         raise CaptureError(f"{_where(path, 1)}: empty file (a header line is required)")
-    if not line_parts:
+    if not any_rows:
         raise CaptureError(f"{_where(path, last_line + 1 if last_line else 2)}: no data lines "
                            f"after the header")
-    n = sum(p.size for p in line_parts)
-    out: dict[str, np.ndarray] = {}
-    for c in columns:
-        if c.name in idx:
-            out[c.name] = np.concatenate(parts[c.name])
-        elif c.default is not None:
-            out[c.name] = np.full(n, c.default, dtype=np.float64 if c.kind == "float"
-                                  else np.int64)
-    known = {c.name for c in columns}
-    return CaptureTable(out, np.concatenate(line_parts), [h for h in header if h not in known])
+
+
+def concat(tables: Sequence[CaptureTable]) -> CaptureTable:
+    """One table of several (in order)."""
+    return CaptureTable({k: np.concatenate([t.columns[k] for t in tables])
+                         for k in tables[0].columns},
+                        np.concatenate([t.lines for t in tables]), tables[0].ignored)
+
+
+def rechunk(tables: Iterable[CaptureTable], rows: int) -> Iterator[CaptureTable]:
+    """The same rows in tables of exactly `rows` rows (the last may be shorter)."""
+    if rows < 1:
+        raise ValueError(f"chunk rows must be >= 1, got {rows}")
+    held: list[CaptureTable] = []
+    n = 0
+    for t in tables:
+        held.append(t)
+        n += len(t)
+        while n >= rows:
+            whole = concat(held) if len(held) > 1 else held[0]
+            yield CaptureTable({k: v[:rows] for k, v in whole.columns.items()},
+                               whole.lines[:rows], whole.ignored)
+            rest = CaptureTable({k: v[rows:] for k, v in whole.columns.items()},
+                                whole.lines[rows:], whole.ignored)
+            held, n = ([rest] if len(rest) else []), len(rest)
+    if held:
+        yield concat(held) if len(held) > 1 else held[0]
+
+
+def read_table(path: Path, columns: Sequence[Column], max_line_bytes: int = MAX_LINE_BYTES,
+               chunk_bytes: int = CHUNK_BYTES) -> CaptureTable:
+    """Read the declared columns of a whole capture CSV with the module's rule set."""
+    return concat(list(iter_table(path, columns, max_line_bytes, chunk_bytes)))
 
 
 # ---------------------------------------------------------------------------- output
 
 def check_output(out: Path, inputs: Sequence[Path] = ()) -> None:
-    """Before any work: the output file's folder exists and is writable, the output is not a
-    folder, not read-only, and not one of the inputs (a capture is never overwritten)."""
+    """Before any work: the output is a regular file or a new name in an existing folder
+    (base.atomic's rules: no folder, device, FIFO or missing folder), the folder is writable,
+    the file is not read-only, and it is not one of the inputs (a capture is never
+    overwritten)."""
     out = Path(out)
     parent = out.parent if str(out.parent) else Path(".")
-    if out.is_dir():
-        raise CaptureError(f"{out}: --out is a folder; give a file name")
-    if not parent.is_dir():
-        raise CaptureError(f"{out}: the folder {parent} does not exist (it is not created)")
+    try:
+        check_output_path(out)
+    except OutputError as exc:
+        raise CaptureError(str(exc)) from None
     try:                                   # a real probe (access() says yes to root)
         fd, probe = tempfile.mkstemp(dir=parent, prefix=f".{out.name}.", suffix=".probe")
         os.close(fd)
@@ -282,23 +317,64 @@ def check_output(out: Path, inputs: Sequence[Path] = ()) -> None:
             raise CaptureError(f"{out}: --out is the input file {i}; it would be overwritten")
 
 
+def _csv_text(columns: Mapping[str, np.ndarray], fmts: list[str], floaty: bool) -> bytes:
+    mat = np.stack([np.asarray(columns[c], dtype=np.float64 if floaty else np.int64)
+                    for c in columns], 1)
+    buf = io.BytesIO()
+    np.savetxt(buf, mat, fmt=fmts, delimiter=",")
+    return buf.getvalue()
+
+
+class CsvWriter:
+    """A result CSV written chunk by chunk (memory bounded by a chunk), atomically: the header
+    and every chunk go to a temporary file, renamed over the target by `close()` only when
+    complete (base.atomic: checked writes, fsync; on an error nothing is left behind).
+    Integer columns unless `fmt` says."""
+
+    def __init__(self, path: Path, names: Sequence[str],
+                 fmt: Mapping[str, str] | None = None) -> None:
+        self.names = list(names)
+        fmt = dict(fmt or {})
+        self.fmts = [fmt.get(c, "%d") for c in self.names]
+        self.floaty = any(f != "%d" for f in self.fmts)
+        try:
+            self.file = AtomicFile(path)
+        except OutputError as exc:
+            raise CaptureError(str(exc)) from None
+        self._write((",".join(self.names) + "\n").encode())
+
+    def _write(self, data: bytes) -> None:
+        try:
+            self.file.write(data)
+        except OutputError as exc:
+            self.file.abort()
+            raise CaptureError(str(exc)) from None
+
+    def add(self, columns: Mapping[str, np.ndarray]) -> None:
+        self._write(_csv_text({c: columns[c] for c in self.names}, self.fmts, self.floaty))
+
+    def close(self) -> None:
+        try:
+            self.file.commit()
+        except OutputError as exc:
+            self.file.abort()
+            raise CaptureError(str(exc)) from None
+
+    def abort(self) -> None:
+        self.file.abort()
+
+    def __enter__(self) -> CsvWriter:
+        return self
+
+    def __exit__(self, kind: object, *_: object) -> None:
+        if kind is None:
+            self.close()
+        else:
+            self.abort()
+
+
 def write_csv(path: Path, columns: Mapping[str, np.ndarray],
               fmt: Mapping[str, str] | None = None) -> None:
-    """Columns to CSV with a header row (vectorised), atomically: a temporary file in the same
-    folder, renamed over the target only when complete. Integer columns unless `fmt` says."""
-    fmt = dict(fmt or {})
-    names = list(columns)
-    fmts = [fmt.get(c, "%d") for c in names]
-    floaty = any(f != "%d" for f in fmts)
-    mat = np.stack([np.asarray(columns[c], dtype=np.float64 if floaty else np.int64)
-                    for c in names], 1)
-    path = Path(path)
-    fd, tmp = tempfile.mkstemp(dir=path.parent if str(path.parent) else ".",
-                               prefix=f".{path.name}.", suffix=".tmp")
-    try:
-        with os.fdopen(fd, "w") as f:
-            np.savetxt(f, mat, fmt=fmts, delimiter=",", header=",".join(names), comments="")
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
+    """Columns to CSV with a header row (vectorised), atomically (CsvWriter, one chunk)."""
+    with CsvWriter(path, list(columns), fmt) as w:
+        w.add(columns)

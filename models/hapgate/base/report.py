@@ -3,9 +3,13 @@
 from __future__ import annotations
 
 import csv
+import io
 from collections.abc import Sequence
 from pathlib import Path
 
+import numpy as np
+
+from .atomic import write_bytes
 from .paths import REPORTS, ensure
 
 
@@ -26,13 +30,31 @@ def _fmt(c: object) -> str:
     return str(c)
 
 
+def csv_text(headers: Sequence[str], rows: Sequence[Sequence[object]]) -> str:
+    f = io.StringIO(newline="")
+    w = csv.writer(f)
+    w.writerow(headers)
+    w.writerows(rows)
+    return f.getvalue()
+
+
 def write_csv(name: str, headers: Sequence[str], rows: Sequence[Sequence[object]]) -> Path:
-    path = ensure(REPORTS) / name
-    with open(path, "w", newline="") as f:
-        w = csv.writer(f)
-        w.writerow(headers)
-        w.writerows(rows)
-    return path
+    """build/reports/<name>, written atomically (base.atomic)."""
+    return write_bytes(ensure(REPORTS) / name, csv_text(headers, rows))
+
+
+def save_figure(fig: object, path: Path, dpi: int = 100) -> Path:
+    """A matplotlib figure as PNG at `path`, written atomically (base.atomic)."""
+    buf = io.BytesIO()
+    fig.savefig(buf, dpi=dpi, format="png")  # type: ignore[attr-defined]
+    return write_bytes(path, buf.getvalue())
+
+
+def npz_bytes(arrays: dict[str, object]) -> bytes:
+    """np.savez of `arrays` as bytes (for write_bytes)."""
+    buf = io.BytesIO()
+    np.savez(buf, **arrays)  # type: ignore[arg-type]
+    return buf.getvalue()
 
 
 def figure_path(name: str) -> Path:

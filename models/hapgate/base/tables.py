@@ -2,16 +2,21 @@
 
 Files go to build/gen/ and are written atomically, so parallel test workers that generate the
 same table never see a half-written file. The RTL receives the path as a parameter.
+
+Reading a configuration's parameters (`rtl_params()`) writes nothing: a table parameter is a
+`TableFile`, a path that knows its contents. Generating the files is an explicit call,
+`write_tables(params)`, which every build step (simulation, native harness, lint, synthesis)
+makes before it hands the parameters to a tool.
 """
 
 from __future__ import annotations
 
-import os
-import tempfile
-from pathlib import Path
+from collections.abc import Callable, Mapping
+from pathlib import Path, PosixPath
 
 import numpy as np
 
+from .atomic import write_bytes
 from .paths import GEN, ensure
 
 
@@ -35,12 +40,7 @@ def write_hex(name: str, values: np.ndarray, width: int, directory: Path | None 
     text = hex_text(values, width)
     if path.exists() and path.read_text() == text:
         return path
-    fd, tmp = tempfile.mkstemp(dir=out_dir, prefix=f".{name}.", suffix=".tmp")
-    with os.fdopen(fd, "w") as f:
-        f.write(text)
-    os.chmod(tmp, 0o644)        # mkstemp makes 0600; a table is an ordinary build product
-    os.replace(tmp, path)
-    return path
+    return write_bytes(path, text)
 
 
 def read_hex(path: Path, width: int, signed: bool = False) -> np.ndarray:
@@ -49,3 +49,36 @@ def read_hex(path: Path, width: int, signed: bool = False) -> np.ndarray:
     if signed:
         words = np.where(words >= 1 << (width - 1), words - (1 << width), words)
     return words
+
+
+class TableFile(PosixPath):
+    """The path of a generated table, <directory>/<name>.hex, with what to write there:
+    `values()` (a 1-D array) in `width`-bit words. Equal to (and usable as) the plain path;
+    nothing is written until `write()` (or `write_tables`) is called."""
+
+    values: Callable[[], np.ndarray]
+    width: int
+
+    @classmethod
+    def of(cls, name: str, values: Callable[[], np.ndarray], width: int,
+           directory: Path | None = None) -> TableFile:
+        t = cls(Path(directory or GEN) / f"{name}.hex")
+        t.values, t.width = values, int(width)
+        return t
+
+    def write(self) -> Path:
+        return write_hex(self.stem, self.values(), self.width, self.parent)
+
+    def __reduce__(self):  # noqa: ANN204 - pickled with its generator (sweep workers)
+        return (_table_file, (str(self), self.values, self.width))
+
+
+def _table_file(path: str, values: Callable[[], np.ndarray], width: int) -> TableFile:
+    p = Path(path)
+    return TableFile.of(p.stem, values, width, p.parent)
+
+
+def write_tables(params: Mapping[str, object]) -> list[Path]:
+    """Write every table a parameter set names (`TableFile` values); return their paths.
+    Idempotent and safe in parallel (write_hex)."""
+    return [v.write() for v in params.values() if isinstance(v, TableFile)]

@@ -15,7 +15,7 @@ import numpy as np
 
 from ..base import toolenv
 from ..base.paths import BUILD, TB, ensure
-from ..base.report import figure_path, pyplot, table, write_csv
+from ..base.report import figure_path, pyplot, save_figure, table, write_csv
 from ..flows import blocks, flow
 from ..golden import commutation as cm
 from ..golden.sine import SineRomConfig
@@ -162,7 +162,7 @@ def _plot_rom(rows: list[list[object]]) -> None:
     for a in ax:
         a.grid(alpha=0.3)
     fig.tight_layout()
-    fig.savefig(figure_path("bench_commutation_rom.png"), dpi=100)
+    save_figure(fig, figure_path("bench_commutation_rom.png"), dpi=100)
     plt.close(fig)
 
 

@@ -17,7 +17,7 @@ from typing import Any
 
 from ..base.paths import ROOT
 from ..base.report import table, write_csv
-from ..device import runner
+from ..device import model, runner
 from ..device import scene as sc
 
 RTL_REPEATS = 3   # runs per rtl row: the run of median CPU time is reported (a shared machine's
@@ -86,7 +86,6 @@ MODEL_REPEATS = 5   # runs per model row: the CPU and wall figures are the minim
 
 def _model_row(label: str, s: Any, mech_us: int = 0, rtl: Any = None,
                clk: int | None = None) -> list[object]:
-    from ..device import model
     runs = [model.simulate(s, clk_hz=clk, mech_us=mech_us or model.MECH_US)
             for _ in range(MODEL_REPEATS)]
     raw = runs[0]

@@ -10,7 +10,7 @@ from dataclasses import asdict
 import numpy as np
 
 from ..base.paths import BUILD, TB, ensure
-from ..base.report import figure_path, pyplot, table, write_csv
+from ..base.report import figure_path, pyplot, save_figure, table, write_csv
 from ..flows import blocks, flow
 from ..golden import encsig, interp
 from ..runners import native, sim
@@ -142,7 +142,7 @@ def error_plots() -> str:
         ax[1, col].set_ylabel("error [deg]")
     fig.tight_layout()
     path = figure_path("bench_interp_error.png")
-    fig.savefig(path, dpi=100)
+    save_figure(fig, path, dpi=100)
     plt.close(fig)
     return str(path)
 

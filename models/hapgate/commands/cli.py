@@ -6,20 +6,23 @@ import argparse
 import os
 import sys
 import time
+from concurrent.futures import ThreadPoolExecutor
 
 from ..base import toolenv
+from ..base.report import table
+from ..flows import blocks, boards, flow, fusesoc, stage
+from ..runners.sim import MissingSimulator, simulators
+from . import bench, demo, device, harm, mutants, replay_commutation, replay_interp, scene, sweep
+
+REPLAY = {"interp": replay_interp, "commutation": replay_commutation}
 
 
 def cmd_versions(_: argparse.Namespace) -> int:
-    from ..base.report import table
-
     print(table(["tool", "version", "path"], toolenv.versions()))
     return 0
 
 
 def cmd_check_sims(_: argparse.Namespace) -> int:
-    from ..runners.sim import MissingSimulator, simulators
-
     toolenv.apply()
     try:
         sims = simulators()
@@ -31,11 +34,6 @@ def cmd_check_sims(_: argparse.Namespace) -> int:
 
 
 def cmd_lint(args: argparse.Namespace) -> int:
-    from concurrent.futures import ThreadPoolExecutor
-
-    from ..base.report import table
-    from ..flows import blocks, flow
-
     rows, failed = [], []
     t0 = time.perf_counter()
     jobs = []
@@ -70,17 +68,12 @@ def cmd_synth(args: argparse.Namespace) -> int:
 
 
 def cmd_pnr(args: argparse.Namespace) -> int:
-    from ..base.report import table
-    from ..flows import boards
-
     if args.seeds < 1:
         print(f"error: --seeds must be >= 1, got {args.seeds}", file=sys.stderr)
         return 2
     if args.timeout <= 0:
         print(f"error: --timeout must be > 0, got {args.timeout:g}", file=sys.stderr)
         return 2
-    from ..flows import stage
-
     for name in args.board:
         if name not in boards.BOARDS and name != stage.TARGET:
             print(f"error: unknown board {name!r}; known: {', '.join(boards.BOARDS)} "
@@ -113,32 +106,22 @@ def cmd_pnr(args: argparse.Namespace) -> int:
 
 
 def cmd_fusesoc(args: argparse.Namespace) -> int:
-    from ..flows import fusesoc
-
     return fusesoc.run(args.args)
 
 
 def cmd_demo(args: argparse.Namespace) -> int:
-    from . import demo
-
     return demo.main(args)
 
 
 def cmd_bench(args: argparse.Namespace) -> int:
-    from . import bench
-
     return bench.main(args)
 
 
 def cmd_replay(args: argparse.Namespace) -> int:
-    from importlib import import_module
-
-    return int(import_module(f"hapgate.commands.replay_{args.block}").main(args))
+    return int(REPLAY[args.block].main(args))
 
 
 def cmd_device(args: argparse.Namespace) -> int:
-    from . import device
-
     return device.main(args)
 
 
@@ -170,40 +153,28 @@ def main(argv: list[str] | None = None) -> int:
                    ).set_defaults(fn=cmd_demo)
     rp = sub.add_parser("replay", help="run a capture CSV through the RTL or the model")
     rsub = rp.add_subparsers(dest="block", required=True)
-    from . import replay_commutation, replay_interp
-
     replay_interp.add_arguments(rsub.add_parser(
         "interp", help="encoder samples -> positions (CAPTURE.csv -> RESULT.csv)"))
     replay_commutation.add_arguments(rsub.add_parser(
         "commutation", help="positions and torques -> DAC codes and load times "
                             "(FRAMES.csv -> DAC.csv)"))
     rp.set_defaults(fn=cmd_replay)
-    from . import harm
-
     hp = sub.add_parser("harm", help="harmonic table of the ratio angle stage: fit --in "
                         "CAPTURE.csv --out TABLE.hex (learn it off-chip)")
     harm.add_arguments(hp)
     hp.set_defaults(fn=harm.main)
-    from . import mutants
-
     mp = sub.add_parser("mutants", help="mutation testing: every mutant in tb/mutants/mutants.toml "
                         "must be killed by its tests (long; not in make test)")
     mutants.add_arguments(mp)
     mp.set_defaults(fn=mutants.main)
 
-    from . import scene
-
     scene.add_arguments(sub.add_parser(
         "scene", help="virtual-device scenes: run FILE [--out DIR] | check FILE..."))
     dp = sub.add_parser("device", help="the virtual device")
     dsub = dp.add_subparsers(dest="device_cmd", required=True)
-    from . import device
-
     device.add_arguments(dsub.add_parser(
         "serve", help="serve the virtual device's PC link on a pty (prints 'port: /dev/pts/N')"))
     dp.set_defaults(fn=cmd_device)
-
-    from . import sweep
 
     sweep.add_arguments(sub.add_parser(
         "sweep", help="run a sweep spec on Dask: SPEC [--scheduler tcp://H:P] [--workers N]"))

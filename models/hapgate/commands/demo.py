@@ -13,12 +13,12 @@ from dataclasses import asdict
 import numpy as np
 
 from ..base import toolenv
-from ..base.paths import BUILD, TB, ensure
-from ..base.report import figure_path, pyplot, table
+from ..base.paths import BUILD, ROOT, TB, ensure
+from ..base.report import figure_path, pyplot, save_figure, table
 from ..flows import blocks
 from ..golden import encsig, interp, sine
 from ..runners import cosim, native, sim
-from . import bench_commutation
+from . import bench_commutation, scene
 
 
 def sine_section() -> tuple[list[list[object]], bool]:
@@ -58,7 +58,7 @@ def sine_section() -> tuple[list[list[object]], bool]:
     ax[1].set_ylabel("RTL - FS*sin [LSB]")
     ax[1].set_xlabel("angle code")
     fig.tight_layout()
-    fig.savefig(figure_path("demo_sine_rom.png"), dpi=100)
+    save_figure(fig, figure_path("demo_sine_rom.png"), dpi=100)
     plt.close(fig)
     return rows, mism == 0
 
@@ -105,7 +105,7 @@ def interp_section(n: int = 1_000_000) -> tuple[list[list[object]], bool]:
         ax[i].set_title(sc.name, fontsize=9)
     ax[-1].set_xlabel("time [ms]")
     fig.tight_layout()
-    fig.savefig(figure_path("demo_interp.png"), dpi=100)
+    save_figure(fig, figure_path("demo_interp.png"), dpi=100)
     plt.close(fig)
     return rows, ok
 
@@ -132,8 +132,6 @@ def main(_: argparse.Namespace) -> int:
     print()
     print("Virtual device, closed loop (scenes/short.toml: gateware + unchanged firmware + plant "
           "+ hand, `hapgate scene run`)", flush=True)
-    from ..base.paths import ROOT
-    from . import scene
     ok &= scene.run_file(ROOT / "scenes" / "short.toml") == 0
     print("demo:", "RTL matches the models bit for bit" if ok else "RTL DIFFERS from a model")
     return 0 if ok else 1

@@ -18,6 +18,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..base.atomic import OutputError, write_bytes
 from ..base.capture import CaptureError, check_output, read_table
 from ..base.report import table
 from ..golden import angle, interp
@@ -84,11 +85,15 @@ def main(args: argparse.Namespace) -> int:
     note = (f"hapgate harm fit --in {args.inp.name}: {a.size - args.skip} samples, "
             f"HARM_LOG2 {cfg.harm_log2}, {'calibrated, ' if cfg.cal else ''}"
             f"signed 1/4 count per entry")
-    args.out.write_text(angle.harm_table_text(harm, note))
-    if args.c_out is not None:
-        body = ", ".join(str(int(v)) for v in harm)
-        args.c_out.write_text(f"/* {note} */\nstatic const int8_t hg_harm_table"
-                              f"[{harm.size}] = {{ {body} }};\n")
+    try:
+        write_bytes(args.out, angle.harm_table_text(harm, note))
+        if args.c_out is not None:
+            body = ", ".join(str(int(v)) for v in harm)
+            write_bytes(args.c_out, f"/* {note} */\nstatic const int8_t hg_harm_table"
+                                    f"[{harm.size}] = {{ {body} }};\n")
+    except OutputError as exc:
+        print(f"error: {exc}", file=sys.stderr)
+        return 2
     rows = [["entries", harm.size], ["range [1/4 count]", f"{harm.min()} .. {harm.max()}"],
             ["fit seconds", f"{secs:.3f}"]]
     if "truth_counts" in tab.columns:

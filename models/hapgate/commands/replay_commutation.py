@@ -28,10 +28,22 @@ from pathlib import Path
 
 import numpy as np
 
-from ..base.capture import CaptureError, Column, check_output, read_table, write_csv
+from ..base.capture import (
+    CaptureError,
+    CaptureTable,
+    Column,
+    CsvWriter,
+    check_output,
+    iter_table,
+    read_table,
+    rechunk,
+    write_csv,
+)
 from ..base.report import table
 from ..golden import commutation as cm
+from ..runners import native_comm
 
+CHUNK_ROWS = 1 << 18
 MODE_WORDS = {word: val for word, val in cm.MODES.items()}
 MAX_CLK_HZ = 2_147_000_000   # a 32-bit Verilog integer parameter
 
@@ -53,14 +65,17 @@ def frame_columns(cfg: cm.CommutationConfig) -> tuple[Column, ...]:
 def read_frames(path: Path, cfg: cm.CommutationConfig) -> tuple[cm.Frames, list[str]]:
     """The frames of FRAMES.csv and the names of the columns it has that are not used."""
     tab = read_table(path, frame_columns(cfg))
+    return frames_of(tab), tab.ignored
+
+
+def frames_of(tab: CaptureTable) -> cm.Frames:
     c = tab.columns
 
     def per(k: str) -> np.ndarray:
         return np.stack([c[f"{k}{i}"] for i in range(3)], axis=1)
 
-    frames = cm.Frames(per("pos"), per("torque"), per("offset"), per("mode"), c["enable"],
-                       per("fault"), c["limit"])
-    return frames, tab.ignored
+    return cm.Frames(per("pos"), per("torque"), per("offset"), per("mode"), c["enable"],
+                     per("fault"), c["limit"])
 
 
 def clock_error(clk_hz: int, engine: str) -> str | None:
@@ -95,8 +110,6 @@ def run_rtl(frames: cm.Frames, cfg: cm.CommutationConfig, simulator: str = "veri
     clocked at cfg.clk_hz: (codes (n, 6), load times ns (n, 6), seconds with the build). The DAC
     port is checked clock by clock and every load against the documented schedule; a violation
     raises RuntimeError, a clock the RTL refuses raises ValueError (before any build)."""
-    from ..runners import native_comm
-
     if simulator != "verilator":
         raise ValueError(f"the replay engine runs on Verilator only, not {simulator}")
     t0 = time.perf_counter()
@@ -108,12 +121,37 @@ def run_rtl(frames: cm.Frames, cfg: cm.CommutationConfig, simulator: str = "veri
     return run.codes, run.load_ns(cfg), secs
 
 
-def write_dac(path: Path, codes: np.ndarray, load_ns: np.ndarray) -> None:
-    n = codes.shape[0]
-    cols: dict[str, np.ndarray] = {"frame": np.arange(n)}
+DAC_COLUMNS = ("frame", *(f"dac{k}" for k in range(6)), *(f"t{k}_ns" for k in range(6)))
+DAC_FMT = {f"t{k}_ns": "%.3f" for k in range(6)}
+
+
+def dac_columns(codes: np.ndarray, load_ns: np.ndarray, first: int = 0
+                ) -> dict[str, np.ndarray]:
+    cols: dict[str, np.ndarray] = {"frame": first + np.arange(codes.shape[0])}
     cols |= {f"dac{k}": codes[:, k] for k in range(6)}
     cols |= {f"t{k}_ns": load_ns[:, k] for k in range(6)}
-    write_csv(path, cols, fmt={f"t{k}_ns": "%.3f" for k in range(6)})
+    return cols
+
+
+def write_dac(path: Path, codes: np.ndarray, load_ns: np.ndarray) -> None:
+    write_csv(path, dac_columns(codes, load_ns), fmt=DAC_FMT)
+
+
+def replay_model(inp: Path, out: Path, cfg: cm.CommutationConfig, chunk_rows: int
+                 ) -> tuple[int, float, list[str]]:
+    """The model over FRAMES.csv chunk by chunk (a frame's codes depend on that frame only):
+    memory bounded by a chunk, DAC.csv identical to a whole-file run. (frames, seconds of
+    model time, ignored columns)."""
+    n, secs, ignored = 0, 0.0, []
+    with CsvWriter(out, DAC_COLUMNS, DAC_FMT) as w:
+        for tab in rechunk(iter_table(inp, frame_columns(cfg)), chunk_rows):
+            ignored = tab.ignored
+            t0 = time.perf_counter()
+            codes = cm.commutate(frames_of(tab), cfg)
+            secs += time.perf_counter() - t0
+            w.add(dac_columns(codes, np.broadcast_to(cm.load_times_ns(cfg), codes.shape), n))
+            n += codes.shape[0]
+    return n, secs, ignored
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -127,6 +165,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                              "(default 50 MHz)")
     parser.add_argument("--offset-binary", action="store_true", help="DAC coding (codes out are "
                         "signed either way)")
+    parser.add_argument("--chunk-rows", type=int, default=CHUNK_ROWS,
+                        help=f"--engine model: frames per chunk (memory is bounded by a chunk; "
+                             f"the output does not depend on it; default {CHUNK_ROWS})")
 
 
 def main(args: argparse.Namespace) -> int:
@@ -134,30 +175,43 @@ def main(args: argparse.Namespace) -> int:
         why = clock_error(args.clk_hz, args.engine)
         if why:
             raise CaptureError(why)
+        if args.chunk_rows < 1:
+            raise CaptureError(f"--chunk-rows {args.chunk_rows}: must be >= 1")
         check_output(args.out, [args.inp])
         cfg = cm.CommutationConfig(clk_hz=args.clk_hz, offset_binary=args.offset_binary)
+        if args.engine == "model":
+            n, t_model, ignored = replay_model(args.inp, args.out, cfg, args.chunk_rows)
+            _ignored(args.inp, ignored)
+            print(table(["engine", "frames", "seconds", "codes differing from model"],
+                        [["model", n, f"{t_model:.4f}", "-"]]))
+            print(f"wrote {args.out}")
+            return 0
         frames, ignored = read_frames(args.inp, cfg)
     except CaptureError as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 2
-    if ignored:
-        print(f"note: {args.inp}: ignored column(s) {', '.join(ignored)}", file=sys.stderr)
+    _ignored(args.inp, ignored)
     t0 = time.perf_counter()
     model = cm.commutate(frames, cfg)
     t_model = time.perf_counter() - t0
     rows = [["model", len(frames), f"{t_model:.4f}", "-"]]
-    if args.engine == "model":
-        codes = model
-        load_ns = np.broadcast_to(cm.load_times_ns(cfg), codes.shape)
-    else:
-        try:
-            codes, load_ns, secs = run_rtl(frames, cfg)
-        except ValueError as exc:
-            print(f"error: {exc}", file=sys.stderr)
-            return 2
-        rows.append(["rtl (native Verilator, incl. build)", len(frames), f"{secs:.2f}",
-                     str(int(np.count_nonzero(codes != model)))])
-    write_dac(args.out, codes, load_ns)
+    try:
+        codes, load_ns, secs = run_rtl(frames, cfg)
+    except ValueError as exc:
+        print(f"error: {exc}", file=sys.stderr)
+        return 2
+    rows.append(["rtl (native Verilator, incl. build)", len(frames), f"{secs:.2f}",
+                 str(int(np.count_nonzero(codes != model)))])
+    try:
+        write_dac(args.out, codes, load_ns)
+    except CaptureError as exc:
+        print(f"error: {exc}", file=sys.stderr)
+        return 2
     print(table(["engine", "frames", "seconds", "codes differing from model"], rows))
     print(f"wrote {args.out}")
-    return 0 if args.engine == "model" or np.array_equal(codes, model) else 1
+    return 0 if np.array_equal(codes, model) else 1
+
+
+def _ignored(inp: Path, ignored: list[str]) -> None:
+    if ignored:
+        print(f"note: {inp}: ignored column(s) {', '.join(ignored)}", file=sys.stderr)

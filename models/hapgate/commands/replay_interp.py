@@ -137,7 +137,11 @@ def main(args: argparse.Namespace) -> int:
             "pos_homed": out["pos_homed"], "index_pos": out["index_pos"],
             "index_count": out["index_count"], "homed": out["homed"],
             "overspeed_count": out["overspeed_count"]}
-    write_csv(args.out, cols)
+    try:
+        write_csv(args.out, cols)
+    except CaptureError as exc:
+        print(f"error: {exc}", file=sys.stderr)
+        return 2
 
     rows = []
     for e, (o, secs) in results.items():

@@ -4,7 +4,7 @@ run: load and validate the scene (exit 2, nothing written, on a malformed or unr
 an unusable --out), run it in closed loop (`hapgate.device.runner.run`), print what was built and
 skipped and the summary table, write summary.json, run.npz and the plots into DIR (default
 build/scenes/<name>/), and exit 0 when every [expect] holds, 1 when one fails, 3 when the run
-itself could not be done (no runner in this checkout, or it raised).
+itself could not be done (the runner raised).
 check: validate scene files only (exit 0 when all load, 2 otherwise).
 """
 
@@ -16,9 +16,11 @@ import sys
 import traceback
 from pathlib import Path
 
+from ..base.atomic import OutputError
 from ..base.paths import BUILD
 from ..base.progress import Progress
 from ..device import result as res
+from ..device import runner
 from ..device.scene import SceneError, load
 
 EXIT_PASS, EXIT_FAIL, EXIT_BAD_INPUT, EXIT_NO_RUN = 0, 1, 2, 3
@@ -74,11 +76,6 @@ def run_file(file: Path, out_dir: Path | None = None) -> int:
     if out is None:
         return EXIT_BAD_INPUT
     try:
-        from ..device import runner  # lazily: the closed loop is heavy (and tests fake it)
-    except ImportError as exc:
-        _err(f"the closed-loop runner hapgate.device.runner is not available: {exc}")
-        return EXIT_NO_RUN
-    try:
         with Progress(total=scene.run.duration_s, label=scene.name, unit="s") as bar:
             r = runner.run(scene, progress=bar, out_dir=out)
     except SceneError as exc:          # the runner refuses a combination it cannot build
@@ -94,7 +91,11 @@ def run_file(file: Path, out_dir: Path | None = None) -> int:
     print(res.summary_text(r, outcomes))
     for name in OUTPUT_NAMES:          # no stale plot of an earlier run beside this one
         (out / name).unlink(missing_ok=True)
-    written = res.write(r, out, outcomes)
+    try:
+        written = res.write(r, out, outcomes)
+    except OutputError as exc:         # a path in DIR that is not a regular file, a full disk
+        _err(str(exc))
+        return EXIT_BAD_INPUT
     print(f"wrote {out}/: " + ", ".join(p.name for p in written))
     return EXIT_PASS if res.verdict(outcomes) == "PASS" else EXIT_FAIL
 

@@ -16,9 +16,10 @@ import math
 import sys
 from pathlib import Path
 
+from ..base.atomic import OutputError, write_bytes
 from ..base.paths import BUILD
-from ..base.report import table
-from ..device import sweep
+from ..base.report import csv_text, table
+from ..device import sweep, zwidth
 from . import sweep_report
 
 EXIT_OK, EXIT_FAIL, EXIT_BAD_INPUT, EXIT_NO_RUN = 0, 1, 2, 3
@@ -84,11 +85,20 @@ def main(args: argparse.Namespace) -> int:
     except Exception as exc:                         # noqa: BLE001 - reported, exit 3
         _err(f"the sweep could not run: {type(exc).__name__}: {exc}")
         return EXIT_NO_RUN
+    try:
+        return _report(args, spec, res, out)
+    except OutputError as exc:                      # an unusable output: nothing half-written
+        _err(str(exc))
+        return EXIT_BAD_INPUT
+
+
+def _report(args: argparse.Namespace, spec: sweep.Spec, res: sweep.SweepResult, out: Path
+            ) -> int:
+    """Write the results (base.atomic) and print the kind's tables; the exit status."""
     files = sweep.write(res, out)
     status = EXIT_OK
     rows = res.rows()
     if spec.kind == "zwidth":
-        from ..device import zwidth
         for d in args.compare:
             rows = rows + read_rows(d / "results.csv")
         tab = sweep_report.kmax_table(rows)
@@ -99,7 +109,7 @@ def main(args: argparse.Namespace) -> int:
                       f"{max(2 * (t['b_phys'] - t['b_wall']) * t['servo_hz'], 0):.0f}",
                       f"{zwidth.latency_bound(t['b_phys'], t['b_wall'], 1 / t['servo_hz']):.0f}",
                       "yes" if t["k_max"] >= 3500 else "no"] for t in tab]))
-        (out / "kmax.json").write_text(json.dumps(tab, indent=2, default=str))
+        write_bytes(out / "kmax.json", json.dumps(tab, indent=2, default=str))
         sweep_report.zwidth_plot(rows, out / "zwidth.png")
         files += [out / "kmax.json", out / "zwidth.png"]
     elif spec.kind == "soak":
@@ -111,11 +121,8 @@ def main(args: argparse.Namespace) -> int:
         tabs = sweep_report.calib_tables(rows)
         for head, body in tabs.values():
             print(table(head, body))
-        with open(out / "percentiles.csv", "w", newline="") as fh:
-            w = csv.writer(fh)
-            for head, body in tabs.values():
-                w.writerow(head)
-                w.writerows(body)
+        write_bytes(out / "percentiles.csv",
+                    "".join(csv_text(head, body) for head, body in tabs.values()))
         sweep_report.calib_plot(rows, out / "histogram.png")
         files += [out / "percentiles.csv", out / "histogram.png"]
     print(f"{len(res.records)} jobs ({sum(res.cached)} from the cache, {res.retried} rerun after a "

@@ -9,6 +9,7 @@ from typing import Any
 
 import numpy as np
 
+from ..base.report import save_figure
 from ..device import calib_mc, zwidth
 
 
@@ -82,7 +83,7 @@ def zwidth_plot(rows: list[dict[str, Any]], path: Any) -> None:
     ax.set_title(f"Z-width: rtl gateware + firmware in the loop, axis beta, b = {bp:.2f} N s/m")
     ax.legend(fontsize=7, loc="lower left")
     fig.tight_layout()
-    fig.savefig(path, dpi=120)
+    save_figure(fig, path, dpi=120)
     plt.close(fig)
 
 
@@ -211,5 +212,5 @@ def calib_plot(rows: list[dict[str, Any]], path: Any) -> None:
     ax.legend(fontsize=8, markerscale=3)
     fig.suptitle(f"Calibration Monte-Carlo: {len(rows)} imperfection sets, off and on")
     fig.tight_layout()
-    fig.savefig(path, dpi=110)
+    save_figure(fig, path, dpi=110)
     plt.close(fig)

@@ -4,7 +4,7 @@ unchanged firmware, the multirate plant. Plain g++, no Verilator; built once per
 (cached under build/native/model_harness-<hash>/). What it simplifies and how far it can differ
 from the RTL: tb/native/device/README.md, "Model fidelity".
 
-`simulate(scene)` returns the same `runner.Raw` as the RTL path, so `runner.metrics`, `events`
+`simulate(scene)` returns the same `harness.Raw` as the RTL path, so `runner.metrics`, `events`
 and `hapgate.device.result` work unchanged.
 """
 
@@ -27,12 +27,12 @@ from ..golden.sine import quarter_table
 from ..golden.top import TopConfig
 from ..runners import cosim
 from ..runners.sim import _locked
-from . import runner
+from . import harness
 from .scene import SceneError
 
-SOURCES = [runner.HERE / "model_harness.cpp", runner.HERE / "harness_common.cpp",
-           runner.HERE / "plant.cpp"]
-HEADERS = [runner.HERE / "harness_common.h", runner.HERE / "plant.h"]
+SOURCES = [harness.HERE / "model_harness.cpp", harness.HERE / "harness_common.cpp",
+           harness.HERE / "plant.cpp"]
+HEADERS = [harness.HERE / "harness_common.h", harness.HERE / "plant.h"]
 MECH_US = 16              # mechanics step of the multirate plant, us (README "Model fidelity")
 # -flto: the plant's small calls (amplifier, DAC command, joint angles) inline into the harness;
 # no -ffast-math and no FMA target, so the floating point is the RTL harness's bit for bit (test)
@@ -44,8 +44,9 @@ REPLACES = "golden models in place of the gateware (interpolators, register file
 
 def build(test_limits: bool = False) -> Path:
     """Compile the model harness with the plant and the firmware library (cached)."""
-    defs = (f"HG_SCENE_K_MAX_TEST={runner.K_MAX_TEST:.1f}",) if test_limits else ()
-    fw_srcs = sorted((runner.FW / "src").glob("*.c")) + sorted((runner.FW / "include").glob("*.h"))
+    defs = (f"HG_SCENE_K_MAX_TEST={harness.K_MAX_TEST:.1f}",) if test_limits else ()
+    fw_srcs = (sorted((harness.FW / "src").glob("*.c"))
+               + sorted((harness.FW / "include").glob("*.h")))
     digest = hashlib.sha1(" ".join(CXX + list(defs)).encode())
     for src in [*SOURCES, *HEADERS, *fw_srcs]:
         digest.update(src.read_bytes())
@@ -55,12 +56,12 @@ def build(test_limits: bool = False) -> Path:
         if exe.exists():
             return exe
         lib = cosim._fw_lib(bdir, defines=defs)
-        cmd = [*CXX, *(f"-D{d}" for d in defs), f"-I{runner.HERE}", f"-I{runner.FW / 'include'}",
+        cmd = [*CXX, *(f"-D{d}" for d in defs), f"-I{harness.HERE}", f"-I{harness.FW / 'include'}",
                *map(str, SOURCES), str(lib), "-lm", "-o", str(exe)]
         out = subprocess.run(cmd, capture_output=True, text=True)
         (bdir / "build.log").write_text(out.stdout + out.stderr)
         if out.returncode != 0 or not exe.exists():
-            raise runner.DeviceError(f"model harness failed to build; see {bdir / 'build.log'}")
+            raise harness.DeviceError(f"model harness failed to build; see {bdir / 'build.log'}")
     return exe
 
 
@@ -96,12 +97,12 @@ def supported(scene: Any) -> None:
     if "adc" in scene.run.record:
         raise _refuse(scene, "run.record", "\"adc\": the model computes the ADC words only "
                       "where it needs them; use fidelity \"rtl\"")
-    if runner._coarse(scene):
+    if harness._coarse(scene):
         raise _refuse(scene, "run.position", "\"quadrature\" needs fidelity \"rtl\"")
-    if runner._observer(scene):
+    if harness._observer(scene):
         raise _refuse(scene, "run.velocity", "\"observer\" needs fidelity \"rtl\" (the model "
                       "reports the window FIR's velocity)")
-    if runner.scripted_pc(scene):
+    if harness.scripted_pc(scene):
         raise _refuse(scene, "pc" if getattr(scene, "pc", None) is not None else "fault",
                       "the scripted PC's link is simulated with the gateware only; use "
                       "fidelity \"rtl\"")
@@ -124,9 +125,9 @@ def run_config(scene: Any, q0: np.ndarray, clk_hz: int, mask: int, mech_us: int)
     cfg = InterpConfig()
     comm = CommutationConfig(clk_hz=clk_hz)
     if comm.angle_bits != 10 or comm.dac_bits != 14 or comm.rom.fs != 8191:
-        raise runner.DeviceError("the model harness has the shipped commutation configuration")
+        raise harness.DeviceError("the model harness has the shipped commutation configuration")
     top = TopConfig(clk_hz=clk_hz)
-    lines = [runner.run_config(scene, q0).rstrip("\n"),
+    lines = [harness.run_config(scene, q0).rstrip("\n"),
              f"mech_us = {mech_us}", f"axis_mask = {mask}", f"clk_hz = {clk_hz}",
              # the DAC schedule at this clock (the t_WCS strobe lengthens the write above 20 MHz):
              # channel 0's load edge after the frame start (runner.build's HG_LOAD_CLOCKS), strobe
@@ -140,40 +141,40 @@ def run_config(scene: Any, q0: np.ndarray, clk_hz: int, mask: int, mech_us: int)
 
 def simulate(scene: Any, clk_hz: int | None = None, mask: int | None = None,
              progress: Any = None, out_dir: Path | None = None,
-             mech_us: int = MECH_US) -> runner.Raw:
+             mech_us: int = MECH_US) -> harness.Raw:
     """Run the scene at model fidelity once; the same records as runner.simulate."""
     import tempfile
     supported(scene)
-    clk = runner.choose_clock(scene) if clk_hz is None else int(clk_hz)
-    m = runner.axis_mask(scene) if mask is None else int(mask)
+    clk = harness.choose_clock(scene) if clk_hz is None else int(clk_hz)
+    m = harness.axis_mask(scene) if mask is None else int(mask)
     exe = build(bool(getattr(scene.firmware, "test_limits", False)))
-    q0 = runner.start_pose(scene)
+    q0 = harness.start_pose(scene)
     built = [REPLACES, "firmware (dsp-fw)",
              f"plant ({', '.join(str(a) for a in scene.run.axes)} free; mechanics every "
              f"{mech_us} us, amplifier exact at every DAC word)"]
     skipped = [f"axis {i} (interpolator, signals; joint held)" for i in range(3) if not m >> i & 1]
     skipped += ["gateware (Verilator)", "waveform trace"]
-    skipped += [] if runner.record_mask(scene) & 1 else ["plant records"]
+    skipped += [] if harness.record_mask(scene) & 1 else ["plant records"]
     with tempfile.TemporaryDirectory(prefix="scene-", dir=ensure(BUILD / "native" / "runs")) as t:
         tmp = Path(t) if out_dir is None else ensure(out_dir)
-        (tmp / "plant.cfg").write_text(runner.plant_config(scene, q0))
+        (tmp / "plant.cfg").write_text(harness.plant_config(scene, q0))
         (tmp / "run.cfg").write_text(run_config(scene, q0, clk, m, mech_us))
         t0 = time.perf_counter()
         proc = subprocess.Popen([str(exe), str(tmp / "plant.cfg"), str(tmp / "run.cfg"),
                                  str(tmp)], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
                                 text=True)
-        errs = runner._progress_reader(proc, float(scene.run.duration_s), progress)
+        errs = harness._progress_reader(proc, float(scene.run.duration_s), progress)
         stdout = proc.stdout.read() if proc.stdout else ""
         rc = proc.wait()
         wall = time.perf_counter() - t0
         if rc != 0:
-            raise runner.DeviceError(f"model harness failed ({rc}): {errs.strip()}")
+            raise harness.DeviceError(f"model harness failed ({rc}): {errs.strip()}")
         summary = dict(kv.split("=", 1) for kv in stdout.split())
-        if int(summary["frame_bytes"]) != runner.FRAME_DT.itemsize or \
-                int(summary["tick_bytes"]) != runner.TICK_DT.itemsize:
-            raise runner.DeviceError("record layout of the harness and the runner differ")
-        frames = np.fromfile(tmp / "frames.bin", dtype=runner.FRAME_DT)
-        ticks = np.fromfile(tmp / "ticks.bin", dtype=runner.TICK_DT)
-        loads = np.fromfile(tmp / "loads.bin", dtype=runner.LOAD_DT)
-    return runner.Raw(summary, frames, ticks, loads, float(summary.get("wall_s", wall)), clk, m,
+        if int(summary["frame_bytes"]) != harness.FRAME_DT.itemsize or \
+                int(summary["tick_bytes"]) != harness.TICK_DT.itemsize:
+            raise harness.DeviceError("record layout of the harness and the runner differ")
+        frames = np.fromfile(tmp / "frames.bin", dtype=harness.FRAME_DT)
+        ticks = np.fromfile(tmp / "ticks.bin", dtype=harness.TICK_DT)
+        loads = np.fromfile(tmp / "loads.bin", dtype=harness.LOAD_DT)
+    return harness.Raw(summary, frames, ticks, loads, float(summary.get("wall_s", wall)), clk, m,
                       built, skipped, None, None)

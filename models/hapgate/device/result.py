@@ -25,6 +25,7 @@ from pathlib import Path
 import numpy as np
 
 from ..base import report
+from ..base.atomic import write_bytes
 from ..golden import kinematics
 from .scene import ExpectCfg, Scene
 
@@ -244,8 +245,9 @@ def write(r: RunResult, outdir: Path, outcomes: list[Outcome]) -> list[Path]:
     check_arrays(r)
     outdir = Path(outdir)
     paths = [outdir / "summary.json", outdir / "run.npz"]
-    paths[0].write_text(json.dumps(summary_dict(r, outcomes), indent=2, allow_nan=False) + "\n")
-    np.savez(paths[1], **{k: np.asarray(v) for k, v in r.arrays.items()})
+    write_bytes(paths[0], json.dumps(summary_dict(r, outcomes), indent=2, allow_nan=False)
+                + "\n")
+    write_bytes(paths[1], report.npz_bytes({k: np.asarray(v) for k, v in r.arrays.items()}))
     return paths + plots(r, outdir)
 
 
@@ -267,7 +269,7 @@ def plots(r: RunResult, outdir: Path) -> list[Path]:
     for name, fn in want:
         fig = fn(plt, r)
         path = Path(outdir) / name
-        fig.savefig(path, dpi=110)
+        report.save_figure(fig, path, dpi=110)
         plt.close(fig)
         out.append(path)
     return out

@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import csv
 import hashlib
+import io
 import itertools
 import json
 import math
@@ -28,8 +29,11 @@ from typing import Any
 import numpy as np
 import tomllib
 
+from ..base.atomic import write_bytes
 from ..base.paths import BUILD, ROOT, ensure
 from ..base.progress import Progress
+from ..base.report import npz_bytes
+from .scene import load as load_scene
 
 Record = dict[str, Any]
 # what a job runs (the commands' reporting is not part of a job's result)
@@ -247,7 +251,6 @@ def sources_digest(root: Path = ROOT, kind: str | None = None) -> str:
 def job_key(kind: str, params: Mapping[str, Any], sources: str) -> str:
     p = dict(params)
     if "base" in p:                       # the base scene by content, not by path
-        from .scene import load as load_scene
         p["base"] = load_scene(p["base"]).digest()
     blob = json.dumps({"kind": kind, "params": p, "sources": sources}, sort_keys=True,
                       default=str)
@@ -371,11 +374,12 @@ def write(res: SweepResult, out: Path) -> list[Path]:
     cols: list[str] = []
     for r in rows:
         cols += [k for k in r if k not in cols]
-    with open(out / "results.csv", "w", newline="") as fh:
-        w = csv.DictWriter(fh, fieldnames=cols)
-        w.writeheader()
-        for r in rows:
-            w.writerow({k: r.get(k, "") for k in cols})
+    fh = io.StringIO(newline="")
+    w = csv.DictWriter(fh, fieldnames=cols)
+    w.writeheader()
+    for r in rows:
+        w.writerow({k: r.get(k, "") for k in cols})
+    write_bytes(out / "results.csv", fh.getvalue())
     arrays: dict[str, np.ndarray] = {}
     for c in cols:
         vals = [r.get(c) for r in rows]
@@ -383,11 +387,11 @@ def write(res: SweepResult, out: Path) -> list[Path]:
             arrays[c] = np.asarray(vals)
         else:
             arrays[c] = np.asarray(["" if v is None else str(v) for v in vals])
-    np.savez(out / "results.npz", **arrays)
+    write_bytes(out / "results.npz", npz_bytes(arrays))
     summary = {"name": res.spec.name, "job": res.spec.kind, "spec": str(res.spec.path),
                "jobs": len(rows), "cached": int(sum(res.cached)), "wall_s": res.wall_s,
                "workers": res.workers, "scheduler": res.scheduler, "retried": res.retried}
-    (out / "summary.json").write_text(json.dumps(summary, indent=2))
+    write_bytes(out / "summary.json", json.dumps(summary, indent=2))
     res.out = out
     return [out / "results.csv", out / "results.npz", out / "summary.json"]
 

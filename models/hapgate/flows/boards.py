@@ -23,6 +23,8 @@ from pathlib import Path
 from ..base import toolenv
 from ..base.block import Block, Params
 from ..base.paths import BUILD, RTL, ensure, locked
+from ..base.report import write_csv
+from ..base.tables import write_tables
 from ..golden.top import TopConfig
 from ..golden.top import blocks as top_blocks
 from .flow import Finding, param_text, yosys_script
@@ -250,8 +252,6 @@ def seed_summary(fmax: list[float]) -> tuple[float, float, float]:
 def write_seed_report(board: Board, runs: list[PnrResult], synth_s: float) -> Path:
     """build/reports/pnr_seeds_BOARD.csv: one row per seed (fmax, verdict, wall and CPU
     seconds) and a summary row (min / median / max fmax against the target)."""
-    from ..base.report import write_csv
-
     f = [r.fmax_mhz for r in runs if r.fmax_mhz > 0] or [0.0]   # the seeds that finished
     lo, med, hi = seed_summary(f)
     mhz = board.clk_hz / 1e6
@@ -274,6 +274,7 @@ def gate_netlist(board: Board, params: Params) -> Path:
     import hashlib
 
     toolenv.apply()
+    write_tables(params)
     blk = block(board)
     # generic gates: flat, tri-state buffers kept ($_TBUF_; plain `synth` would fold
     # `oe ? out : 'z` into `out`), flip-flops powering up at 0 like the device's after

@@ -16,6 +16,7 @@ from pathlib import Path
 from ..base import toolenv
 from ..base.block import Block, Params
 from ..base.paths import BUILD, RTL, ensure, locked
+from ..base.tables import write_tables
 
 WAIVERS = RTL / "lint" / "waivers.vlt"
 
@@ -49,6 +50,7 @@ def lint_verilator(block: Block, params: Params, defines: tuple[str, ...] = ()) 
     """verilator --lint-only -Wall (with the waivers); `defines`: a simulation build's
     (e.g. HG_SIM, HG_SIM_GATE: the virtual device's top), named in the finding's tool."""
     toolenv.apply()
+    write_tables(params)
     t0 = time.perf_counter()
     cmd = ["verilator", "--lint-only", "-Wall", "--top-module", block.top, str(WAIVERS)]
     cmd += [f"-D{d}" for d in defines]
@@ -64,6 +66,7 @@ def lint_verilator(block: Block, params: Params, defines: tuple[str, ...] = ()) 
 
 
 def lint_icarus(block: Block, params: Params) -> Finding:
+    write_tables(params)
     t0 = time.perf_counter()
     out = ensure(BUILD / "lint" / block.name) / "icarus.vvp"
     cmd = ["iverilog", "-g2005", "-Wall", "-Wno-timescale", "-o", str(out), "-s", block.top]
@@ -75,6 +78,7 @@ def lint_icarus(block: Block, params: Params) -> Finding:
 
 
 def yosys_script(block: Block, params: Params, workdir: Path, synth_cmd: str, stat: str) -> str:
+    write_tables(params)
     lines = [f"read_verilog -defer {os.path.relpath(p, workdir)}" for p in block.source_paths()]
     if params:  # one chparam: each call elaborates, and defaults may name no real file
         sets = " ".join(f"-set {k} {param_text(v, workdir)}" for k, v in params.items())
@@ -137,6 +141,7 @@ def netlist(block: Block, params: Params, target: str = "generic", flatten: bool
     import hashlib
 
     toolenv.apply()
+    write_tables(params)
     digest = hashlib.sha1(json.dumps({k: param_text(v) for k, v in sorted(params.items())}
                                      | {"_target": target}
                                      | ({} if flatten else {"_flatten": False})).encode())

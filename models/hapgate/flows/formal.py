@@ -28,20 +28,20 @@ from pathlib import Path
 
 from ..base import toolenv
 from ..base.paths import BUILD, TB, ensure
+from ..base.report import table
+from ..base.tables import write_tables
+from ..golden import interp, top
 
 FORMAL = TB / "formal"
 
 
 def _interp_lut() -> dict[str, Path]:
-    from ..golden import interp
-
     return {"asin.hex": interp.write_lut(interp.InterpConfig())}
 
 
 def _top_tables() -> dict[str, Path]:
-    from ..golden import top
-
     p = top.TopConfig().rtl_params()
+    write_tables(p)
     return {"asin.hex": Path(p["ASIN_FILE"]), "sine.hex": Path(p["SINE_FILE"])}  # type: ignore[arg-type]
 
 
@@ -216,8 +216,6 @@ def run_mutant(i: int) -> Result:
 
 
 def main(argv: list[str] | None = None) -> int:
-    from ..base.report import table
-
     ap = argparse.ArgumentParser(prog="python -m hapgate.flows.formal")
     ap.add_argument("--mutants", action="store_true", help="also prove against broken copies")
     args = ap.parse_args(argv)

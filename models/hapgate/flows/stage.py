@@ -25,6 +25,7 @@ from ..base import toolenv
 from ..base.block import Block, Params
 from ..base.paths import BUILD, ensure
 from ..base.report import write_csv
+from ..base.tables import write_tables
 from ..golden.interp import InterpConfig, interp3_params
 from ..golden.interp import blocks as interp_blocks
 from .flow import param_text, yosys_script
@@ -131,6 +132,7 @@ def run_variant(name: str, seeds: int = 1) -> list[StageRun]:
     toolenv.apply()
     cfg = VARIANTS[name]
     params = interp3_params(cfg, clk_hz=CLK_HZ, axes=1)
+    write_tables(params)
     tag = name.split()[0] + ("_reg" if cfg.angle_reg else "")
     wd = ensure(BUILD / "stage" / tag)
     (wd / "wrap.v").write_text(wrapper_text(params, wd))

@@ -43,7 +43,8 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from ..base.block import Block, Params
-from .sine import SineRomConfig, quarter_table, unfold, write_rom
+from ..base.report import figure_path, pyplot, save_figure
+from .sine import SineRomConfig, quarter_table, rom_file, unfold
 
 SINE, SIX_STEP, ALIGN, OFF = 0, 1, 2, 3
 MODES = {"sine": SINE, "six_step": SIX_STEP, "align": ALIGN, "off": OFF}
@@ -118,12 +119,12 @@ class CommutationConfig:
         return cls(rom=rom, **d)  # type: ignore[arg-type]
 
     def rtl_params(self) -> Params:
-        """Parameters of rtl/commutation/commutator.v (writes the ROM file)."""
+        """Parameters of rtl/commutation/commutator.v (pure: the ROM is a TableFile)."""
         return {"CLK_HZ": self.clk_hz, "SKEW_NS": self.skew_ns, "FRAME_NS": self.frame_ns,
                 "SETTLE_NS": self.settle_ns, "WR_CYCLES": self.wr_cycles,
                 "COUNT_BITS": self.count_bits, "POLE_PAIRS": self.pole_pairs,
                 "ADDR_BITS": self.rom.addr_bits, "MAG_BITS": self.rom.mag_bits, "FS": self.rom.fs,
-                "LUT_FILE": write_rom(self.rom), "DAC_BITS": self.dac_bits,
+                "LUT_FILE": rom_file(self.rom), "DAC_BITS": self.dac_bits,
                 "OFFSET_BINARY": int(self.offset_binary), "SERIAL_MUL": int(self.serial_mul)}
 
     def with_(self, **kw: object) -> CommutationConfig:
@@ -372,8 +373,6 @@ def plot_figures(cfg: CommutationConfig, codes_by_mode: Mapping[int, np.ndarray]
                  sweeps: Mapping[int, Sweep], name: str = "commutation") -> list[str]:
     """Plots in the style of the paper's Figs. 8 (six-step) and 9 (sine): channel currents with
     the winding torque profiles (left), per-phase torques and their sum (right)."""
-    from ..base.report import figure_path, pyplot
-
     plt = pyplot()
     paths = []
     for mode, title, fig_no in ((SIX_STEP, "six-step (Hall-sector) commutation", 8),
@@ -403,7 +402,7 @@ def plot_figures(cfg: CommutationConfig, codes_by_mode: Mapping[int, np.ndarray]
                      f"(cf. paper Fig. {fig_no})")
         fig.tight_layout()
         p = figure_path(f"{name}_fig{fig_no}_{'six_step' if mode == SIX_STEP else 'sine'}.png")
-        fig.savefig(p, dpi=100)
+        save_figure(fig, p, dpi=100)
         plt.close(fig)
         paths.append(str(p))
     return paths

@@ -49,7 +49,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .interp import InterpConfig, sign_bits
+from .encsig import LINES, PAPER_LIKE, SAMPLE_HZ, adc_codes, constant, with_spec
+from .interpcfg import TABLE_SIZE as TABLE_SIZE
+from .interpcfg import InterpConfig, sign_bits
+from .interpcfg import cal_table as cal_table
 
 FRAC = 8                      # internal fraction bits of every coefficient register
 OFS_MIN, OFS_MAX = -512, 511  # applied offsets, 1/16 LSB
@@ -60,7 +63,6 @@ R_Q = 4 * 127                 # target amplitude in quarter-LSB
 T16 = 5174                    # round(16 * R_Q * 2 / pi): target mean |ac| in 1/16 quarter-LSB
 GEAR_MAX = 255
 CORR_BITS = 12                # corrected channel width (signed, quarter-LSB)
-TABLE_SIZE = 512              # calibrated arcsine table entries (address min(m, 511))
 
 IDENTITY = (0, 0, GAIN_ONE << FRAC, GAIN_ONE << FRAC, 0)   # OAx, OBx, GAx, GBx, KPx
 X_MIN = (OFS_MIN << FRAC, OFS_MIN << FRAC, GAIN_MIN << FRAC, GAIN_MIN << FRAC, KP_MIN << FRAC)
@@ -75,14 +77,6 @@ class CalConfig:
 
     def rtl_params(self) -> dict[str, int]:
         return {"CAL_LINES_LOG2": self.lines_log2, "CAL_NLOG": self.nlog}
-
-
-def cal_table(cfg: InterpConfig = InterpConfig()) -> np.ndarray:
-    """Arcsine table of the calibrated path: 512 entries for the smaller corrected channel in
-    quarter-LSB, T512[k] = min(2^L - 1, round(asin(min(k / 4, R) / R) * 2^L / 45deg))."""
-    k = np.minimum(np.arange(TABLE_SIZE, dtype=np.float64) / 4.0, cfg.r_nom) / cfg.r_nom
-    codes = np.floor(np.arcsin(k) * (1 << cfg.lut_bits) / (np.pi / 4) + 0.5)
-    return np.minimum(codes, (1 << cfg.lut_bits) - 1).astype(np.int64)
 
 
 def correct(a: np.ndarray, b: np.ndarray, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -263,13 +257,11 @@ def applied(state: np.ndarray) -> np.ndarray:
 
 def paper_truth(n: int, rev_s: float = 37.3, start: float = 0.37) -> np.ndarray:
     """Constant speed, not commensurate with the sampling (the bench's accuracy runs)."""
-    from .encsig import constant
     return constant(rev_s, n, start=start)
 
 
 def mixed_motion(n: int, seed: int = 1) -> np.ndarray:
     """True position in lines: ramps, reversals through zero speed, standstill, fast runs."""
-    from .encsig import LINES, SAMPLE_HZ
     rng = np.random.default_rng(seed)
     k = np.arange(n) / SAMPLE_HZ
     # speed (rev/s): a slow random walk of segments between -200 and 200 plus stops
@@ -288,7 +280,6 @@ def disturbed_codes(x: np.ndarray, seed: int = 3, period: int = 250_000
     3000 samples), an over-range burst (amplitude x 1.35, clipping, 4000 samples) and a dropout
     (A = B = 0, 400 samples). Returns a, b and the mask of clean samples (outside bursts and
     within them the 20000 samples that follow, where the error is allowed to recover)."""
-    from .encsig import PAPER_LIKE, adc_codes, with_spec
     n = x.size
     spec = with_spec(PAPER_LIKE, seed=seed)
     a, b = adc_codes(x, spec)

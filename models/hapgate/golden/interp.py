@@ -52,83 +52,16 @@ import numpy as np
 
 from ..base.block import Block, Params
 from ..base.tables import write_hex
+from .angle import HARM_FRAC, harm_correct, ratio_fine, ratio_table
+from .enccal import CalConfig, calibrate
+from .interpcfg import InterpConfig as InterpConfig
+from .interpcfg import asin_table as asin_table
+from .interpcfg import cal_table
+from .interpcfg import sign_bits as sign_bits
 
 FAULT_OVERSPEED = 1
 FAULT_CLIP = 2
 FAULT_LOSS = 4
-
-
-@dataclass(frozen=True)
-class InterpConfig:
-    lut_bits: int = 7          # arcsine LUT codes per 45deg = 2**lut_bits (5..9 swept by the bench)
-    r_nom: int = 127           # amplitude the arcsine table assumes (ADC codes)
-    vel_log2w: int = 8         # velocity window W = 2**vel_log2w samples
-    amp_min: int = 40          # signal-loss window on sqrt(a^2 + b^2), ADC codes
-    amp_max: int = 170
-    loss_samples: int = 16     # consecutive out-of-window samples that raise signal loss
-    lines: int = 1024          # encoder lines per revolution (for unit conversions only)
-    invert: bool = False       # count the other way: A and B swapped at capture (90deg - phi)
-    cal: bool = False          # build the online calibration stage (RTL CAL; hapgate.golden.enccal)
-    cal_lines_log2: int = 3    # calibration block = 2**cal_lines_log2 lines (RTL CAL_LINES_LOG2)
-    cal_nlog: int = 14         # calibration blocks of >= 2**cal_nlog samples are ignored
-    coarse: bool = False       # plain quadrature: the fine angle zeroed (RTL COARSE), 4 steps/line
-    ratio: bool = False        # fine angle atan(smaller / larger) (RTL ANGLE = 1; golden.angle)
-    ratio_bits: int = 10       # ratio table 2**ratio_bits entries (RTL RATIO_BITS)
-    angle_reg: bool = False    # register after the angle select (RTL ANGLE_REG): latency + 1
-    harm: bool = False         # harmonic correction table (RTL HARM; needs ratio): latency + 1
-    harm_log2: int = 6         # harmonic table 2**harm_log2 entries per line (RTL HARM_LOG2)
-    vel_obs: bool = False      # build the tracking velocity observer (RTL VEL_OBS; golden.velobs)
-
-    @property
-    def fine_bits(self) -> int:
-        """Bits of the fine angle within a quadrant (f ranges 0..2**fine_bits)."""
-        return self.lut_bits + 1
-
-    @property
-    def counts_per_line(self) -> int:
-        return 8 << self.lut_bits
-
-    @property
-    def counts_per_rev(self) -> int:
-        return self.counts_per_line * self.lines
-
-    @property
-    def vel_store_bits(self) -> int:
-        return self.lut_bits + self.vel_log2w + 4
-
-    @property
-    def lut_name(self) -> str:
-        return f"asin_l{self.lut_bits}_r{self.r_nom}"
-
-    def rtl_params(self) -> Params:
-        """Parameters of rtl/interp/enc_interp.v for this configuration (writes the LUT file)."""
-        p: Params = {"LUT_BITS": self.lut_bits, "VEL_LOG2W": self.vel_log2w,
-                     "AMP_MIN": self.amp_min, "AMP_MAX": self.amp_max,
-                     "LOSS_SAMPLES": self.loss_samples, "LUT_FILE": write_lut(self),
-                     "INVERT": int(self.invert)}
-        if self.cal:
-            p.update({"CAL": 1, "CAL_LUT_FILE": write_cal_lut(self),
-                      "CAL_LINES_LOG2": self.cal_lines_log2, "CAL_NLOG": self.cal_nlog})
-        if self.coarse:
-            p["COARSE"] = 1
-        if self.ratio:
-            from .angle import HARM_FRAC, write_ratio_table
-            p.update({"ANGLE": 1, "RATIO_BITS": self.ratio_bits,
-                      "RATIO_FILE": write_ratio_table(self.lut_bits + HARM_FRAC,
-                                                      self.ratio_bits)})
-        if self.harm:
-            p.update({"HARM": 1, "HARM_LOG2": self.harm_log2})
-        if self.angle_reg:
-            p["ANGLE_REG"] = 1
-        if self.vel_obs:
-            p["VEL_OBS"] = 1
-        return p
-
-    @property
-    def latency(self) -> int:
-        """Clocks from the s_valid cycle to the m_valid cycle of enc_interp."""
-        from .angle import latency
-        return latency(self.cal, self.ratio, self.angle_reg, self.ratio_bits, self.harm)
 
 
 BOARD_CLK_HZ = 48_000_000   # a board-like clock (iCE40 UP5K class)
@@ -186,38 +119,14 @@ def blocks() -> list[Block]:
     ]
 
 
-def asin_table(cfg: InterpConfig = InterpConfig()) -> np.ndarray:
-    """Arcsine LUT, 129 entries for magnitudes 0..128 (entries above R_NOM saturate)."""
-    m = np.minimum(np.arange(129, dtype=np.float64), cfg.r_nom) / cfg.r_nom
-    codes = np.floor(np.arcsin(m) * (1 << cfg.lut_bits) / (np.pi / 4) + 0.5)
-    return np.minimum(codes, (1 << cfg.lut_bits) - 1).astype(np.int64)
-
-
 def write_lut(cfg: InterpConfig = InterpConfig(), directory: Path | None = None) -> Path:
+    """Write the arcsine table file now (rtl_params() names it; the build writes it)."""
     return write_hex(cfg.lut_name, asin_table(cfg), cfg.lut_bits, directory)
 
 
 def write_cal_lut(cfg: InterpConfig = InterpConfig(), directory: Path | None = None) -> Path:
-    """The 512-entry arcsine table of the calibrated path (hapgate.golden.enccal.cal_table)."""
-    from .enccal import cal_table
-    return write_hex(f"asin512_l{cfg.lut_bits}_r{cfg.r_nom}", cal_table(cfg), cfg.lut_bits,
-                     directory)
-
-
-def sign_bits(v: np.ndarray) -> np.ndarray:
-    """Sign of each sample with the zero code held: a 0 keeps the previous sample's sign
-    (non-negative before the first non-zero sample). This gives the sign bit a hysteresis of
-    +-1/2 LSB, so both zero crossings of a channel are decided at the same distance from the
-    true zero and every quadrant is exactly 90 deg wide: the 1 MSPS sign decoder then tracks
-    all the way to 244.14 rev/s, and standstill noise under 1/2 LSB never chatters the
-    quadrant. (The position is the same either way when a channel is 0, see the docs.)"""
-    v = np.asarray(v)
-    neg = v < 0
-    nz = np.flatnonzero(v != 0)
-    if nz.size == v.size:
-        return neg
-    reps = np.diff(np.concatenate(([0], nz, [v.size])))
-    return np.repeat(np.concatenate(([False], neg[nz])), reps)
+    """The 512-entry arcsine table of the calibrated path (interpcfg.cal_table), written now."""
+    return write_hex(cfg.cal_lut_name, cal_table(cfg), cfg.lut_bits, directory)
 
 
 def quadrant_and_fine(a: np.ndarray, b: np.ndarray, table: np.ndarray, lut_bits: int,
@@ -235,7 +144,6 @@ def quadrant_and_fine(a: np.ndarray, b: np.ndarray, table: np.ndarray, lut_bits:
     x = np.where(odd, ma, mb)
     half = y >= x
     if ratio_bits:
-        from .angle import ratio_fine
         f = ratio_fine(np.where(half, x, y), np.where(half, y, x), half, table, lut_bits,
                        ratio_bits)
         return q.astype(np.int32), f.astype(np.int32)
@@ -324,10 +232,8 @@ def run(a: np.ndarray, b: np.ndarray, index: np.ndarray | None = None,
     rb = cfg.ratio_bits if cfg.ratio else 0
     if cfg.harm and not cfg.ratio:
         raise ValueError("the harmonic correction needs the ratio angle stage")
-    from .angle import HARM_FRAC
     tl = cfg.lut_bits + (HARM_FRAC if cfg.ratio else 0)    # the angle table's codes per 45 deg
     if cfg.ratio and table is None:
-        from .angle import ratio_table
         table = ratio_table(tl, cfg.ratio_bits)
         table_arg = table
     table = asin_table(cfg) if table is None else table
@@ -336,7 +242,6 @@ def run(a: np.ndarray, b: np.ndarray, index: np.ndarray | None = None,
         a, b = b, a
     extra: dict[str, np.ndarray] = {}
     if cfg.cal:
-        from .enccal import CalConfig, cal_table, calibrate
         c = calibrate(a, b, cal_en, cal_freeze, cal_mu, cfg,
                       CalConfig(cfg.cal_lines_log2, cfg.cal_nlog))
         ctab = cal_table(cfg) if table_arg is None else table_arg
@@ -347,7 +252,6 @@ def run(a: np.ndarray, b: np.ndarray, index: np.ndarray | None = None,
     else:
         q, f = quadrant_and_fine(a, b, table, tl, rb)
     if cfg.ratio:   # 1/4-count fine angle: the harmonic table (cfg.harm), rounded to counts
-        from .angle import harm_correct
         ht = np.zeros(1 << cfg.harm_log2, dtype=np.int64) if harm_table is None else harm_table
         extra["fine_h"] = f
         en = np.broadcast_to(np.asarray(harm_en, dtype=bool) & cfg.harm, (n,))

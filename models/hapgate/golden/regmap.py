@@ -22,13 +22,13 @@ from __future__ import annotations
 import argparse
 import hashlib
 import json
-import os
 import sys
 import tempfile
 from dataclasses import asdict, dataclass, field
 from functools import lru_cache
 from pathlib import Path
 
+from ..base.atomic import write_bytes
 from ..base.block import Block, Params
 from ..base.paths import GEN, ROOT, RTL, ensure
 
@@ -141,11 +141,7 @@ def _atomic_write(path: Path, text: str) -> None:
     ensure(path.parent)
     if path.exists() and path.read_text() == text:
         return
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
-    with os.fdopen(fd, "w") as f:
-        f.write(text)
-    os.chmod(tmp, 0o644)
-    os.replace(tmp, path)
+    write_bytes(path, text)
 
 
 @lru_cache(maxsize=8)

@@ -14,12 +14,13 @@ Accuracy budget (error against FS*sin of the code's angle): at most 0.5 LSB, fro
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import partial
 from pathlib import Path
 
 import numpy as np
 
 from ..base.block import Block, Params
-from ..base.tables import write_hex
+from ..base.tables import TableFile, write_hex
 
 ERROR_BUDGET_LSB = 0.5
 
@@ -90,9 +91,14 @@ def error_vs_truth(outputs: np.ndarray, cfg: SineRomConfig = SineRomConfig()) ->
     return np.asarray(outputs, dtype=np.float64) - sine_truth(codes, cfg)
 
 
+def rom_file(cfg: SineRomConfig = SineRomConfig()) -> TableFile:
+    """The ROM file build/gen/<name>.hex, written by the build (base.tables.write_tables)."""
+    return TableFile.of(cfg.name, partial(quarter_table, cfg), cfg.mag_bits)
+
+
 def rtl_params(cfg: SineRomConfig = SineRomConfig()) -> Params:
-    """Parameters of rtl/commutation/sine_lut.v for `cfg` (writes the ROM file)."""
-    return {"ADDR_BITS": cfg.addr_bits, "MAG_BITS": cfg.mag_bits, "LUT_FILE": write_rom(cfg)}
+    """Parameters of rtl/commutation/sine_lut.v for `cfg` (pure: the ROM is a TableFile)."""
+    return {"ADDR_BITS": cfg.addr_bits, "MAG_BITS": cfg.mag_bits, "LUT_FILE": rom_file(cfg)}
 
 
 def blocks() -> list[Block]:

@@ -92,7 +92,7 @@ class TopConfig:
     def rtl_params(self) -> Params:
         c, i = self.comm, self.interp
         return {"CLK_HZ": self.clk_hz, "SAMPLE_HZ": self.sample_hz, "LUT_BITS": i.lut_bits,
-                "ASIN_FILE": interp.write_lut(i), "VEL_LOG2W": i.vel_log2w,
+                "ASIN_FILE": i.lut_file(), "VEL_LOG2W": i.vel_log2w,
                 "AMP_MIN": i.amp_min, "AMP_MAX": i.amp_max, "LOSS_SAMPLES": i.loss_samples,
                 "LINES_LOG2": self.lines_log2, "POLE_PAIRS": c.pole_pairs,
                 "SKEW_NS": c.skew_ns, "FRAME_NS": c.frame_ns, "SETTLE_NS": c.settle_ns,
@@ -101,7 +101,7 @@ class TopConfig:
                 "SINE_FILE": c.rtl_params()["LUT_FILE"], "DAC_BITS": c.dac_bits,
                 "OFFSET_BINARY": int(c.offset_binary), "SERIAL_MUL": int(c.serial_mul),
                 "BUS_ADDR_BITS": 8,
-                **({"CAL": 1, "CAL_LUT_FILE": interp.write_cal_lut(i),
+                **({"CAL": 1, "CAL_LUT_FILE": i.cal_lut_file(),
                     "CAL_LINES_LOG2": i.cal_lines_log2, "CAL_NLOG": i.cal_nlog} if i.cal else {}),
                 **({"COARSE": 1} if i.coarse else {}),
                 **({"VEL_OBS": 1} if i.vel_obs else {}),

@@ -309,7 +309,7 @@ def demo_section() -> bool:
     ax[2].legend(fontsize=7)
     fig.tight_layout()
     path = report.figure_path("demo_cosim.png")
-    fig.savefig(path, dpi=110)
+    report.save_figure(fig, path, dpi=110)
     plt.close(fig)
     print(f"figure: {path}")
     return all(r.ok for r in runs) and all(

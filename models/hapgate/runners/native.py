@@ -23,8 +23,9 @@ import numpy as np
 from ..base import toolenv
 from ..base.block import Params
 from ..base.paths import BUILD, RTL, TB, ensure
+from ..base.tables import write_tables
 from ..flows.flow import param_text
-from ..golden import interp
+from ..golden import enccal, interp
 from ..golden.interp import InterpConfig
 from .sim import _locked
 
@@ -65,6 +66,7 @@ def verilate_harness(name: str, top: str, sources: Sequence[Path], params: Param
     IEEE semantics (no fast-math), so the optimised executable computes the same results bit for
     bit (tb/device/test_closed_loop.py checks it), only faster."""
     toolenv.apply()
+    write_tables(params)
     key = json.dumps({k: param_text(v) for k, v in sorted(params.items())} |
                      {"_cflags": cflags, "_ldflags": ldflags} |
                      ({"_vflags": list(vflags)} if vflags else {}) |
@@ -174,7 +176,6 @@ def _levels(v: np.ndarray | bool, n: int, axes: int) -> np.ndarray:
 
 def cal_columns(out: interp.InterpOut) -> dict[str, np.ndarray]:
     """The model's calibration state (cfg.cal runs) in the harness's cal_* column form."""
-    from ..golden import enccal
     c = enccal.applied(out.extra["cal_state_after"])
     return {"cal_ofs_a": c[0], "cal_ofs_b": c[1], "cal_gain_a": c[2], "cal_gain_b": c[3],
             "cal_phase": c[4], "cal_gear": np.asarray(out.extra["cal_gear"]),

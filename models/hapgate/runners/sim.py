@@ -17,6 +17,7 @@ from pathlib import Path
 from ..base import toolenv
 from ..base.block import Block, Params
 from ..base.paths import SIM, ensure, locked
+from ..base.tables import write_tables
 from ..flows.flow import param_text
 
 ALL_SIMS = ("verilator", "icarus")
@@ -74,6 +75,7 @@ def run_cocotb(
 
     toolenv.apply()
     params = block.params() if params is None else params
+    write_tables(params)
     bdir = build_dir(block, sim, params, build_args)
     runner = get_runner(sim)
     args = list(build_args)

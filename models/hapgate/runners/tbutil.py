@@ -12,6 +12,7 @@ from cocotb.triggers import ClockCycles, RisingEdge
 from cocotb.utils import get_sim_time
 
 from ..golden import emif
+from . import cocotb_emif
 
 
 def params() -> dict[str, object]:
@@ -61,8 +62,8 @@ class TopBus:
 
     def __init__(self, dut, period_ps: int, words: dict[str, int], rng) -> None:
         self.dut, self.period_ps, self.words, self.rng = dut, period_ps, words, rng
-        self.master = emif.EmifMaster(dut)
-        self.mon: emif.Monitor | None = None
+        self.master = cocotb_emif.EmifMaster(dut)
+        self.mon: cocotb_emif.Monitor | None = None
         self.ref = 0
 
     async def start(self, *watch: str) -> TopBus:
@@ -75,7 +76,7 @@ class TopBus:
         await ClockCycles(dut.clk, 4)
         self.ref = int(get_sim_time(unit="ps"))
         dut.rst.value = 0
-        self.mon = emif.Monitor(dut, self.period_ps, self.ref, scope=dut.u_bus)
+        self.mon = cocotb_emif.Monitor(dut, self.period_ps, self.ref, scope=dut.u_bus)
         self.mon.start(*watch)
         return self
 
