@@ -179,7 +179,7 @@ def main(argv: list[str] | None = None) -> int:
     sweep.add_arguments(sub.add_parser(
         "sweep", help="run a sweep spec on Dask: SPEC [--scheduler tcp://H:P] [--workers N]"))
     bp = sub.add_parser("bench", help="benchmarks: run time beside error (build/reports/)")
-    bp.add_argument("--quick", action="store_true", help="smaller runs")
+    bench.add_arguments(bp)
     bp.set_defaults(fn=cmd_bench)
     args = p.parse_args(argv)
     return int(args.fn(args))

@@ -1,4 +1,4 @@
-"""Linkage kinematics of shared/KINEMATICS.md in numpy, vectorised over any number of poses.
+"""Linkage kinematics of docs/design/KINEMATICS.md in numpy, vectorised over any number of poses.
 
 q = (alpha, beta, gamma) in rad along the last axis, p = (x, y, z) in m. Two independent
 forward models: `fk` (the closed form the firmware uses) and `fk_construct` (rotate the crank
