@@ -132,8 +132,9 @@ int hg_latest_push(hg_dev_t *dev, hg_dev_state_t *out);
 /* Wait until a push newer than seq `after` arrives (at most timeout_s), and return it. */
 int hg_wait_push(hg_dev_t *dev, uint32_t after, hg_dev_state_t *out, double timeout_s);
 int hg_get_stats(hg_dev_t *dev, hg_dev_stats_t *out);
-/* Called by the reader thread for every push, before any waiter sees it (diagnostic logs);
- * it must return quickly. NULL removes it. */
+/* Called by the reader thread for every push, before any waiter sees it (diagnostic logs),
+ * with the library's lock held: it must return quickly and must not call this library.
+ * NULL removes it. */
 typedef void (*hg_push_hook)(const hg_dev_state_t *s, void *user);
 int hg_set_push_hook(hg_dev_t *dev, hg_push_hook hook, void *user);
 /* Bytes written as they are, for tests of the device's frame checks. */
