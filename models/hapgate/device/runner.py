@@ -145,6 +145,19 @@ def build(clk_hz: int, mask: int = 7, trace: bool = False, test_limits: bool = F
 
 
 # ---------------------------------------------------------------------------------- the run
+def parts(scene: Any, mask: int | None = None) -> tuple[list[str], list[str]]:
+    """What a run of the scene builds and what it skips (the table's first lines)."""
+    m = axis_mask(scene) if mask is None else int(mask)
+    built = [f"interpolator axis {i}" for i in range(3) if m >> i & 1]
+    built += ["commutator + DAC scheduler", "bus + register file", "firmware (dsp-fw)",
+              f"plant ({', '.join(str(a) for a in scene.run.axes)} free)"]
+    skipped = [f"axis {i} (interpolator, signals; joint held)" for i in range(3)
+               if not m >> i & 1]
+    skipped += [] if scene.run.trace else ["waveform trace"]
+    skipped += [] if record_mask(scene) & 1 else ["plant records"]
+    return built, skipped
+
+
 def simulate(scene: Any, clk_hz: int | None = None, mask: int | None = None,
              progress: Any = None, out_dir: Path | None = None, gate: bool = True,
              pgo: bool | None = None, view: Any = None) -> Raw:
@@ -163,13 +176,7 @@ def simulate(scene: Any, clk_hz: int | None = None, mask: int | None = None,
     exe = build(clk, m, trace, bool(getattr(scene.firmware, "test_limits", False)),
                 _coarse(scene), _observer(scene), gate=gate, pgo=pgo)
     q0 = start_pose(scene)
-    built = [f"interpolator axis {i}" for i in range(3) if m >> i & 1]
-    built += ["commutator + DAC scheduler", "bus + register file", "firmware (dsp-fw)",
-              f"plant ({', '.join(str(a) for a in scene.run.axes)} free)"]
-    skipped = [f"axis {i} (interpolator, signals; joint held)" for i in range(3)
-               if not m >> i & 1]
-    skipped += [] if trace else ["waveform trace"]
-    skipped += [] if record_mask(scene) & 1 else ["plant records"]
+    built, skipped = parts(scene, m)
     with tempfile.TemporaryDirectory(prefix="scene-", dir=ensure(BUILD / "native" / "runs")) as t:
         tmp = Path(t) if out_dir is None else ensure(out_dir)
         (tmp / "plant.cfg").write_text(plant_config(scene, q0))
