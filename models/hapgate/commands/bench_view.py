@@ -56,13 +56,14 @@ def _one(scene: Any, mode: str) -> list[str]:
 
 
 def run(quick: bool) -> bool:
-    dur = 0.2 if quick else 0.5
+    dur = 0.4 if quick else 1.0
     scene = scene_mod.load(ROOT / "scenes" / "wall.toml").override(
-        {"run.duration_s": dur, "expect": {}})
+        {"run.duration_s": dur, "expect": {},
+         "fault": [{"at_s": dur / 2, "kind": "dropout", "axis": 1}]})
     modes = ["off", "on"]
     if CHROMEDRIVER.exists() and shutil.which("chromium"):
         modes.append("browser")
-    runner.simulate(scene.override({"run.duration_s": 0.01}))    # build outside the figures
+    runner.simulate(scene.override({"run.duration_s": 0.01, "fault": []}))   # the build first
     rows = [_one(scene, m) for m in modes]
     print(f"scenes/wall.toml, 3 axes, {dur} s simulated; the live view off, on (no browser), "
           "and with a headless Chromium on the page")

@@ -296,23 +296,22 @@ class Page:
                 title="motor torques [N·m]", aspect=2.0, scales=LINEAR)
         bfold = gui.add_folder("Burst capture (full rate)", expand_by_default=src.live)
         with bfold:
-            self.h_dac = gui.add_uplot(tuple(np.zeros(2) for _ in range(7)), (
-                {"label": "t [ms]"}, *({"label": f"DAC {c}", "stroke": col} for c, col in
-                                       zip("a0 b0 a1 b1 a2 b2".split(),
-                                           ("#d62728", "#ff9896", "#2ca02c", "#98df8a",
-                                            "#1f77b4", "#aec7e8")))),
-                title="DAC codes, six channels", aspect=2.0, scales=LINEAR)
-            self.h_cur = gui.add_uplot(tuple(np.zeros(2) for _ in range(7)), (
-                {"label": "t [ms]"}, *({"label": f"i {c}", "stroke": col} for c, col in
-                                       zip("a0 b0 a1 b1 a2 b2".split(),
-                                           ("#d62728", "#ff9896", "#2ca02c", "#98df8a",
-                                            "#1f77b4", "#aec7e8")))),
-                title="phase currents [A]", aspect=2.0, scales=LINEAR)
+            self.h_dac = self._six(gui, "DAC", "DAC codes, six channels")
+            self.h_cur = self._six(gui, "i", "phase currents [A]")
             self.h_liss = gui.add_image(lissajous(np.zeros((0, 6), np.int8)),
                                         label="encoder Lissajous A/B, axes α β γ")
         gui.add_markdown("Built: " + ", ".join(self.built) if self.built else "")
         if self.skipped:
             gui.add_markdown("Skipped: " + ", ".join(self.skipped))
+
+    @staticmethod
+    def _six(gui: Any, prefix: str, title: str) -> Any:
+        """A burst scope of the six channels a0 b0 a1 b1 a2 b2 against time in ms."""
+        colours = ("#d62728", "#ff9896", "#2ca02c", "#98df8a", "#1f77b4", "#aec7e8")
+        return gui.add_uplot(tuple(np.zeros(2) for _ in range(7)), (
+            {"label": "t [ms]"}, *({"label": f"{prefix} {c}", "stroke": col}
+                                   for c, col in zip("a0 b0 a1 b1 a2 b2".split(), colours))),
+            title=title, aspect=2.0, scales=LINEAR)
 
     # -------------------------------------------------------------------- redraw
     def _loop(self) -> None:
