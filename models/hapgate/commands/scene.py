@@ -106,8 +106,8 @@ def run_file(file: Path, out_dir: Path | None = None,
             return EXIT_BAD_INPUT
     try:
         with Progress(total=scene.run.duration_s, label=scene.name, unit="s") as bar:
-            r = runner.run(scene, progress=bar, out_dir=out,
-                           view=live[0] if live else None)
+            live_kw = {"view": live[0]} if live else {}     # the runner's signature otherwise
+            r = runner.run(scene, progress=bar, out_dir=out, **live_kw)
     except SceneError as exc:          # the runner refuses a combination it cannot build
         _err(str(exc))
         return EXIT_BAD_INPUT
