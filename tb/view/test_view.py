@@ -23,7 +23,6 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-
 from hapgate.base.paths import REPORTS, ROOT, ensure
 from hapgate.device.telemetry import PERIOD_S
 from hapgate.device.view import LINK_RGB
