@@ -3,7 +3,9 @@
 #
 #   make          the venv, the C host library and the CHAI3D shims (build/host/lib/)
 #   make demo     the main job (what it runs grows with each block)
-#   make test     lint + the docs site + every test (pytest -n auto, Verilator and Icarus)
+#   make test     deps + lint + the docs site + every test (pytest -n auto, Verilator and Icarus)
+#   make deps     the Debian packages the tests need (tb/debian-deps.sh: installs them as root,
+#                 else names the missing ones and fails)
 #   make lint     ruff, verilator -Wall, Icarus elaboration, Yosys synthesis checks
 #   make bench    benchmarks: tables on stdout and in docs/figures.md, CSV/PNG in build/reports/
 #                 (BENCH_ARGS="--only sine fw" runs some parts, "--quick" smaller sizes)
@@ -25,7 +27,7 @@ HG      := $(VENV)/bin/hapgate
 PYTEST  := $(VENV)/bin/pytest
 PYTEST_ARGS ?= -n auto
 
-.PHONY: all host venv demo test lint bench docs soak versions synth gatelevel formal regs mutants clean distclean
+.PHONY: all host venv deps demo test lint bench docs soak versions synth gatelevel formal regs mutants clean distclean
 
 all: venv host
 
@@ -49,7 +51,10 @@ lint: $(STAMP)
 	$(VENV)/bin/ruff check models tb
 	$(HG) lint
 
-test: lint docs host
+deps:
+	bash tb/debian-deps.sh
+
+test: deps lint docs host
 	$(HG) check-sims
 	$(PYTEST) $(PYTEST_ARGS) tb
 

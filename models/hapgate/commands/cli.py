@@ -13,6 +13,7 @@ from ..base.report import table
 from ..flows import blocks, boards, flow, fusesoc, stage
 from ..runners.sim import MissingSimulator, simulators
 from . import bench, demo, device, harm, mutants, replay_commutation, replay_interp, scene, sweep
+from . import view as view_cmd
 
 REPLAY = {"interp": replay_interp, "commutation": replay_commutation}
 
@@ -175,6 +176,11 @@ def main(argv: list[str] | None = None) -> int:
     device.add_arguments(dsub.add_parser(
         "serve", help="serve the virtual device's PC link on a pty (prints 'port: /dev/pts/N')"))
     dp.set_defaults(fn=cmd_device)
+
+    vp = sub.add_parser("view", help="replay a finished scene run (RUN_DIR/run.npz) in the "
+                        "browser with a time slider (prints 'view: URL')")
+    view_cmd.add_arguments(vp)
+    vp.set_defaults(fn=view_cmd.main)
 
     sweep.add_arguments(sub.add_parser(
         "sweep", help="run a sweep spec on Dask: SPEC [--scheduler tcp://H:P] [--workers N]"))

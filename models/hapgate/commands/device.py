@@ -25,6 +25,8 @@ from typing import Any
 from ..base.paths import BUILD, ensure
 from ..device import runner
 from ..device import scene as scene_mod
+from ..device.telemetry import Feed
+from . import view
 
 SERVE_S = 1e6                 # simulated seconds a server runs for (it stops on a signal)
 PACES = ("realtime", "free")
@@ -63,13 +65,14 @@ class Server:
     open `s.port`. `stop()` ends it (SIGTERM) and returns the harness's link summary."""
 
     def __init__(self, scene: Any = None, baud: int = DEFAULT_BAUD, pace: str = "free",
-                 axes: tuple[int, ...] | None = None) -> None:
+                 axes: tuple[int, ...] | None = None, view: Any = None) -> None:
         if pace not in PACES:
             raise ServeError(f"--pace {pace}: expected one of {', '.join(PACES)}")
         if not 1200 <= int(baud) <= 12_000_000:
             raise ServeError(f"--baud {baud}: expected 1200..12000000")
         self.scene = _for_serving(default_scene() if scene is None else scene, axes)
         self.baud, self.pace = int(baud), pace
+        self.view = view          # a hapgate.device.telemetry.Feed for the live view
         self.port = ""
         self.proc: subprocess.Popen[str] | None = None
         self._tmp: tempfile.TemporaryDirectory[str] | None = None
@@ -88,13 +91,17 @@ class Server:
         self.port = os.ttyname(slave)
         os.close(slave)          # the PC opens it; while nobody has, the device's bytes drop
         (tmp / "plant.cfg").write_text(runner.plant_config(sc, q0))
-        (tmp / "run.cfg").write_text(runner.run_config(sc, q0))
+        view_cfg, fds = self.view.open() if self.view is not None else ("", ())
+        (tmp / "run.cfg").write_text(runner.run_config(sc, q0) + view_cfg)
         (tmp / "link.cfg").write_text(f"fd = {master}\nbaud = {self.baud}\npace = {self.pace}\n")
         self.proc = subprocess.Popen(
             [str(exe), *(str(tmp / f) for f in ("plant.cfg", "run.cfg")), str(tmp),
              str(tmp / "link.cfg")],
-            stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True, pass_fds=(master,))
+            stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True,
+            pass_fds=(master, *fds))
         os.close(master)
+        if self.view is not None:
+            self.view.started(tmp)
         self._reader = threading.Thread(target=self._read_stderr, daemon=True)
         self._reader.start()
         time.sleep(0.05)
@@ -126,6 +133,8 @@ class Server:
                 self.proc.wait()
         if self._reader is not None:
             self._reader.join(timeout=5)
+        if self.view is not None:
+            self.view.finished()
         if self._tmp is not None:
             self._tmp.cleanup()
             self._tmp = None
@@ -149,12 +158,16 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                    "fast enough (and says when it is not); free: as fast as it runs")
     p.add_argument("--axes", type=int, nargs="+", choices=(0, 1, 2),
                    help="simulate only these axes (the others held; faster)")
+    view.add_view_options(p)
 
 
 def main(args: argparse.Namespace) -> int:
+    feed = None
     try:
         scene = load_scene(args.scene)
-        server = Server(scene, args.baud, args.pace, tuple(args.axes) if args.axes else None)
+        feed = Feed(scene, can_pause=False) if args.view else None
+        server = Server(scene, args.baud, args.pace, tuple(args.axes) if args.axes else None,
+                        view=feed)
     except (ServeError, ValueError, OSError) as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 2
@@ -171,6 +184,13 @@ def main(args: argparse.Namespace) -> int:
         print(f"error: {exc}", file=sys.stderr)
         return 2
     print(f"port: {port}", flush=True)
+    page = None
+    if feed is not None:
+        page = view.open_page(feed, args, f"device serve on {port}",
+                              *runner.parts(server.scene))
+        if page is None:
+            server.stop()
+            return 2
     print(f"serving the virtual device at {server.baud} baud, pace {server.pace}, axes "
           f"{list(server.scene.run.axes)}; Ctrl-C stops", file=sys.stderr, flush=True)
     while not stop.is_set():
@@ -180,5 +200,7 @@ def main(args: argparse.Namespace) -> int:
             return 1
         stop.wait(0.2)
     summary = server.stop()
+    if page is not None:
+        page.close()
     sys.stderr.write(summary)
     return 0

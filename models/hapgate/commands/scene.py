@@ -15,6 +15,9 @@ import os
 import sys
 import traceback
 from pathlib import Path
+from typing import Any
+
+import numpy as np
 
 from ..base.atomic import OutputError
 from ..base.paths import BUILD
@@ -22,6 +25,9 @@ from ..base.progress import Progress
 from ..device import result as res
 from ..device import runner
 from ..device.scene import SceneError, load
+from ..device.telemetry import Feed
+from ..golden import kinematics
+from . import view
 
 EXIT_PASS, EXIT_FAIL, EXIT_BAD_INPUT, EXIT_NO_RUN = 0, 1, 2, 3
 OUTPUT_NAMES = ("summary.json", "run.npz", "position.png", "force_depth.png", "dac.png",
@@ -34,6 +40,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     rp.add_argument("file", type=Path, help="scene file (TOML; format: scenes/README.md)")
     rp.add_argument("--out", type=Path, default=None,
                     help="output folder (default: build/scenes/<name>/)")
+    view.add_view_options(rp)
     rp.set_defaults(fn=cmd_run)
     cp = sub.add_parser("check", help="validate scene files without running them")
     cp.add_argument("files", type=Path, nargs="+")
@@ -61,12 +68,29 @@ def _outdir(out: Path) -> Path | None:
 
 
 def cmd_run(args: argparse.Namespace) -> int:
-    return run_file(args.file, args.out)
+    return run_file(args.file, args.out, args if args.view else None)
 
 
-def run_file(file: Path, out_dir: Path | None = None) -> int:
+def _live_view(scene: Any, args: argparse.Namespace) -> tuple[Any, Any] | None:
+    """The feed and the page of a scene run with --view; None after an error message."""
+    if scene.run.fidelity != "rtl":
+        _err(f"{scene.source}: --view needs run.fidelity = 'rtl' (the scene has "
+             f"{scene.run.fidelity!r})")
+        return None
+    path = scene.hand.path
+    target0 = (np.asarray(path[0][1:4], float) if path
+               else kinematics.fk(runner.start_pose(scene)))
+    feed = Feed(scene, target0=target0 if scene.hand.kind == "spring" else None)
+    built, skipped = runner.parts(scene)
+    page = view.open_page(feed, args, f"scene {scene.name} ({scene.source})", built, skipped)
+    return None if page is None else (feed, page)
+
+
+def run_file(file: Path, out_dir: Path | None = None,
+             view_args: argparse.Namespace | None = None) -> int:
     """Load, run, print and write one scene (what `hapgate scene run` does; `make demo` can
-    call it on scenes/short.toml). Returns the exit status."""
+    call it on scenes/short.toml). Returns the exit status. view_args: serve the live view
+    (--view-port, --view-host) during the run and after it, until Ctrl-C."""
     try:
         scene = load(file)
     except SceneError as exc:
@@ -75,9 +99,15 @@ def run_file(file: Path, out_dir: Path | None = None) -> int:
     out = _outdir(out_dir if out_dir is not None else BUILD / "scenes" / scene.name)
     if out is None:
         return EXIT_BAD_INPUT
+    live = None
+    if view_args is not None:
+        live = _live_view(scene, view_args)
+        if live is None:
+            return EXIT_BAD_INPUT
     try:
         with Progress(total=scene.run.duration_s, label=scene.name, unit="s") as bar:
-            r = runner.run(scene, progress=bar, out_dir=out)
+            live_kw = {"view": live[0]} if live else {}     # the runner's signature otherwise
+            r = runner.run(scene, progress=bar, out_dir=out, **live_kw)
     except SceneError as exc:          # the runner refuses a combination it cannot build
         _err(str(exc))
         return EXIT_BAD_INPUT
@@ -96,7 +126,10 @@ def run_file(file: Path, out_dir: Path | None = None) -> int:
     except OutputError as exc:         # a path in DIR that is not a regular file, a full disk
         _err(str(exc))
         return EXIT_BAD_INPUT
-    print(f"wrote {out}/: " + ", ".join(p.name for p in written))
+    print(f"wrote {out}/: " + ", ".join(p.name for p in written), flush=True)
+    if live is not None:
+        view.wait_for_signal("the run is over; the view stays up until Ctrl-C")
+        live[1].close()
     return EXIT_PASS if res.verdict(outcomes) == "PASS" else EXIT_FAIL
 
 

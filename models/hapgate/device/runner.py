@@ -61,7 +61,7 @@ from .result import RunResult
 from .scene import load as load_scene
 
 HARNESS = [HERE / "device_harness.cpp", HERE / "harness_common.cpp", HERE / "plant.cpp",
-           HERE / "uart_link.cpp"]
+           HERE / "uart_link.cpp", HERE / "view_link.cpp"]
 
 # ---------------------------------------------------------------------------------- decisions
 def _top(clk_hz: int, mask: int, coarse: bool = False,
@@ -137,22 +137,38 @@ def build(clk_hz: int, mask: int = 7, trace: bool = False, test_limits: bool = F
                 f"-DHG_LOAD_CLOCKS={cfg.comm.load_clocks + 1} "
                 f"-I{HERE} -I{FW / 'include'}" + "".join(f" -D{d}" for d in defs)),
         ldflags="fw/libhgfw.a -lm",
-        inputs=[HERE / "plant.h", HERE / "uart_link.h", HERE / "harness_common.h",
-                HERE / "stage_clocks.h", *fw_srcs],
+        inputs=[HERE / "plant.h", HERE / "uart_link.h", HERE / "view_link.h",
+                HERE / "harness_common.h", HERE / "stage_clocks.h", *fw_srcs],
         prepare=functools.partial(cosim._fw_lib, defines=defs), vflags=vflags,
         train=functools.partial(_train, clk_hz, mask, test_limits, coarse, vel_obs)
         if pgo and not trace else None)
 
 
 # ---------------------------------------------------------------------------------- the run
+def parts(scene: Any, mask: int | None = None) -> tuple[list[str], list[str]]:
+    """What a run of the scene builds and what it skips (the table's first lines)."""
+    m = axis_mask(scene) if mask is None else int(mask)
+    built = [f"interpolator axis {i}" for i in range(3) if m >> i & 1]
+    built += ["commutator + DAC scheduler", "bus + register file", "firmware (dsp-fw)",
+              f"plant ({', '.join(str(a) for a in scene.run.axes)} free)"]
+    skipped = [f"axis {i} (interpolator, signals; joint held)" for i in range(3)
+               if not m >> i & 1]
+    skipped += [] if scene.run.trace else ["waveform trace"]
+    skipped += [] if record_mask(scene) & 1 else ["plant records"]
+    return built, skipped
+
+
 def simulate(scene: Any, clk_hz: int | None = None, mask: int | None = None,
              progress: Any = None, out_dir: Path | None = None, gate: bool = True,
-             pgo: bool | None = None) -> Raw:
+             pgo: bool | None = None, view: Any = None) -> Raw:
     """Build what the scene needs (or the given clock/mask) and run it once; at model fidelity
     the golden models' harness (hapgate.device.model). gate=False: the rtl build without the
     interpolators' simulation-only stage clocks; pgo: with or without profile-guided
-    optimisation (None: pgo_enabled()); build(): the same results either way, slower."""
+    optimisation (None: pgo_enabled()); build(): the same results either way, slower.
+    view: a hapgate.device.telemetry.Feed to stream the live view to (rtl fidelity only)."""
     if scene.run.fidelity == "model":
+        if view is not None:
+            raise DeviceError("the live view needs run.fidelity = 'rtl'")
         return model.simulate(scene, clk_hz, mask, progress, out_dir)
     clk = choose_clock(scene) if clk_hz is None else int(clk_hz)
     m = axis_mask(scene) if mask is None else int(mask)
@@ -160,17 +176,12 @@ def simulate(scene: Any, clk_hz: int | None = None, mask: int | None = None,
     exe = build(clk, m, trace, bool(getattr(scene.firmware, "test_limits", False)),
                 _coarse(scene), _observer(scene), gate=gate, pgo=pgo)
     q0 = start_pose(scene)
-    built = [f"interpolator axis {i}" for i in range(3) if m >> i & 1]
-    built += ["commutator + DAC scheduler", "bus + register file", "firmware (dsp-fw)",
-              f"plant ({', '.join(str(a) for a in scene.run.axes)} free)"]
-    skipped = [f"axis {i} (interpolator, signals; joint held)" for i in range(3)
-               if not m >> i & 1]
-    skipped += [] if trace else ["waveform trace"]
-    skipped += [] if record_mask(scene) & 1 else ["plant records"]
+    built, skipped = parts(scene, m)
     with tempfile.TemporaryDirectory(prefix="scene-", dir=ensure(BUILD / "native" / "runs")) as t:
         tmp = Path(t) if out_dir is None else ensure(out_dir)
         (tmp / "plant.cfg").write_text(plant_config(scene, q0))
-        (tmp / "run.cfg").write_text(run_config(scene, q0))
+        view_cfg, fds = view.open() if view is not None else ("", ())
+        (tmp / "run.cfg").write_text(run_config(scene, q0) + view_cfg)
         argv = [str(exe), str(tmp / "plant.cfg"), str(tmp / "run.cfg"), str(tmp)]
         if scripted_pc(scene):
             script = link_script(scene)
@@ -181,10 +192,19 @@ def simulate(scene: Any, clk_hz: int | None = None, mask: int | None = None,
             built.append("scripted PC on the link")
         t0 = time.perf_counter()
         proc = subprocess.Popen(argv, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
-                                text=True)
-        errs = _progress_reader(proc, float(scene.run.duration_s), progress)
-        stdout = proc.stdout.read() if proc.stdout else ""
-        rc = proc.wait()
+                                text=True, pass_fds=fds)
+        if view is not None:
+            view.started(tmp)
+        try:
+            errs = _progress_reader(proc, float(scene.run.duration_s), progress)
+            stdout = proc.stdout.read() if proc.stdout else ""
+            rc = proc.wait()
+        finally:
+            if proc.poll() is None:     # interrupted (Ctrl-C): the harness goes too
+                proc.kill()
+                proc.wait()
+            if view is not None:
+                view.finished()
         wall = time.perf_counter() - t0
         if rc != 0:
             raise DeviceError(f"device harness failed ({rc}): {errs.strip()}")
@@ -329,12 +349,13 @@ def metrics(scene: Any, raw: Raw) -> tuple[dict[str, Any], dict[str, list[float]
     return m, per, evs
 
 
-def run(scene: Any, progress: Any = None, out_dir: Path | None = None) -> Any:
-    """Run a validated scene; returns a hapgate.device.result.RunResult."""
+def run(scene: Any, progress: Any = None, out_dir: Path | None = None, view: Any = None) -> Any:
+    """Run a validated scene; returns a hapgate.device.result.RunResult. view: a live view's
+    hapgate.device.telemetry.Feed (simulate())."""
     work = None
     if scene.run.trace:        # the waveform goes beside the scene's other outputs
         work = ensure((out_dir or BUILD / "scenes" / scene.name) / "harness")
-    raw = simulate(scene, progress=progress, out_dir=work)
+    raw = simulate(scene, progress=progress, out_dir=work, view=view)
     if raw.trace is not None:
         raw.built.append(f"waveform trace {raw.trace}")
     m, per, evs = metrics(scene, raw)

@@ -28,6 +28,7 @@
 #include "stage_clocks.h"
 #include "uart_link.h"
 #include "verilated.h"
+#include "view_link.h"
 #if HG_TRACE
 #include "verilated_vcd_c.h"
 #endif
@@ -101,6 +102,7 @@ struct Bench {
 #endif
     hg_plant* plant = nullptr;
     RunCfg* cfg = nullptr;
+    ViewLink* view = nullptr;     // the live view (off: null)
     uint64_t edge = 0;          // posedges since reset release
     int prev_wr_n = 1, prev_irq = 0;
     bool irq_rose = false;
@@ -149,6 +151,12 @@ struct Bench {
             }
             frames.push(r);
         }
+        if (view && frame_start && dynamic && view_link_want(view, scene_t(g))) {
+            hg_plant_out o;
+            hg_plant_read(plant, &o);
+            o.t = scene_t(g);
+            view_link_frame(view, o, frame_codes);
+        }
         // ADC words for the capture at the next edge (sample grid g), then one grid step
         int8_t a[3] = {0, 0, 0}, b[3] = {0, 0, 0};   // an axis that is not built has no signal
         uint8_t ix[3] = {0, 0, 0};
@@ -166,6 +174,7 @@ struct Bench {
             wb |= static_cast<uint32_t>(static_cast<uint8_t>(b[i])) << (8 * i);
             wi |= static_cast<uint32_t>(ix[i]) << i;
         }
+        if (view && dynamic && view_link_adc_on(view)) view_link_adc(view, a, b);
         top->adc_a = wa;
         top->adc_b = wb;
         top->enc_index = wi & 7U;  // sampled at the next posedge evaluation
@@ -283,6 +292,7 @@ struct Bench {
             if (code >= 8192) code -= 16384;
             const int ch = static_cast<int>(out->dac_addr);
             if (cfg->record & 2) loads.push({static_cast<int64_t>(edge), ch, code});
+            if (view) view_link_load(view, static_cast<double>(edge) / CLK_HZ - static_cast<double>(scene0_us) * 1e-6, ch, code);
             // frame n of this load: edge = n*FRAME + ch*SKEW + LOAD
             const uint64_t st = edge - kLoadClocks - static_cast<uint64_t>(ch) * skew;
             const uint64_t n = frame ? st / frame : 0;
@@ -377,6 +387,35 @@ extern "C" void fpga_write32(uint32_t addr, uint32_t v) {
 }
 
 extern "C" uint32_t hg_hal_irq_save(void) { return 0; }
+
+namespace {
+// One telemetry line of the live view (view_link.h): the sample taken at the last frame start,
+// with the firmware's state now; again: the same sample once more (while paused).
+void view_send(ViewLink* v, const hg_servo_t& s, const ViewCtl& ctl, const UartLink* link, bool again = false) {
+    ViewFw fw{};
+    fw.err = s.err;
+    fw.err_axis = s.err_axis;
+    fw.enabled = s.enabled;
+    fw.drive = s.enabled && s.err == HG_ERR_NONE;
+    fw.status = s.status;
+    for (int i = 0; i < 3; ++i) {
+        fw.f[i] = s.f[i];
+        fw.tau[i] = s.tau[i];
+    }
+    uint32_t counters[4];
+    fw.pc_age_s = NAN;
+    if (link && !uart_link_scripted(link)) {
+        uart_link_counters(link, counters);
+        fw.link = counters;
+        fw.pc_age_s = static_cast<double>(s.f_pc_age) / s.cfg.rate_hz;
+    } else if (link) {
+        uart_link_counters(link, counters);
+        fw.link = counters;
+    }
+    if (again) view_link_again(v);
+    view_link_send(v, fw, ctl);
+}
+}  // namespace
 extern "C" void hg_hal_irq_restore(uint32_t token) { (void)token; }
 
 int main(int argc, char** argv) {
@@ -471,6 +510,11 @@ int main(int argc, char** argv) {
     hg_servo_isr_ctx = &s;
     UartLink* link = argc == 5 ? uart_link_open(argv[4], &s, cfg.servo_hz) : nullptr;
     if (init_err != HG_ERR_NONE) std::fprintf(stderr, "warning: firmware init error %u\n", init_err);
+    const bool served = link && !uart_link_scripted(link);     // a PC on the pty: never paused
+    ViewCtl vctl;
+    if (cfg.view_fd >= 0)
+        bench.view = view_link_open(cfg.view_fd, cfg.ctl_fd, cfg.view_period_s,
+                                    static_cast<double>(bench.frame) / CLK_HZ * 1e6, outdir, !served);
 
     // scene time 0: the sweep and the settle are over; the plant is released there
     bench.scene0_us = static_cast<int64_t>(std::llround((bench.t_sweep0 + cfg.t_sweep_s + cfg.t_settle_s) * 1e6));
@@ -512,6 +556,24 @@ int main(int argc, char** argv) {
             if (f.kind == 1) bench.dropout[f.axis] = true;
             if (f.kind == 2) hang = true;
             if (f.kind == 3) drop_wdog = true;
+            if (bench.view) {   // the cause as runner.events times it
+                const double cause = f.kind == 1 ? f.at_s + 16e-6
+                    : static_cast<double>(last_key_edge) / CLK_HZ - static_cast<double>(bench.scene0_us) * 1e-6 + wdog_us * 1e-6;
+                view_link_fault(bench.view, f.kind, f.kind == 1 ? f.axis : -1, cause, f.kind == 1 ? 1 << f.axis : 7);
+            }
+        }
+        if (bench.view && view_link_ready(bench.view)) {
+            view_send(bench.view, s, vctl, link);
+            view_link_poll(bench.view, vctl, 0);
+            while (vctl.paused) {          // simulated time stands; the page still hears from us
+                view_link_poll(bench.view, vctl, 0.1);
+                view_send(bench.view, s, vctl, link, true);
+            }
+            if (vctl.target_set) {
+                hg_plant_set_target(plant, vctl.target);
+                vctl.target_set = false;
+            }
+            if (vctl.forces_off) hg_servo_enable(&s, false);   // the firmware's disable: zero torque
         }
         const bool rose = bench.irq_rose;
         bench.irq_rose = false;
@@ -536,6 +598,7 @@ int main(int argc, char** argv) {
             ti0 = now_s();
             g_in_isr = true;
         }
+        if (vctl.forces_off && s.enabled) hg_servo_enable(&s, false);   // a PC may not re-enable
         hg_servo_isr();
         if (g_profile) {
             g_isr_s += now_s() - ti0;
@@ -552,7 +615,7 @@ int main(int argc, char** argv) {
             if (homed_isr < 0 && (s.status & homed) == homed) {
                 homed_isr = static_cast<int64_t>(ticks.size()) - 1;
             } else if (homed_isr >= 0 && static_cast<int64_t>(tick_g) >= bench.scene0_us - 1000000 / static_cast<int64_t>(cfg.servo_hz)) {
-                const int rc = hg_dev::fw_home_scene_enable(&s, cfg, !link);  // with a PC link: the PC enables
+                const int rc = hg_dev::fw_home_scene_enable(&s, cfg, !link && !vctl.forces_off);  // with a PC link: the PC enables
                 if (rc != 0) return rc;
                 enabled = true;
                 enable_t = bench.scene_t(bench.edge / D);

@@ -54,6 +54,9 @@ bool parse_run(const std::string& text, RunCfg& c, std::string& err, bool model_
         else if (key == "hold_index_count" && need(3)) for (int i = 0; i < 3; ++i) c.hold_index_count[i] = static_cast<uint32_t>(v[i]);
         else if (key == "record" && need(1)) c.record = static_cast<uint32_t>(v[0]);
         else if (key == "progress_s" && need(1)) c.progress_s = v[0];
+        else if (key == "view_fd" && need(1)) c.view_fd = static_cast<int>(v[0]);
+        else if (key == "ctl_fd" && need(1)) c.ctl_fd = static_cast<int>(v[0]);
+        else if (key == "view_period_s" && need(1)) c.view_period_s = v[0];
         else if (key == "fault" && need(3)) c.faults.push_back({v[0], static_cast<int>(v[1]), static_cast<int>(v[2])});
         else if (model_keys && key == "mech_us" && need(1)) c.mech_us = static_cast<int>(v[0]);
         else if (model_keys && key == "axis_mask" && need(1)) c.axis_mask = static_cast<int>(v[0]);

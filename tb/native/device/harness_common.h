@@ -35,6 +35,8 @@ struct RunCfg {
     uint32_t hold_pos_homed[3] = {0, 0, 0}, hold_index_pos[3] = {0, 0, 0}, hold_index_count[3] = {0, 0, 0};
     uint32_t record = 0xFF;                 // bit 0 plant (q,p,f_hand,tau,current), bit 1 dac, bit 2 adc
     double progress_s = 0.05;               // progress line every this much simulated time
+    int view_fd = -1, ctl_fd = -1;          // the live view's pipes (view_link.h; device harness only)
+    double view_period_s = 0.02;            // its telemetry period, simulated time
     struct Fault { double at_s; int kind; int axis; };
     std::vector<Fault> faults;              // kind: 1 dropout, 2 hang, 3 watchdog
     // model fidelity only (model_harness.cpp); the Verilated harness refuses them

@@ -831,4 +831,9 @@ void hg_plant_encode1(const hg_plant* p, int axis, double lines, double za, doub
 
 double hg_plant_noise_lsb(const hg_plant* p, int axis) { return p->P.noise[axis]; }
 
+void hg_plant_set_target(hg_plant* s, const double xyz[3]) {
+    s->P.path = {0.0, xyz[0], xyz[1], xyz[2]};
+    s->path_seg = 0;
+}
+
 }  // extern "C"

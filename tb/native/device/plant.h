@@ -34,6 +34,9 @@ void hg_plant_held_us(hg_plant* p);
 // Hold (1) or release (0) the joints kinematically: q follows hg_plant_set_q (homing sweep).
 void hg_plant_hold(hg_plant* p, int on);
 void hg_plant_set_q(hg_plant* p, const double q[3], const double qd[3]);
+// Move the spring hand's target to xyz [m] from now on (its path replaced by that point; the
+// live view's mouse-moved target). No effect on other hand kinds.
+void hg_plant_set_target(hg_plant* p, const double xyz[3]);
 
 // ADC codes of axis i for the current state (A, B int8; index bit), noise drawn per call.
 void hg_plant_adc(hg_plant* p, int8_t a[3], int8_t b[3], uint8_t idx[3]);

@@ -181,6 +181,14 @@ void uart_link_summary(const UartLink* u, FILE* out) {
                  static_cast<unsigned long long>(u->bytes_out));
 }
 
+void uart_link_counters(const UartLink* u, uint32_t out[4]) {
+    const hg_link_stats_t& st = u->link.st;
+    out[0] = st.good;
+    out[1] = st.bad_framing + st.bad_crc + st.bad_version + st.bad_type + st.bad_len;
+    out[2] = st.replayed;
+    out[3] = st.timeouts;
+}
+
 static void queue_tx(UartLink* u, const uint8_t* b, size_t n, double g) {
     double t = std::max(u->tx_free_us, g);
     for (size_t i = 0; i < n; ++i) {

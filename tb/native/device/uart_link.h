@@ -28,6 +28,8 @@ bool uart_link_scripted(const UartLink* u);
 void uart_link_set_origin(UartLink* u, uint64_t g0_us);
 // "link_good=N link_bad=N link_timeouts=N link_bytes_in=N link_bytes_out=N" (key=value words).
 void uart_link_summary(const UartLink* u, FILE* out);
+// The firmware's link counters: good, bad (all causes), replayed, timeouts.
+void uart_link_counters(const UartLink* u, uint32_t out[4]);
 // One background-loop pass at grid point g_us (between ISRs). On SIGINT/SIGTERM it prints the
 // link summary and ends the process with exit status 0.
 void uart_link_service(UartLink* u, uint64_t g_us);

@@ -1,0 +1,30 @@
+#!/usr/bin/env bash
+# The Debian packages the tests need, in one place. As root: install the missing ones
+# (apt-get update once, then apt-get install --no-install-recommends). Otherwise: name what is
+# missing and exit 1. Called by `make deps` (and so by `make test` and .ci/run).
+set -euo pipefail
+
+PACKAGES=(
+    # tb/view: the live view tested in a real browser (headless Chromium driven by selenium,
+    # chromedriver at /usr/bin/chromedriver)
+    chromium
+    chromium-driver
+    # (more packages: one line each, with the tests that need them above it)
+)
+
+missing=()
+for p in "${PACKAGES[@]}"; do
+    dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
+done
+if [ ${#missing[@]} -eq 0 ]; then
+    exit 0
+fi
+if [ "$(id -u)" -ne 0 ]; then
+    echo "error: missing Debian packages: ${missing[*]}" >&2
+    echo "       install them as root: tb/debian-deps.sh (or apt-get install ${missing[*]})" >&2
+    exit 1
+fi
+echo "installing Debian packages: ${missing[*]}"
+export DEBIAN_FRONTEND=noninteractive
+apt-get update -qq
+apt-get install -y -qq --no-install-recommends "${missing[@]}"
