@@ -159,6 +159,45 @@ def run_commutation(frames: cm.Frames, cfg: cm.CommutationConfig = cm.Commutatio
                    skips=int(stats.get("skips", 0)))
 
 
+class CommStream:
+    """`run_commutation` chunk by chunk through one harness process (the replay's rtl engine):
+    `feed(frames)`, then `take()` for the frames done so far and `finish()` for the rest, each
+    as (codes (k, 6), load clocks (k, 6)). The reset frame's words are kept in `reset_words`;
+    `finish()` also counts the port violations the harness reported."""
+
+    def __init__(self, cfg: cm.CommutationConfig = cm.CommutationConfig()) -> None:
+        self.cfg = cfg
+        exe = build_commutation(cfg)
+        self.stream = native.Stream(lambda fin, fout: [str(exe), fin, fout, "0", "skip"],
+                                    REC_OUT, "commutation harness")
+        self.reset_words: np.ndarray | None = None
+        self.violations = 0
+        self.stats: dict[str, str] = {}
+
+    def feed(self, frames: cm.Frames) -> None:
+        self.stream.feed(pack_frames(frames, self.cfg))
+
+    def _split(self, data: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        words = data["word"].astype(np.int64)
+        at = data["at"].astype(np.int64)
+        if self.reset_words is None and data.size:
+            self.reset_words, words, at = words[0], words[1:], at[1:]
+        return cm.decode(words, self.cfg), at
+
+    def take(self) -> tuple[np.ndarray, np.ndarray]:
+        return self._split(self.stream.take())
+
+    def finish(self) -> tuple[np.ndarray, np.ndarray]:
+        last, self.stats, err = self.stream.finish()
+        self.violations = int(self.stats.get("violations", 0))
+        if err:
+            self.violations = max(self.violations, 1)
+        return self._split(last)
+
+    def close(self) -> None:
+        self.stream.close()
+
+
 def schedule_errors(run: CommRun, cfg: cm.CommutationConfig) -> int:
     """Frames whose load clocks differ from the documented schedule (k * SKEW + LOAD), plus one
     if the reset frame was not zero torque, plus the harness's port violations."""
