@@ -9,8 +9,6 @@ clock per sample, is the fastest; a board clock gives identical outputs, more sl
 
 from __future__ import annotations
 
-import hashlib
-import json
 import os
 import queue
 import shutil
@@ -24,14 +22,13 @@ from pathlib import Path
 
 import numpy as np
 
-from ..base import toolenv
+from ..base import cache, cbuild, toolenv
 from ..base.block import Params
 from ..base.paths import BUILD, RTL, TB, ensure
 from ..base.tables import write_tables
 from ..flows.flow import param_text
 from ..golden import enccal, interp
 from ..golden.interp import InterpConfig
-from .sim import _locked
 
 HARNESS = TB / "native" / "interp" / "interp_harness.cpp"
 SOURCES = [RTL / "interp" / "enc_calib.v", RTL / "interp" / "ratio_div.v",
@@ -71,18 +68,15 @@ def verilate_harness(name: str, top: str, sources: Sequence[Path], params: Param
     bit (tb/device/test_closed_loop.py checks it), only faster."""
     toolenv.apply()
     write_tables(params)
-    key = json.dumps({k: param_text(v) for k, v in sorted(params.items())} |
-                     {"_cflags": cflags, "_ldflags": ldflags} |
-                     ({"_vflags": list(vflags)} if vflags else {}) |
-                     ({"_pgo": PGO_FLAGS} if train is not None else {}))
-    digest = hashlib.sha1(key.encode())
-    for src in [*sources, *harness, *inputs]:
-        digest.update(src.read_bytes())
-    bdir = ensure(BUILD / "native" / f"{name}-{digest.hexdigest()[:12]}")
-    exe = bdir / name
-    with _locked(bdir):
-        if exe.exists():
-            return exe
+    key = cache.digest(
+        files=[*sources, *harness, *inputs],
+        data={k: param_text(v) for k, v in sorted(params.items())} |
+        {"_cflags": cflags, "_ldflags": ldflags} |
+        ({"_vflags": list(vflags)} if vflags else {}) |
+        ({"_pgo": PGO_FLAGS} if train is not None else {}))
+    def build(bdir: Path) -> None:
+        log = bdir / "build.log"
+        log.write_text("")
         if prepare is not None:
             prepare(bdir)
         cmd = ["verilator", "--cc", "--exe"] + ([] if train else ["--build", "-j", "2"]) + ["-O3",
@@ -95,14 +89,13 @@ def verilate_harness(name: str, top: str, sources: Sequence[Path], params: Param
         cmd += list(vflags)
         cmd += [f"-G{k}={param_text(v)}" for k, v in params.items()]
         cmd += [str(s) for s in [*sources, *harness]]
-        out = subprocess.run(cmd, capture_output=True, text=True)
-        log = out.stdout + out.stderr
-        if out.returncode == 0 and train is not None:
-            log += _pgo_build(bdir, f"V{top}.mk", exe, train)
-        (bdir / "build.log").write_text(log)
-        if out.returncode != 0 or not exe.exists():
-            raise RuntimeError(f"native harness {name} failed to build; see {bdir / 'build.log'}")
-    return exe
+        cbuild.run(cmd, log, f"native harness {name}")
+        if train is not None:
+            _pgo_build(bdir, f"V{top}.mk", bdir / name, train, log)
+        if not (bdir / name).exists():
+            raise cbuild.failure(f"native harness {name}", log)
+
+    return cache.cached_dir(BUILD / "native", f"{name}-{key}", build, done=name) / name
 
 
 # Profile-guided optimisation of a Verilated harness (verilate_harness(train=...)): gcc's
@@ -116,29 +109,34 @@ PGO_FLAGS = {"generate": "-O2 -fprofile-generate -fprofile-update=single",
              "use": "-O2 -flto=2 -fprofile-use -fprofile-partial-training -Wno-missing-profile"}
 
 
-def _pgo_build(bdir: Path, makefile: str, exe: Path, train: Callable[[Path], None]) -> str:
-    """Compile the generated model twice around a training run; returns the log. A failed
+def _pgo_build(bdir: Path, makefile: str, exe: Path, train: Callable[[Path], None],
+               log: Path) -> None:
+    """Compile the generated model twice around a training run (logged to `log`). A failed
     training run costs only the speed: the second compile then has no profile to use."""
-    def make(stage: str) -> str:
+    def make(stage: str) -> None:
         for f in [exe, *bdir.glob("*.o"), *bdir.glob("*.a")]:
             f.unlink(missing_ok=True)
         flags = PGO_FLAGS[stage]
         link = "-fprofile-generate" if stage == "generate" else flags
-        out = subprocess.run(["make", "-C", str(bdir), "-f", makefile, "-j", "2", exe.name,
-                              f"OPT_FAST={flags}", f"OPT_SLOW={flags}", f"OPT_GLOBAL={flags}",
-                              f"USER_LDFLAGS={link}"], capture_output=True, text=True)
-        return f"== pgo: {stage} ==\n" + out.stdout + out.stderr
+        with open(log, "a") as fh:
+            fh.write(f"== pgo: {stage} ==\n")
+        cbuild.run(["make", "-C", str(bdir), "-f", makefile, "-j", "2", exe.name,
+                    f"OPT_FAST={flags}", f"OPT_SLOW={flags}", f"OPT_GLOBAL={flags}",
+                    f"USER_LDFLAGS={link}"], log, f"native harness {exe.name} (pgo {stage})",
+                   check=False)
 
     for f in bdir.glob("*.gcda"):
         f.unlink()
-    log = make("generate")
+    make("generate")
+    note = "== pgo: trained ==\n"
     if exe.exists():
         try:
             train(exe)
-            log += "== pgo: trained ==\n"
         except Exception as e:   # noqa: BLE001 -- any failure only loses the profile
-            log += f"== pgo: training failed ({e}); compiled without a profile ==\n"
-    return log + make("use")
+            note = f"== pgo: training failed ({e}); compiled without a profile ==\n"
+        with open(log, "a") as fh:
+            fh.write(note)
+    make("use")
 
 
 def build_interp(cfg: InterpConfig = InterpConfig(), clk_hz: int = interp.MIN_CLK_HZ,

@@ -22,6 +22,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..base.cbuild import BuildError
 from ..base.paths import BUILD, RTL, TB, ensure
 from ..golden import commutation as cm
 from . import native
@@ -78,10 +79,8 @@ def build_commutation(cfg: cm.CommutationConfig = cm.CommutationConfig(),
         return native.verilate_harness("commutation_harness", "commutator", SOURCES, params,
                                        [HARNESS], cflags=flags, inputs=[Path(params["LUT_FILE"])],
                                        vflags=["-DHG_SIM", "-DHG_SIM_SKIP"])
-    except RuntimeError as exc:
-        log = Path(str(exc).rsplit("see ", 1)[-1])
-        stops = re.findall(r"\b(\w+_must_\w+|\w+_needs_\w+)\b", log.read_text()) \
-            if log.exists() else []
+    except BuildError as exc:
+        stops = re.findall(r"\b(\w+_must_\w+|\w+_needs_\w+)\b", exc.text)
         if stops:
             raise ValueError(f"the RTL refuses this configuration: {stops[0]}") from None
         raise
