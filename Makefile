@@ -88,7 +88,7 @@ formal: $(STAMP)
 # Regenerate the committed register header and document from rtl/regs/hapgate.rdl
 # (tb/bus/test_regmap.py fails while they are stale).
 regs: $(STAMP)
-	$(VENV)/bin/python -m hapgate.golden.regmap
+	$(VENV)/bin/python -m hapgate.flows.regmap
 
 clean:
 	rm -rf build

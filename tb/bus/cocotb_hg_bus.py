@@ -1,5 +1,5 @@
 """cocotb tests of rtl/bus/hg_bus.v (EMIF-like slave + register file) against the register model
-(hapgate.golden.regmodel, built on the RDL via hapgate.golden.regmap). The interpolator outputs
+(hapgate.golden.regmodel, built on the RDL via hapgate.flows.regmap). The interpolator outputs
 are driven by
 the testbench. Every check compares with the model or with simulation time, never with values
 read back from the design's own code.
@@ -15,7 +15,8 @@ import cocotb
 from cocotb.clock import Clock
 from cocotb.triggers import ClockCycles, FallingEdge, RisingEdge, Timer
 from cocotb.utils import get_sim_time
-from hapgate.golden import emif, regmap
+from hapgate.flows import regmap
+from hapgate.golden import emif
 from hapgate.golden.regmodel import WDOG_KEY, AxisInputs, RegModel
 from hapgate.runners import cocotb_emif, tbutil
 

@@ -7,14 +7,14 @@ from __future__ import annotations
 import subprocess
 
 from hapgate.base.paths import BUILD, ROOT, ensure
-from hapgate.golden import regmap
+from hapgate.flows import regmap
 
 FW_INCLUDE = ROOT / "dsp-fw" / "include"
 
 
 def test_committed_outputs_are_fresh() -> None:
     stale = regmap.generate(check=True)
-    assert not stale, f"stale generated files (run `python -m hapgate.golden.regmap`): {stale}"
+    assert not stale, f"stale generated files (run `python -m hapgate.flows.regmap`): {stale}"
 
 
 def _c_values(exprs: dict[str, str]) -> dict[str, int]:

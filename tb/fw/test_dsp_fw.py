@@ -12,8 +12,9 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from hapgate.flows import regmap
 from hapgate.golden import kinematics as kin
-from hapgate.golden import pclink, regmap
+from hapgate.golden import pclink
 
 ROOT = Path(__file__).resolve().parents[2]
 FW = ROOT / "dsp-fw"

@@ -25,8 +25,9 @@ import cocotb
 from cocotb.clock import Clock
 from cocotb.triggers import ClockCycles, FallingEdge, First, RisingEdge, Timer
 from cocotb.types import LogicArray
+from hapgate.flows import regmap
 from hapgate.golden import converters as cv
-from hapgate.golden import emif, regmap
+from hapgate.golden import emif
 from hapgate.golden import top as topm
 from hapgate.golden.dacsched import period_ps
 from hapgate.golden.regmodel import WDOG_KEY

@@ -27,7 +27,8 @@ import numpy as np
 from cocotb.clock import Clock
 from cocotb.triggers import ClockCycles, RisingEdge, Timer
 from cocotb.utils import get_sim_time
-from hapgate.golden import commutation, emif, encsig, interp, regmap
+from hapgate.flows import regmap
+from hapgate.golden import commutation, emif, encsig, interp
 from hapgate.golden import top as topm
 from hapgate.golden.commutation import SINE, SIX_STEP, CommutationConfig
 from hapgate.golden.regmodel import WDOG_KEY, AxisInputs, RegModel

@@ -17,7 +17,8 @@ import cocotb
 import numpy as np
 from cocotb.triggers import ClockCycles, Timer
 from cocotb.utils import get_sim_time
-from hapgate.golden import enccal, encsig, interp, regmap
+from hapgate.flows import regmap
+from hapgate.golden import enccal, encsig, interp
 from hapgate.golden import top as topm
 from hapgate.runners import tbutil
 

@@ -36,7 +36,8 @@ import cocotb
 import numpy as np
 from cocotb.triggers import ClockCycles, ReadOnly, RisingEdge, Timer
 from cocotb.utils import get_sim_time
-from hapgate.golden import angle, encsig, interp, regmap
+from hapgate.flows import regmap
+from hapgate.golden import angle, encsig, interp
 from hapgate.golden import top as topm
 from hapgate.golden.regmodel import RegModel
 from hapgate.runners import tbutil

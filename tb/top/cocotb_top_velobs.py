@@ -14,7 +14,8 @@ import cocotb
 import numpy as np
 from cocotb.triggers import ClockCycles, Timer
 from cocotb.utils import get_sim_time
-from hapgate.golden import encsig, interp, regmap, velobs
+from hapgate.flows import regmap
+from hapgate.golden import encsig, interp, velobs
 from hapgate.golden import top as topm
 from hapgate.runners import tbutil
 

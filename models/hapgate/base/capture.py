@@ -32,6 +32,7 @@ from pathlib import Path
 import numpy as np
 
 from .atomic import AtomicFile, OutputError, check_output_path
+from .progress import Progress
 
 MAX_LINE_BYTES = 4096          # longer lines are rejected (a capture line is ~20-80 bytes)
 CHUNK_BYTES = 1 << 20          # read this much at a time
@@ -279,6 +280,19 @@ def rechunk(tables: Iterable[CaptureTable], rows: int) -> Iterator[CaptureTable]
             held, n = ([rest] if len(rest) else []), len(rest)
     if held:
         yield concat(held) if len(held) > 1 else held[0]
+
+
+def line_progress(path: Path, label: str) -> Progress:
+    """A progress bar over the lines of a CSV file, its total estimated from the file's size and
+    its first 64 KiB (called with the line number reached)."""
+    try:
+        size = Path(path).stat().st_size
+        with open(path, "rb") as f:
+            head = f.read(1 << 16)
+    except OSError:             # (reading it will say what is wrong)
+        size, head = 1, b""
+    lines = size * max(head.count(b"\n"), 1) / max(len(head), 1)
+    return Progress(total=max(lines, 1.0), label=label, unit="lines")
 
 
 def read_table(path: Path, columns: Sequence[Column], max_line_bytes: int = MAX_LINE_BYTES,

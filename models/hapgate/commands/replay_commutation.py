@@ -35,9 +35,8 @@ from ..base.capture import (
     CsvWriter,
     check_output,
     iter_table,
-    read_table,
+    line_progress,
     rechunk,
-    write_csv,
 )
 from ..base.report import table
 from ..golden import commutation as cm
@@ -60,12 +59,6 @@ def frame_columns(cfg: cm.CommutationConfig) -> tuple[Column, ...]:
     cols += [Column("enable", lo=0, hi=1, required=False, default=1),
              Column("limit", lo=0, hi=65535, required=False, default=65535)]
     return tuple(cols)
-
-
-def read_frames(path: Path, cfg: cm.CommutationConfig) -> tuple[cm.Frames, list[str]]:
-    """The frames of FRAMES.csv and the names of the columns it has that are not used."""
-    tab = read_table(path, frame_columns(cfg))
-    return frames_of(tab), tab.ignored
 
 
 def frames_of(tab: CaptureTable) -> cm.Frames:
@@ -133,17 +126,14 @@ def dac_columns(codes: np.ndarray, load_ns: np.ndarray, first: int = 0
     return cols
 
 
-def write_dac(path: Path, codes: np.ndarray, load_ns: np.ndarray) -> None:
-    write_csv(path, dac_columns(codes, load_ns), fmt=DAC_FMT)
-
-
 def replay_model(inp: Path, out: Path, cfg: cm.CommutationConfig, chunk_rows: int
                  ) -> tuple[int, float, list[str]]:
     """The model over FRAMES.csv chunk by chunk (a frame's codes depend on that frame only):
     memory bounded by a chunk, DAC.csv identical to a whole-file run. (frames, seconds of
     model time, ignored columns)."""
     n, secs, ignored = 0, 0.0, []
-    with CsvWriter(out, DAC_COLUMNS, DAC_FMT) as w:
+    with CsvWriter(out, DAC_COLUMNS, DAC_FMT) as w, line_progress(inp, "replay commutation") \
+            as progress:
         for tab in rechunk(iter_table(inp, frame_columns(cfg)), chunk_rows):
             ignored = tab.ignored
             t0 = time.perf_counter()
@@ -151,7 +141,56 @@ def replay_model(inp: Path, out: Path, cfg: cm.CommutationConfig, chunk_rows: in
             secs += time.perf_counter() - t0
             w.add(dac_columns(codes, np.broadcast_to(cm.load_times_ns(cfg), codes.shape), n))
             n += codes.shape[0]
+            progress(int(tab.lines[-1]))
     return n, secs, ignored
+
+
+def replay_rtl(inp: Path, out: Path, cfg: cm.CommutationConfig, chunk_rows: int
+               ) -> tuple[int, float, float, int, list[str]]:
+    """The RTL over FRAMES.csv chunk by chunk, through one harness process fed by a pipe
+    (native_comm.CommStream), each chunk's codes compared with the model's and its load times
+    with the documented schedule: memory bounded by a chunk, DAC.csv identical to a whole-file
+    run. (frames, seconds of model time, seconds of the RTL with its build, codes differing from
+    the model, ignored columns.) A DAC timing error raises RuntimeError (nothing written)."""
+    n, t_model, differ, late, ignored = 0, 0.0, 0, 0, []
+    want = cm.load_clocks(cfg)
+    model: list[np.ndarray] = []
+    t0 = time.perf_counter()
+    rtl = native_comm.CommStream(cfg)
+    progress = line_progress(inp, "replay commutation")
+
+    def flush(w: CsvWriter, codes: np.ndarray, clocks: np.ndarray) -> None:
+        nonlocal n, differ, late
+        k = codes.shape[0]
+        if k == 0:
+            return
+        ref = np.concatenate(model)
+        model[:] = [ref[k:]]
+        differ += int(np.count_nonzero(codes != ref[:k]))
+        late += int(np.count_nonzero(np.any(clocks != want[None, :], axis=1)))
+        w.add(dac_columns(codes, clocks * (1e9 / cfg.clk_hz), n))
+        n += k
+
+    try:
+        with CsvWriter(out, DAC_COLUMNS, DAC_FMT) as w:
+            for tab in rechunk(iter_table(inp, frame_columns(cfg)), chunk_rows):
+                ignored = tab.ignored
+                frames = frames_of(tab)
+                rtl.feed(frames)
+                t1 = time.perf_counter()
+                model.append(cm.commutate(frames, cfg))
+                t_model += time.perf_counter() - t1
+                flush(w, *rtl.take())
+                progress(int(tab.lines[-1]))
+            flush(w, *rtl.finish())
+            zero = cm.encode(np.zeros(6, dtype=np.int64), cfg)
+            errors = late + rtl.violations + int(not np.array_equal(rtl.reset_words, zero))
+            if errors:
+                raise RuntimeError(f"DAC timing: {errors} frames or port checks off the schedule")
+    finally:
+        rtl.close()
+        progress.close()
+    return n, t_model, time.perf_counter() - t0, differ, ignored
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -166,8 +205,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--offset-binary", action="store_true", help="DAC coding (codes out are "
                         "signed either way)")
     parser.add_argument("--chunk-rows", type=int, default=CHUNK_ROWS,
-                        help=f"--engine model: frames per chunk (memory is bounded by a chunk; "
-                             f"the output does not depend on it; default {CHUNK_ROWS})")
+                        help=f"frames per chunk (memory is bounded by a chunk; the output "
+                             f"does not depend on it; default {CHUNK_ROWS})")
 
 
 def main(args: argparse.Namespace) -> int:
@@ -186,30 +225,16 @@ def main(args: argparse.Namespace) -> int:
                         [["model", n, f"{t_model:.4f}", "-"]]))
             print(f"wrote {args.out}")
             return 0
-        frames, ignored = read_frames(args.inp, cfg)
-    except CaptureError as exc:
+        n, t_model, secs, differ, ignored = replay_rtl(args.inp, args.out, cfg, args.chunk_rows)
+    except (CaptureError, ValueError) as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 2
     _ignored(args.inp, ignored)
-    t0 = time.perf_counter()
-    model = cm.commutate(frames, cfg)
-    t_model = time.perf_counter() - t0
-    rows = [["model", len(frames), f"{t_model:.4f}", "-"]]
-    try:
-        codes, load_ns, secs = run_rtl(frames, cfg)
-    except ValueError as exc:
-        print(f"error: {exc}", file=sys.stderr)
-        return 2
-    rows.append(["rtl (native Verilator, incl. build)", len(frames), f"{secs:.2f}",
-                 str(int(np.count_nonzero(codes != model)))])
-    try:
-        write_dac(args.out, codes, load_ns)
-    except CaptureError as exc:
-        print(f"error: {exc}", file=sys.stderr)
-        return 2
-    print(table(["engine", "frames", "seconds", "codes differing from model"], rows))
+    print(table(["engine", "frames", "seconds", "codes differing from model"],
+                [["model", n, f"{t_model:.4f}", "-"],
+                 ["rtl (native Verilator, incl. build)", n, f"{secs:.2f}", str(differ)]]))
     print(f"wrote {args.out}")
-    return 0 if np.array_equal(codes, model) else 1
+    return 0 if differ == 0 else 1
 
 
 def _ignored(inp: Path, ignored: list[str]) -> None:

@@ -7,11 +7,22 @@ from __future__ import annotations
 import argparse
 import sys
 import time
+from collections.abc import Iterator
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
-from ..base.capture import CaptureError, Column, check_output, read_table, write_csv
+from ..base.capture import (
+    CaptureError,
+    CaptureTable,
+    Column,
+    CsvWriter,
+    check_output,
+    iter_table,
+    line_progress,
+    rechunk,
+)
 from ..base.report import table
 from ..golden import angle, interp
 from ..runners import native
@@ -26,6 +37,7 @@ CAPTURE = (Column("a", lo=-128, hi=127), Column("b", lo=-128, hi=127),
            Column("index", lo=0, hi=1, required=False),
            Column("truth_counts", kind="float", required=False))
 MAX_CLK_HZ = 2_147_000_000   # a 32-bit Verilog integer parameter
+CHUNK_ROWS = 1 << 18
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
@@ -58,26 +70,11 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                         "off, then applied to the same samples)")
     p.add_argument("--harm-log2", type=int, default=6, choices=range(4, 9), metavar="{4..8}",
                    help="with --harm: table entries per line, log2 (HARM_LOG2, default 6)")
+    p.add_argument("--chunk-rows", type=int, default=CHUNK_ROWS,
+                   help=f"samples per chunk (memory is bounded by a chunk; the output does not "
+                        f"depend on it; default {CHUNK_ROWS})")
     p.add_argument("--no-align", action="store_true",
                    help="do not remove the mean offset between position and truth_counts")
-
-
-def _engine(name: str, cap: dict[str, np.ndarray], cfg: interp.InterpConfig, clk_hz: int,
-            harm: np.ndarray | None = None) -> tuple[dict[str, np.ndarray], float]:
-    a, b, idx = cap["a"], cap["b"], cap.get("index")
-    on = harm is not None
-    t0 = time.perf_counter()
-    if name == "model":
-        out = native.model_matrix(interp.run(a, b, idx, cfg, cal_en=cfg.cal, harm_table=harm,
-                                             harm_en=on))
-    else:
-        run = native.run_interp(a, b, idx, cfg, clk_hz=clk_hz, cal_en=cfg.cal, harm_table=harm,
-                                harm_en=on)
-        bad = int(run.stats.get("harm_readback_bad", "0"))
-        if bad:
-            raise RuntimeError(f"the RTL read back {bad} harmonic table entries wrong")
-        out = run.axis(0)
-    return out, time.perf_counter() - t0
 
 
 def clock_error(clk_hz: int) -> str | None:
@@ -86,6 +83,150 @@ def clock_error(clk_hz: int) -> str | None:
         return (f"--clk-hz {clk_hz}: the FPGA clock must be a multiple of the 1 MHz sample rate "
                 f"(1000000, 2000000, ... 48000000, ...) up to {MAX_CLK_HZ}")
     return None
+
+
+class _Errors:
+    """Running error statistics against the truth (mean, then the spread about it), merged chunk
+    by chunk (Chan et al.'s pairwise update): the whole file's figures without keeping it."""
+
+    def __init__(self) -> None:
+        self.n, self.mean, self.m2, self.lo, self.hi = 0, 0.0, 0.0, np.inf, -np.inf
+
+    def add(self, err: np.ndarray) -> None:
+        if err.size == 0:
+            return
+        m = float(err.mean())
+        m2 = float(((err - m) ** 2).sum())
+        n = self.n + err.size
+        d = m - self.mean
+        self.m2 += m2 + d * d * self.n * err.size / n
+        self.mean += d * err.size / n
+        self.n = n
+        self.lo, self.hi = min(self.lo, float(err.min())), max(self.hi, float(err.max()))
+
+    def figures(self, align: bool) -> tuple[float, float, float]:
+        """(offset, rms, max |err - offset|)."""
+        off = self.mean if align else 0.0
+        rms = float(np.sqrt(self.m2 / self.n + (self.mean - off) ** 2))
+        return off, rms, max(self.hi - off, off - self.lo)
+
+
+def _chunks(args: argparse.Namespace) -> Iterator[tuple[dict[str, np.ndarray], CaptureTable]]:
+    for tab in rechunk(iter_table(args.inp, CAPTURE), args.chunk_rows):
+        raw = tab.columns
+        cap = {"a": raw["a"].astype(np.int8), "b": raw["b"].astype(np.int8)}
+        if "index" in raw:
+            cap["index"] = raw["index"].astype(bool)
+        if "truth_counts" in raw:
+            cap["truth_counts"] = raw["truth_counts"]
+        yield cap, tab
+
+
+def _learn(args: argparse.Namespace, cfg: interp.InterpConfig) -> np.ndarray:
+    """--harm learn: the model with the correction off over the capture, chunk by chunk; the
+    fit needs every position at once (4 bytes a sample: the one part not bounded by a chunk)."""
+    st = interp.InterpState()
+    pos = []
+    for cap, _ in _chunks(args):
+        o, st = interp.run_chunk(cap["a"], cap["b"], None, cfg, st, cal_en=cfg.cal)
+        pos.append(o.pos)
+    return angle.harmonic_fit(np.concatenate(pos).astype(np.int64), cfg.lut_bits, cfg.harm_log2)
+
+
+def _take(pending: list[dict[str, np.ndarray]], k: int) -> dict[str, np.ndarray]:
+    """The first k rows of a list of column chunks (removed from it)."""
+    whole = {c: np.concatenate([p[c] for p in pending]) for c in pending[0]}
+    pending.clear()
+    if whole[next(iter(whole))].size > k:
+        pending.append({c: v[k:] for c, v in whole.items()})
+    return {c: v[:k] for c, v in whole.items()}
+
+
+def _rows(pending: list[dict[str, np.ndarray]]) -> int:
+    return sum(p["pos"].size for p in pending)
+
+
+@dataclass
+class Replayed:
+    n: int = 0                                        # samples
+    faults: int = 0                                   # samples with a fault (--engine's)
+    secs: dict[str, float] = field(default_factory=dict)       # per engine
+    errs: dict[str, _Errors] = field(default_factory=dict)     # per engine
+    mismatch: tuple[int, str, int, int, int] | None = None     # sample, column, rtl, model, line
+    ignored: list[str] = field(default_factory=list)
+
+
+def replay(args: argparse.Namespace, cfg: interp.InterpConfig, harm: np.ndarray | None
+           ) -> Replayed:
+    """The capture through the engine(s) chunk by chunk into RESULT.csv. The model carries its
+    state between chunks (interp.run_chunk), the RTL runs as one harness process fed through a
+    pipe; the two are lined up row by row, so memory is bounded by the chunks whatever the
+    file's size."""
+    on = harm is not None
+    engines = ("rtl", "model") if args.compare else (args.engine,)
+    res = Replayed(secs=dict.fromkeys(engines, 0.0), errs={e: _Errors() for e in engines})
+    pend: dict[str, list[dict[str, np.ndarray]]] = {e: [] for e in ("truth", "line", *engines)}
+    scale = cfg.counts_per_line / TRUTH_COUNTS_PER_LINE
+    rtl = native.InterpStream(cfg, args.clk_hz, cal_en=cfg.cal, harm_table=harm,
+                              harm_en=on) if "rtl" in engines else None
+    st = interp.InterpState()
+    progress = line_progress(args.inp, "replay interp")
+
+    def flush(w: CsvWriter) -> None:
+        k = min(_rows(pend[e]) for e in engines)
+        if k == 0:
+            return
+        got = {e: _take(pend[e], k) for e in engines}
+        line = _take(pend["line"], k)["pos"]
+        truth = _take(pend["truth"], k)["pos"] if pend["truth"] else None
+        if args.compare and res.mismatch is None:
+            bad = native.first_mismatch(got["rtl"], got["model"])
+            if bad is not None:
+                res.mismatch = (bad[0] + res.n, bad[1], bad[2], bad[3], int(line[bad[0]]))
+        if truth is not None:
+            for e in engines:
+                res.errs[e].add(interp.truth_counts_error(got[e]["pos"], truth * scale))
+        o = got[args.engine]
+        w.add({"pos": o["pos"], "vel": o["vel"], "fault": o["faults"],
+               "pos_homed": o["pos_homed"], "index_pos": o["index_pos"],
+               "index_count": o["index_count"], "homed": o["homed"],
+               "overspeed_count": o["overspeed_count"]})
+        res.n += k
+        res.faults += int(np.count_nonzero(o["faults"]))
+        progress(int(line[-1]))
+
+    try:
+        with CsvWriter(args.out, OUT_COLUMNS) as w:
+            for cap, tab in _chunks(args):
+                res.ignored = tab.ignored
+                pend["line"].append({"pos": tab.lines})
+                if "truth_counts" in cap:
+                    pend["truth"].append({"pos": cap["truth_counts"]})
+                if rtl is not None:
+                    rtl.feed(cap["a"], cap["b"], cap.get("index"))
+                if "model" in engines:
+                    t0 = time.perf_counter()
+                    o, st = interp.run_chunk(cap["a"], cap["b"], cap.get("index"), cfg, st,
+                                             cal_en=cfg.cal, harm_table=harm, harm_en=on)
+                    res.secs["model"] += time.perf_counter() - t0
+                    pend["model"].append(native.model_matrix(o))
+                if rtl is not None:
+                    pend["rtl"].append(rtl.take())
+                flush(w)
+            if rtl is not None:
+                pend["rtl"].append(rtl.finish())
+                bad = int(rtl.stats.get("harm_readback_bad", "0"))
+                if bad:
+                    raise RuntimeError(f"the RTL read back {bad} harmonic table entries wrong")
+                res.secs["rtl"] = float(rtl.stats["seconds"])
+            flush(w)
+            if any(_rows(pend[e]) for e in engines):
+                raise RuntimeError("the engines returned different numbers of rows")
+    finally:
+        if rtl is not None:
+            rtl.close()
+        progress.close()
+    return res
 
 
 def main(args: argparse.Namespace) -> int:
@@ -105,71 +246,54 @@ def main(args: argparse.Namespace) -> int:
     try:
         if why:
             raise CaptureError(why)
+        if args.chunk_rows < 1:
+            raise CaptureError(f"--chunk-rows {args.chunk_rows}: must be >= 1")
         check_output(args.out, [args.inp] + ([Path(args.harm)] if args.harm not in (None, "learn")
                                              else []))
         if args.harm not in (None, "learn"):
             harm = angle.read_harm_table(Path(args.harm), args.harm_log2)
-        tab = read_table(args.inp, CAPTURE)
+        if args.harm == "learn":
+            try:
+                harm = _learn(args, cfg)
+            except ValueError as exc:
+                if isinstance(exc, CaptureError):
+                    raise
+                print(f"error: {args.inp}: {exc} (--harm learn needs a steady speed over many "
+                      "lines)", file=sys.stderr)
+                return 2
+            print(f"harmonic table learned from {args.inp}: {harm.size} entries, "
+                  f"{harm.min()} .. {harm.max()} quarter counts")
+        res = replay(args, cfg, harm)
     except CaptureError as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 2
-    if tab.ignored:
-        print(f"note: {args.inp}: ignored column(s) {', '.join(tab.ignored)}", file=sys.stderr)
-    raw = tab.columns
-    cap = {"a": raw["a"].astype(np.int8), "b": raw["b"].astype(np.int8)}
-    if "index" in raw:
-        cap["index"] = raw["index"].astype(bool)
-    n = cap["a"].size
-    if args.harm == "learn":
-        try:
-            harm = angle.harmonic_fit(interp.run(cap["a"], cap["b"], None, cfg, cal_en=cfg.cal)
-                                      .pos.astype(np.int64), cfg.lut_bits, cfg.harm_log2)
-        except ValueError as exc:
-            print(f"error: {args.inp}: {exc} (--harm learn needs a steady speed over many "
-                  "lines)", file=sys.stderr)
-            return 2
-        print(f"harmonic table learned from {args.inp}: {harm.size} entries, "
-              f"{harm.min()} .. {harm.max()} quarter counts")
-    engines = ("rtl", "model") if args.compare else (args.engine,)
-    results = {e: _engine(e, cap, cfg, args.clk_hz, harm) for e in engines}
-    out, _ = results[args.engine]
-    cols = {"pos": out["pos"], "vel": out["vel"], "fault": out["faults"],
-            "pos_homed": out["pos_homed"], "index_pos": out["index_pos"],
-            "index_count": out["index_count"], "homed": out["homed"],
-            "overspeed_count": out["overspeed_count"]}
-    try:
-        write_csv(args.out, cols)
-    except CaptureError as exc:
-        print(f"error: {exc}", file=sys.stderr)
-        return 2
+    if res.ignored:
+        print(f"note: {args.inp}: ignored column(s) {', '.join(res.ignored)}", file=sys.stderr)
 
+    n, errs = res.n, res.errs
+    truth = errs[args.engine].n > 0
     rows = []
-    for e, (o, secs) in results.items():
-        row: list[object] = [e, n, f"{secs:.3f}", f"{n / secs:.3e}"]
-        if "truth_counts" in raw:
-            truth = raw["truth_counts"] * (cfg.counts_per_line / TRUTH_COUNTS_PER_LINE)
-            err = interp.truth_counts_error(o["pos"], truth)
-            offset = 0.0 if args.no_align else float(err.mean())
-            err = err - offset
-            rms, mx = float(np.sqrt(np.mean(err**2))), float(np.abs(err).max())
+    for e, t in res.secs.items():
+        row: list[object] = [e, n, f"{t:.3f}", f"{n / max(t, 1e-9):.3e}"]
+        if truth:
+            offset, rms, mx = errs[e].figures(not args.no_align)
             row += [f"{offset:.3f}", f"{rms:.4f}", f"{mx:.4f}",
                     f"{rms * 360 / cfg.counts_per_line:.4f}",
                     f"{mx * 360 / cfg.counts_per_line:.4f}",
                     f"{rms * 360 / cfg.counts_per_rev:.3e}", f"{mx * 360 / cfg.counts_per_rev:.3e}"]
         rows.append(row)
     headers = ["engine", "samples", "seconds", "samples/s"]
-    if "truth_counts" in raw:
+    if truth:
         headers += [f"offset [1/{cfg.counts_per_line} line]", f"rms [1/{cfg.counts_per_line} line]",
                     f"max [1/{cfg.counts_per_line} line]", "rms [el deg]",
                     "max [el deg]", "rms [mech deg]", "max [mech deg]"]
     print(table(headers, rows))
-    faults = int(np.count_nonzero(out["faults"]))
-    print(f"wrote {args.out} ({n} rows, lut_bits={cfg.lut_bits}); samples with a fault: {faults}")
+    print(f"wrote {args.out} ({n} rows, lut_bits={cfg.lut_bits}); samples with a fault: "
+          f"{res.faults}")
     if args.compare:
-        bad = native.first_mismatch(results["rtl"][0], results["model"][0])
-        if bad is not None:
-            k, col, r, m = bad
-            print(f"MISMATCH: first at sample {k} (line {int(tab.lines[k])}), column {col}: "
+        if res.mismatch is not None:
+            k, col, r, m, line = res.mismatch
+            print(f"MISMATCH: first at sample {k} (line {line}), column {col}: "
                   f"rtl {r}, model {m}")
             return 1
         print("rtl and model agree on every sample and column")

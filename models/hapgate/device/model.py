@@ -10,7 +10,6 @@ and `hapgate.device.result` work unchanged.
 
 from __future__ import annotations
 
-import hashlib
 import subprocess
 import time
 from dataclasses import replace
@@ -19,14 +18,15 @@ from typing import Any
 
 import numpy as np
 
+from ..base import cache, cbuild
 from ..base.paths import BUILD, ensure
-from ..golden import encsig, interp, regmap
+from ..flows import regmap
+from ..golden import encsig, interp
 from ..golden.commutation import CommutationConfig
 from ..golden.interp import InterpConfig
 from ..golden.sine import quarter_table
 from ..golden.top import TopConfig
 from ..runners import cosim
-from ..runners.sim import _locked
 from . import harness
 from .scene import SceneError
 
@@ -47,22 +47,20 @@ def build(test_limits: bool = False) -> Path:
     defs = (f"HG_SCENE_K_MAX_TEST={harness.K_MAX_TEST:.1f}",) if test_limits else ()
     fw_srcs = (sorted((harness.FW / "src").glob("*.c"))
                + sorted((harness.FW / "include").glob("*.h")))
-    digest = hashlib.sha1(" ".join(CXX + list(defs)).encode())
-    for src in [*SOURCES, *HEADERS, *fw_srcs]:
-        digest.update(src.read_bytes())
-    bdir = ensure(BUILD / "native" / f"model_harness-{digest.hexdigest()[:12]}")
-    exe = bdir / "model_harness"
-    with _locked(bdir):
-        if exe.exists():
-            return exe
+    key = cache.digest(files=[*SOURCES, *HEADERS, *fw_srcs], data=" ".join(CXX + list(defs)))
+
+    def make(bdir: Path) -> None:
         lib = cosim._fw_lib(bdir, defines=defs)
-        cmd = [*CXX, *(f"-D{d}" for d in defs), f"-I{harness.HERE}", f"-I{harness.FW / 'include'}",
-               *map(str, SOURCES), str(lib), "-lm", "-o", str(exe)]
-        out = subprocess.run(cmd, capture_output=True, text=True)
-        (bdir / "build.log").write_text(out.stdout + out.stderr)
-        if out.returncode != 0 or not exe.exists():
-            raise harness.DeviceError(f"model harness failed to build; see {bdir / 'build.log'}")
-    return exe
+        cbuild.run([*CXX, *(f"-D{d}" for d in defs), f"-I{harness.HERE}",
+                    f"-I{harness.FW / 'include'}", *map(str, SOURCES), str(lib), "-lm", "-o",
+                    str(bdir / "model_harness")], bdir / "build.log", "model harness")
+
+    try:
+        bdir = cache.cached_dir(BUILD / "native", f"model_harness-{key}", make,
+                                done="model_harness")
+    except cbuild.BuildError as exc:
+        raise harness.DeviceError(str(exc)) from None
+    return bdir / "model_harness"
 
 
 def _regs(clk_hz: int) -> list[str]:

@@ -8,16 +8,16 @@ closed-loop harness links) as a shared library through ctypes, for its own tests
 from __future__ import annotations
 
 import ctypes as C
-import hashlib
-import subprocess
+from pathlib import Path
 
 import numpy as np
 
-from ..base.paths import BUILD, TB, ensure
-from ..runners.sim import _locked
+from ..base import cache, cbuild
+from ..base.paths import BUILD, TB
 
 SRC = TB / "native" / "device" / "plant.cpp"
 HDR = TB / "native" / "device" / "plant.h"
+SO = "libhgplant.so"
 
 
 class Out(C.Structure):
@@ -29,16 +29,12 @@ class Out(C.Structure):
 
 def library() -> C.CDLL:
     """Compile plant.cpp into a shared library (cached by source hash) and load it."""
-    digest = hashlib.sha1(SRC.read_bytes() + HDR.read_bytes()).hexdigest()[:12]
-    bdir = ensure(BUILD / "native" / f"plant-{digest}")
-    so = bdir / "libhgplant.so"
-    with _locked(bdir):
-        if not so.exists():
-            out = subprocess.run(["g++", "-std=c++17", "-O2", "-Wall", "-Wextra", "-Werror",
-                                  "-shared", "-fPIC", str(SRC), "-o", str(so)],
-                                 capture_output=True, text=True)
-            if out.returncode != 0:
-                raise RuntimeError(f"plant library failed to build:\n{out.stderr}")
+    def build(bdir: Path) -> None:
+        cbuild.run(["g++", "-std=c++17", "-O2", "-Wall", "-Wextra", "-Werror", "-shared",
+                    "-fPIC", str(SRC), "-o", str(bdir / SO)], bdir / "build.log", "plant library")
+
+    key = cache.digest(files=[SRC, HDR])
+    so = cache.cached_dir(BUILD / "native", f"plant-{key}", build, done=SO) / SO
     lib = C.CDLL(str(so))
     d3 = C.POINTER(C.c_double)
     lib.hg_plant_new.restype = C.c_void_p

@@ -13,7 +13,6 @@ the dataclasses below and nowhere else; the runner takes the validated `Scene`, 
 
 from __future__ import annotations
 
-import hashlib
 import json
 import math
 import re
@@ -24,6 +23,7 @@ from typing import Any
 
 import numpy as np
 
+from ..base import cache
 from ..golden import encsig, kinematics
 
 
@@ -252,7 +252,7 @@ class Scene:
         d = self.summary()
         d.pop("source")
         d["run"].pop("name")  # type: ignore[union-attr]
-        return hashlib.sha256(json.dumps(d, sort_keys=True).encode()).hexdigest()
+        return cache.digest(data=d, length=None, algorithm="sha256")
 
     def summary(self) -> dict[str, object]:
         """The validated scene as plain JSON-able data (for summary.json)."""

@@ -15,7 +15,6 @@ reruns. Results: results.csv, results.npz, summary.json and the kind's plots in 
 from __future__ import annotations
 
 import csv
-import hashlib
 import io
 import itertools
 import json
@@ -29,6 +28,7 @@ from typing import Any
 import numpy as np
 import tomllib
 
+from ..base import cache
 from ..base.atomic import write_bytes
 from ..base.paths import BUILD, ROOT, ensure
 from ..base.progress import Progress
@@ -237,24 +237,22 @@ def run_job(kind: str, params: Mapping[str, Any]) -> Record:
 def sources_digest(root: Path = ROOT, kind: str | None = None) -> str:
     """sha256 over the bytes (and relative paths) of every source a job (of this kind) may
     run: SOURCE_DIRS, or the kind's narrower KIND_SOURCES."""
-    h = hashlib.sha256()
+    files = []
     for d in KIND_SOURCES.get(kind or "", SOURCE_DIRS):
         top = root / d
-        files = [top] if top.is_file() else sorted(top.rglob("*"))
-        for f in files:
-            if f.is_file() and f.suffix in SOURCE_EXT and "__pycache__" not in f.parts:
-                h.update(str(f.relative_to(root)).encode())
-                h.update(f.read_bytes())
-    return h.hexdigest()
+        files += [f for f in ([top] if top.is_file() else sorted(top.rglob("*")))
+                  if f.is_file() and f.suffix in SOURCE_EXT and "__pycache__" not in f.parts]
+    return cache.digest(files=files, data=[(str(f.relative_to(root)), f.stat().st_size)
+                                           for f in files],
+                        length=None, algorithm="sha256")
 
 
 def job_key(kind: str, params: Mapping[str, Any], sources: str) -> str:
     p = dict(params)
     if "base" in p:                       # the base scene by content, not by path
         p["base"] = load_scene(p["base"]).digest()
-    blob = json.dumps({"kind": kind, "params": p, "sources": sources}, sort_keys=True,
-                      default=str)
-    return hashlib.sha256(blob.encode()).hexdigest()
+    return cache.digest(data={"kind": kind, "params": p, "sources": sources}, length=None,
+                        algorithm="sha256")
 
 
 # ---------------------------------------------------------------------------------- the run

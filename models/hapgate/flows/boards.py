@@ -20,7 +20,7 @@ import time
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from ..base import toolenv
+from ..base import cache, toolenv
 from ..base.block import Block, Params
 from ..base.paths import BUILD, RTL, ensure, locked
 from ..base.report import write_csv
@@ -271,8 +271,6 @@ def gate_netlist(board: Board, params: Params) -> Path:
     the device's cell models cannot be simulated: `gl_device`) with `params`,
     written as a flat Verilog netlist whose module is renamed `<top>_gl` (so a simulation can
     hold it beside the RTL). Cached by the hash of the sources and parameters."""
-    import hashlib
-
     toolenv.apply()
     write_tables(params)
     blk = block(board)
@@ -281,14 +279,11 @@ def gate_netlist(board: Board, params: Params) -> Path:
     # configuration (Yosys's generic cells would start at X, which X-pessimism never resolves)
     synth = board.synth if board.gl_device else (
         f"proc; flatten; tribuf; synth -flatten -top {board.top}; setundef -zero -init")
-    digest = hashlib.sha1(json.dumps({k: param_text(v) for k, v in sorted(params.items())}
-                                     | {"_synth": synth}).encode())
-    for src in blk.source_paths():
-        digest.update(src.read_bytes())
-    for v in params.values():
-        if isinstance(v, Path):
-            digest.update(v.read_bytes())
-    wd = ensure(BUILD / "netlist" / f"{board.name}-gl-{digest.hexdigest()[:10]}")
+    key = cache.digest(files=[*blk.source_paths(),
+                              *(v for v in params.values() if isinstance(v, Path))],
+                       data={k: param_text(v) for k, v in sorted(params.items())}
+                       | {"_synth": synth}, length=10)
+    wd = ensure(BUILD / "netlist" / f"{board.name}-gl-{key}")
     out = wd / "netlist.v"
     with locked(wd):   # parallel workers: one synthesizes, the others reuse it
         if out.exists():

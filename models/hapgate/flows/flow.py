@@ -13,7 +13,7 @@ import time
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from ..base import toolenv
+from ..base import cache, toolenv
 from ..base.block import Block, Params
 from ..base.paths import BUILD, RTL, ensure, locked
 from ..base.tables import write_tables
@@ -138,19 +138,14 @@ def netlist(block: Block, params: Params, target: str = "generic", flatten: bool
     flatten=False keeps the module hierarchy (every module still gate level), so that a
     testbench can watch a submodule's ports (synth_ice40 -noflatten; generic synth does not
     flatten either way)."""
-    import hashlib
-
     toolenv.apply()
     write_tables(params)
-    digest = hashlib.sha1(json.dumps({k: param_text(v) for k, v in sorted(params.items())}
-                                     | {"_target": target}
-                                     | ({} if flatten else {"_flatten": False})).encode())
-    for src in block.source_paths():
-        digest.update(src.read_bytes())
-    for v in params.values():
-        if isinstance(v, Path):
-            digest.update(v.read_bytes())
-    workdir = ensure(BUILD / "netlist" / f"{block.name}-{target}-{digest.hexdigest()[:10]}")
+    key = cache.digest(files=[*block.source_paths(),
+                              *(v for v in params.values() if isinstance(v, Path))],
+                       data={k: param_text(v) for k, v in sorted(params.items())}
+                       | {"_target": target} | ({} if flatten else {"_flatten": False}),
+                       length=10)
+    workdir = ensure(BUILD / "netlist" / f"{block.name}-{target}-{key}")
     out = workdir / "netlist.v"
     with locked(workdir):   # parallel workers: one synthesizes, the others reuse it
         if out.exists():

@@ -45,13 +45,13 @@ state applies from sample e + 1 on (sample e already used the old one).
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
 from .encsig import LINES, PAPER_LIKE, SAMPLE_HZ, adc_codes, constant, with_spec
 from .interpcfg import TABLE_SIZE as TABLE_SIZE
-from .interpcfg import InterpConfig, sign_bits
+from .interpcfg import Decoder, InterpConfig, decode
 from .interpcfg import cal_table as cal_table
 
 FRAC = 8                      # internal fraction bits of every coefficient register
@@ -90,20 +90,31 @@ def correct(a: np.ndarray, b: np.ndarray, x: np.ndarray) -> tuple[np.ndarray, np
 
 def raw_steps(a: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Raw sign-bit quadrant decoder: (step per sample in -2..2, overspeed mask, counter)."""
-    sa = sign_bits(a).astype(np.int64)
-    sb = sign_bits(b).astype(np.int64)
-    q = (sa << 1) | (sa ^ sb)
-    step = np.zeros(q.size, dtype=np.int64)
-    step[1:] = (q[1:] - q[:-1]) & 3
-    step[step == 3] = -1
-    ovs = step == 2
-    if ovs.any():
-        single = np.flatnonzero((step == 1) | (step == -1))
-        # direction of the last single step strictly before each sample (+1 before any)
-        pos = np.searchsorted(single, np.arange(q.size), side="left") - 1
-        last = np.where(pos >= 0, step[single[np.maximum(pos, 0)]], 1) if single.size else 1
-        step[ovs] = 2 * np.broadcast_to(last, q.shape)[ovs]
-    return step, ovs, np.cumsum(step) + q[0]
+    _, step, ovs, qc, _ = decode(a, b)
+    return step, ovs, qc
+
+
+@dataclass(frozen=True)
+class CalState:
+    """What the calibration carries from one chunk to the next (`calibrate(..., state=)`).
+
+    The open block (from the last cell crossing to the end of the chunk) cannot be judged before
+    its end crossing: its raw samples and controls are carried (`tail_*`, at most 2^nlog
+    samples: a longer block is invalid whatever follows, and is dropped) and run again at the
+    front of the next chunk, from the decoder and coefficient state in effect at its first
+    sample. Every update and gear value at that first sample is already in the state."""
+    tail_a: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=np.int64))
+    tail_b: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=np.int64))
+    tail_en: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=bool))
+    tail_fr: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=bool))
+    tail_mu: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=np.int64))
+    dec: Decoder = Decoder()                  # the raw decoder before the tail's first sample
+    cur: tuple[int, ...] = IDENTITY           # coefficient registers at the tail's start
+    prev: tuple[int, ...] = IDENTITY          # the registers before the last change
+    cur_eff: int = -(1 << 62)                 # first sample (tail-relative) that uses `cur`
+    gear: int = 0
+    updates: int = 0                          # valid blocks before the tail (not wrapped)
+    off_prev: bool = False                    # the sample before the tail had en = 0
 
 
 @dataclass
@@ -114,7 +125,8 @@ class CalOut:
     state_after: np.ndarray   # (5, n) internal state after each sample (what the RTL shows)
     gear: np.ndarray          # valid blocks since enable (saturating 255), after each sample
     updates: np.ndarray       # valid blocks since reset (wrapping 16 bits), after each sample
-    ends: np.ndarray          # sample index of every applied update
+    ends: np.ndarray          # sample index of every applied update (chunk-relative)
+    carry: CalState = field(default_factory=CalState)   # the state for the next chunk
 
 
 def _as_array(v: np.ndarray | bool | int, n: int, dtype: type) -> np.ndarray:
@@ -123,22 +135,29 @@ def _as_array(v: np.ndarray | bool | int, n: int, dtype: type) -> np.ndarray:
 
 def calibrate(a: np.ndarray, b: np.ndarray, en: np.ndarray | bool = True,
               freeze: np.ndarray | bool = False, mu: np.ndarray | int = 6,
-              cfg: InterpConfig = InterpConfig(), cal: CalConfig = CalConfig()) -> CalOut:
+              cfg: InterpConfig = InterpConfig(), cal: CalConfig = CalConfig(),
+              state: CalState | None = None) -> CalOut:
     """Run the calibration over a capture (a, b raw codes after the INVERT swap; en, freeze,
-    mu per sample or constant: the values captured with each sample)."""
-    a = np.asarray(a, dtype=np.int64)
-    b = np.asarray(b, dtype=np.int64)
+    mu per sample or constant: the values captured with each sample). `state`: what the
+    previous chunk left (CalOut.carry); a capture cut anywhere into chunks gives the same
+    outputs as the whole."""
+    st = CalState() if state is None else state
+    nt = st.tail_a.size
+    n_chunk = np.asarray(a).size
+    a = np.concatenate((st.tail_a, np.asarray(a, dtype=np.int64)))
+    b = np.concatenate((st.tail_b, np.asarray(b, dtype=np.int64)))
     n = a.size
-    en_a = _as_array(en, n, bool)
-    fr_a = _as_array(freeze, n, bool)
-    mu_a = _as_array(mu, n, np.int64)
+    en_a = np.concatenate((st.tail_en, _as_array(en, n_chunk, bool)))
+    fr_a = np.concatenate((st.tail_fr, _as_array(freeze, n_chunk, bool)))
+    mu_a = np.concatenate((st.tail_mu, _as_array(mu, n_chunk, np.int64)))
 
     clip = (a == -128) | (a == 127) | (b == -128) | (b == 127)
     amp2 = a * a + b * b
     bad_amp = (amp2 < cfg.amp_min ** 2) | (amp2 > cfg.amp_max ** 2)
-    step, ovs, qcr = raw_steps(a, b)
+    _, step, ovs, qcr, _ = decode(a, b, st.dec)
     cell = qcr >> (cal.lines_log2 + 2)
-    xi = np.flatnonzero(np.diff(cell) != 0) + 1          # crossing samples
+    prev_cell = cell[0] if st.dec.q is None else st.dec.qc >> (cal.lines_log2 + 2)
+    xi = np.flatnonzero(np.diff(cell, prepend=prev_cell) != 0)   # crossing samples
     bad = clip | bad_amp | ovs | fr_a | ~en_a
     cbad = np.concatenate(([0], np.cumsum(bad)))         # bad count in [i, j) = cbad[j]-cbad[i]
     cf = np.concatenate(([0], np.cumsum(step > 0)))
@@ -159,18 +178,18 @@ def calibrate(a: np.ndarray, b: np.ndarray, en: np.ndarray | bool = True,
 
     # disable runs: every sample captured with en = 0 resets the state (effective next sample)
     off = ~en_a
-    r0 = np.flatnonzero(off & ~np.concatenate(([False], off[:-1])))
+    r0 = np.flatnonzero(off & ~np.concatenate(([st.off_prev], off[:-1])))
 
     # The recursion runs once per valid block (not per sample), on Python ints for the state
     # and numpy slices for the block sums.
     a16, b16 = 16 * a, 16 * b
     lo, hi = X_MIN, X_MAX
-    cur: tuple[int, ...] = IDENTITY
-    prev = cur
-    cur_eff = 0
-    gear = 0
-    ch_idx: list[int] = [0]
-    ch_state: list[tuple[int, ...]] = [cur]
+    cur: tuple[int, ...] = st.cur
+    prev = st.prev
+    cur_eff = st.cur_eff
+    gear = st.gear
+    ch_idx: list[int] = [-(1 << 62), cur_eff]
+    ch_state: list[tuple[int, ...]] = [prev, cur]
     gear_idx: list[int] = []
     gear_val: list[int] = []
     ri = 0
@@ -215,21 +234,36 @@ def calibrate(a: np.ndarray, b: np.ndarray, en: np.ndarray | bool = True,
         ch_state.append(cur)
         gear_idx.append(e0)
         gear_val.append(gear)
-    # resets after the last update
-    for rr in r0[ri:]:
-        ch_idx.append(int(rr) + 1)
+    # the carry: the open block from the last crossing on (dropped if already too long)
+    s_new = int(xi[-1]) if xi.size and n - int(xi[-1]) < (1 << cal.nlog) else n
+    # resets after the last update: those before the open block are in the carried state
+    for j, rr in enumerate(r0[ri:].tolist()):
+        ch_idx.append(rr + 1)
         ch_state.append(IDENTITY)
-        gear_idx.append(int(rr))
+        gear_idx.append(rr)
         gear_val.append(0)
+        if rr < s_new:
+            if j == 0:
+                cur, cur_eff = IDENTITY, rr + 1
+            gear = 0
+    if s_new == 0:
+        dec_new = st.dec
+    else:
+        _, _, _, _, dec_new = decode(a[:s_new], b[:s_new], st.dec)
+    carry = CalState(tail_a=a[s_new:].copy(), tail_b=b[s_new:].copy(), tail_en=en_a[s_new:].copy(),
+                     tail_fr=fr_a[s_new:].copy(), tail_mu=mu_a[s_new:].copy(), dec=dec_new,
+                     cur=cur, prev=prev, cur_eff=max(cur_eff - s_new, -(1 << 62)), gear=gear,
+                     updates=st.updates + ve.size,
+                     off_prev=bool(off[s_new - 1]) if s_new else st.off_prev)
 
     idx = np.asarray(ch_idx, dtype=np.int64)
-    st = np.array(ch_state, dtype=np.int64)
-    k = np.arange(n)
-    state = st[np.searchsorted(idx, k, side="right") - 1].T             # used by sample k
-    state_after = st[np.searchsorted(idx - 1, k, side="right") - 1].T   # after sample k
-    ac, bc = correct(a, b, state)
-    ac = np.where(en_a, ac, 4 * a)
-    bc = np.where(en_a, bc, 4 * b)
+    stt = np.array(ch_state, dtype=np.int64)
+    k = np.arange(nt, n)
+    state = stt[np.searchsorted(idx, k, side="right") - 1].T             # used by sample k
+    state_after = stt[np.searchsorted(idx - 1, k, side="right") - 1].T   # after sample k
+    ac, bc = correct(a[nt:], b[nt:], state)
+    ac = np.where(en_a[nt:], ac, 4 * a[nt:])
+    bc = np.where(en_a[nt:], bc, 4 * b[nt:])
 
     gi = np.asarray(gear_idx, dtype=np.int64)
     gv = np.asarray(gear_val, dtype=np.int64)
@@ -238,12 +272,12 @@ def calibrate(a: np.ndarray, b: np.ndarray, en: np.ndarray | bool = True,
     gval = np.zeros(n, dtype=np.int64)
     gval[gi] = gv
     last = np.maximum.accumulate(np.where(g_ev, np.arange(n), -1))
-    gear_arr = np.where(last >= 0, gval[np.maximum(last, 0)], 0)
+    gear_arr = np.where(last >= 0, gval[np.maximum(last, 0)], st.gear)[nt:]
     upd = np.zeros(n, dtype=np.int64)
     upd[ve] = 1
-    updates = np.cumsum(upd) & 0xFFFF
+    updates = (st.updates + np.cumsum(upd)[nt:]) & 0xFFFF
     return CalOut(ac=ac, bc=bc, state=state, state_after=state_after, gear=gear_arr,
-                  updates=updates, ends=ve)
+                  updates=updates, ends=ve[ve >= nt] - nt, carry=carry)
 
 
 def applied(state: np.ndarray) -> np.ndarray:

@@ -45,7 +45,7 @@ Algorithm (one axis, per ADC sample a, b: 8-bit two's complement, A = R sin(phi)
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
@@ -53,10 +53,10 @@ import numpy as np
 from ..base.block import Block, Params
 from ..base.tables import write_hex
 from .angle import HARM_FRAC, harm_correct, ratio_fine, ratio_table
-from .enccal import CalConfig, calibrate
+from .enccal import CalConfig, CalState, calibrate
+from .interpcfg import Decoder, cal_table, decode
 from .interpcfg import InterpConfig as InterpConfig
 from .interpcfg import asin_table as asin_table
-from .interpcfg import cal_table
 from .interpcfg import sign_bits as sign_bits
 
 FAULT_OVERSPEED = 1
@@ -133,12 +133,16 @@ def quadrant_and_fine(a: np.ndarray, b: np.ndarray, table: np.ndarray, lut_bits:
                       ratio_bits: int = 0) -> tuple[np.ndarray, np.ndarray]:
     """Steps 1-3: sign-bit quadrant q (0..3) and fine angle f (0..2**(lut_bits+1)); with
     ratio_bits > 0 the fine angle of the ratio stage (hapgate.golden.angle, `table` its table)."""
+    q, _, _, _, _ = decode(a, b)
+    return q.astype(np.int32), fine_angle(a, b, q, table, lut_bits, ratio_bits)
+
+
+def fine_angle(a: np.ndarray, b: np.ndarray, q: np.ndarray, table: np.ndarray, lut_bits: int,
+               ratio_bits: int = 0) -> np.ndarray:
+    """Step 3: the fine angle of samples a, b in their sign-bit quadrant q."""
     a = np.asarray(a, dtype=np.int16)
     b = np.asarray(b, dtype=np.int16)
-    sa = sign_bits(a).astype(np.int8)
-    sb = sign_bits(b).astype(np.int8)
-    q = (sa << 1) | (sa ^ sb)
-    odd = (sa ^ sb).astype(bool)
+    odd = (q & 1).astype(bool)
     ma, mb = np.abs(a), np.abs(b)
     y = np.where(odd, mb, ma)
     x = np.where(odd, ma, mb)
@@ -146,10 +150,9 @@ def quadrant_and_fine(a: np.ndarray, b: np.ndarray, table: np.ndarray, lut_bits:
     if ratio_bits:
         f = ratio_fine(np.where(half, x, y), np.where(half, y, x), half, table, lut_bits,
                        ratio_bits)
-        return q.astype(np.int32), f.astype(np.int32)
+        return f.astype(np.int32)
     t = table[np.minimum(np.where(half, x, y), table.size - 1)]  # (the calibrated table clamps)
-    f = np.where(half, (2 << lut_bits) - t, t)
-    return q.astype(np.int32), f.astype(np.int32)
+    return np.where(half, (2 << lut_bits) - t, t).astype(np.int32)
 
 
 def _last_true_index(mask: np.ndarray, before: bool = False) -> np.ndarray:
@@ -206,13 +209,60 @@ class InterpOut:
         return np.stack([np.asarray(getattr(self, c), dtype=np.int64) for c in self.COLUMNS], 1)
 
 
+@dataclass(frozen=True)
+class InterpState:
+    """Everything one axis carries from a chunk of samples to the next (`run_chunk`): the
+    decoder (held sign bits, last quadrant and step direction, quadrant counter), the index
+    latch and homing, the last 2^vel_log2w positions of the velocity window, the sticky faults,
+    the signal-loss run, the overspeed count and the calibration's carry. `InterpState()` is the
+    state after reset."""
+    n: int = 0                                   # samples so far
+    dec: Decoder = Decoder()
+    idx_prev: bool = True                        # the index bit is taken as high before sample 0
+    index_pos: int = 0
+    index_count: int = 0
+    last_rise: int = -1                          # sample numbers (absolute), -1: none yet
+    last_arm: int = -1
+    homed: bool = False
+    home: int = 0
+    hist: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=np.int32))
+    sticky: tuple[bool, bool, bool] = (False, False, False)   # overspeed, clip, loss
+    last_good: int = -1                          # last sample inside the amplitude window
+    ovs_count: int = 0
+    cal: CalState | None = None
+
+
+def _last_index(mask: np.ndarray, n0: int, before: int) -> np.ndarray:
+    """Absolute sample number of the last True at or before each sample of a chunk starting at
+    sample n0, or `before` (the carried value) where the chunk has none yet."""
+    last = _last_true_index(mask)
+    return np.where(last >= 0, last + n0, before)
+
+
 def run(a: np.ndarray, b: np.ndarray, index: np.ndarray | None = None,
         cfg: InterpConfig = InterpConfig(), clear_at: list[int] | np.ndarray | None = None,
         arm_at: list[int] | np.ndarray | None = None,
         table: np.ndarray | None = None, cal_en: np.ndarray | bool = False,
         cal_freeze: np.ndarray | bool = False, cal_mu: np.ndarray | int = 6,
         harm_table: np.ndarray | None = None, harm_en: np.ndarray | bool = False) -> InterpOut:
-    """Bit-exact model of one axis over a whole capture (arrays of equal length).
+    """Bit-exact model of one axis over a whole capture (arrays of equal length): `run_chunk`
+    from the reset state."""
+    return run_chunk(a, b, index, cfg, InterpState(), clear_at, arm_at, table, cal_en,
+                     cal_freeze, cal_mu, harm_table, harm_en)[0]
+
+
+def run_chunk(a: np.ndarray, b: np.ndarray, index: np.ndarray | None = None,
+              cfg: InterpConfig = InterpConfig(), state: InterpState = InterpState(),
+              clear_at: list[int] | np.ndarray | None = None,
+              arm_at: list[int] | np.ndarray | None = None,
+              table: np.ndarray | None = None, cal_en: np.ndarray | bool = False,
+              cal_freeze: np.ndarray | bool = False, cal_mu: np.ndarray | int = 6,
+              harm_table: np.ndarray | None = None, harm_en: np.ndarray | bool = False
+              ) -> tuple[InterpOut, InterpState]:
+    """Bit-exact model of one axis over a chunk of samples that follows `state` (the reset state
+    for the first): (the chunk's outputs, the state after it). A capture cut anywhere into
+    chunks, each run from the state the previous one returned, gives the outputs of the whole.
+    clear_at / arm_at are sample numbers within the chunk.
 
     With cfg.cal the calibration stage (hapgate.golden.enccal) runs between capture and angle:
     cal_en, cal_freeze and cal_mu are its controls per sample (or constant); its corrected
@@ -223,6 +273,7 @@ def run(a: np.ndarray, b: np.ndarray, index: np.ndarray | None = None,
     a = np.asarray(a)
     b = np.asarray(b)
     n = a.size
+    n0 = state.n
     if b.size != n:
         raise ValueError("a and b differ in length")
     if n == 0:
@@ -241,16 +292,21 @@ def run(a: np.ndarray, b: np.ndarray, index: np.ndarray | None = None,
     if cfg.invert:
         a, b = b, a
     extra: dict[str, np.ndarray] = {}
+    cal_carry: CalState | None = None
     if cfg.cal:
         c = calibrate(a, b, cal_en, cal_freeze, cal_mu, cfg,
-                      CalConfig(cfg.cal_lines_log2, cfg.cal_nlog))
+                      CalConfig(cfg.cal_lines_log2, cfg.cal_nlog), state.cal)
+        cal_carry = c.carry
         ctab = cal_table(cfg) if table_arg is None else table_arg
-        q, f = quadrant_and_fine(c.ac, c.bc, ctab, tl, rb)
+        q, _, overspeed, qc64, dec = decode(c.ac, c.bc, state.dec)
+        f = fine_angle(c.ac, c.bc, q, ctab, tl, rb)
         extra = {"cal_state": c.state, "cal_state_after": c.state_after, "cal_gear": c.gear,
                  "cal_updates": c.updates,
                  "cal_ac": c.ac, "cal_bc": c.bc}
     else:
-        q, f = quadrant_and_fine(a, b, table, tl, rb)
+        q, _, overspeed, qc64, dec = decode(a, b, state.dec)
+        f = fine_angle(a, b, q, table, tl, rb)
+    q = q.astype(np.int32)
     if cfg.ratio:   # 1/4-count fine angle: the harmonic table (cfg.harm), rounded to counts
         ht = np.zeros(1 << cfg.harm_log2, dtype=np.int64) if harm_table is None else harm_table
         extra["fine_h"] = f
@@ -259,53 +315,43 @@ def run(a: np.ndarray, b: np.ndarray, index: np.ndarray | None = None,
     if cfg.coarse:                                      # plain quadrature: no fine angle
         f = np.zeros_like(f)
 
-    # 4. quadrant counter: a cumulative sum of steps; overspeed steps follow the last direction.
-    # int32 arithmetic wraps exactly like the 32-bit register.
-    step = np.zeros(n, dtype=np.int32)
-    step[1:] = (q[1:] - q[:-1]) & 3
-    step[step == 3] = -1                                # 0, +1, -1, or 2 (direction unknown)
-    overspeed = step == 2
-    if overspeed.any():
-        last_single = _last_true_index((step == 1) | (step == -1), before=True)
-        last_dir = np.where(last_single >= 0, step[np.maximum(last_single, 0)], 1)
-        step[overspeed] = 2 * last_dir[overspeed]
-    qc = np.cumsum(step, dtype=np.int32) + np.int32(q[0])
+    # 4. quadrant counter: a cumulative sum of steps; overspeed steps follow the last direction
+    # (interpcfg.decode). The 32-bit register wraps: int32 arithmetic.
+    qc = qc64.astype(np.int32)
+    dec = replace(dec, qc=int(qc[-1]))
     pos = (qc << np.int32(fb)) + f.astype(np.int32)
     # index latch: the nearest line start (qc rounded to a multiple of 4), see step 6
     line_start = ((qc + np.int32(2)) & np.int32(~3)) << np.int32(fb)
 
-    # 6. index latch and homing
-    prev = np.concatenate(([True], idx[:-1]))
+    # 6. index latch and homing (sample numbers absolute: n0 + k)
+    prev = np.concatenate(([state.idx_prev], idx[:-1]))
     rise = idx & ~prev
     arm = _event_mask(n, arm_at)
-    if rise.any():
-        last_rise = _last_true_index(rise)
-        index_pos = np.where(last_rise >= 0, line_start[np.maximum(last_rise, 0)], 0)
-        index_count = np.cumsum(rise, dtype=np.int64) & 0xFFFF
-    else:
-        last_rise = np.full(n, -1)
-        index_pos = np.zeros(n, dtype=np.int32)
-        index_count = np.zeros(n, dtype=np.int64)
-    if arm.any() and rise.any():
-        last_arm = _last_true_index(arm)
-        homed = (last_arm >= 0) & (last_rise >= last_arm)
-        # the home is the first rise at or after each arm; it holds until the next homing edge
-        home_edge = rise & homed & ~np.concatenate(([False], homed[:-1]))
-        home_edge |= rise & (last_arm == np.arange(n))  # arm and edge on the same sample
-        last_home = _last_true_index(home_edge)
-        home = np.where(last_home >= 0, line_start[np.maximum(last_home, 0)], 0)
-        pos_homed = pos - home.astype(np.int32)
-    else:
-        homed = np.zeros(n, dtype=bool)
-        pos_homed = pos
+    k_abs = n0 + np.arange(n)
+    last_rise = _last_index(rise, n0, state.last_rise)
+    in_chunk = last_rise >= n0
+    index_pos = np.where(in_chunk, line_start[np.maximum(last_rise - n0, 0)],
+                         np.int32(state.index_pos))
+    index_count = (state.index_count + np.cumsum(rise, dtype=np.int64)) & 0xFFFF
+    last_arm = _last_index(arm, n0, state.last_arm)
+    homed = (last_arm >= 0) & (last_rise >= last_arm)
+    # the home is the first rise at or after each arm; it holds until the next homing edge
+    home_edge = rise & homed & ~np.concatenate(([state.homed], homed[:-1]))
+    home_edge |= rise & (last_arm == k_abs)             # arm and edge on the same sample
+    last_home = _last_true_index(home_edge)
+    home = np.where(last_home >= 0, line_start[np.maximum(last_home, 0)], np.int32(state.home))
+    pos_homed = pos - home.astype(np.int32)
 
-    # 7. velocity: window difference over W samples, in stored DW bits (sign-extended)
+    # 7. velocity: window difference over W samples, in stored DW bits (sign-extended); the
+    # window reaches back into the carried positions
     w = 1 << cfg.vel_log2w
     dw = cfg.vel_store_bits
-    vel = np.zeros(n, dtype=np.int32)
-    if n > w:
-        d = (pos[w:] - pos[:-w]) & np.int32((1 << dw) - 1)
-        vel[w:] = np.where(d >= 1 << (dw - 1), d - np.int32(1 << dw), d)
+    ext = np.concatenate((state.hist, pos))
+    vel_ext = np.zeros(ext.size, dtype=np.int32)
+    if ext.size > w:
+        d = (ext[w:] - ext[:-w]) & np.int32((1 << dw) - 1)
+        vel_ext[w:] = np.where(d >= 1 << (dw - 1), d - np.int32(1 << dw), d)
+    vel = vel_ext[state.hist.size:]
 
     # 8. faults
     clear = _event_mask(n, clear_at)
@@ -314,19 +360,25 @@ def run(a: np.ndarray, b: np.ndarray, index: np.ndarray | None = None,
     clip = (a16 == -128) | (a16 == 127) | (b16 == -128) | (b16 == 127)
     amp2 = a16 * a16 + b16 * b16
     bad = (amp2 < cfg.amp_min ** 2) | (amp2 > cfg.amp_max ** 2)
-    if bad.any():
-        loss = (np.arange(n) - _last_true_index(~bad)) >= cfg.loss_samples
-    else:
-        loss = bad
-    faults = (_sticky(overspeed, clear) * FAULT_OVERSPEED + _sticky(clip, clear) * FAULT_CLIP
-              + _sticky(loss, clear) * FAULT_LOSS)
-    ovs_count = (np.minimum(np.cumsum(overspeed, dtype=np.int64), 0xFFFF) if overspeed.any()
-                 else np.zeros(n, dtype=np.int64))
+    last_good = _last_index(~bad, n0, state.last_good)
+    loss = (k_abs - last_good) >= cfg.loss_samples
+    not_cleared = ~np.logical_or.accumulate(clear)     # no clear yet in this chunk
+    flags = [_sticky(ev, clear) | (carried & not_cleared)
+             for ev, carried in zip((overspeed, clip, loss), state.sticky)]
+    faults = flags[0] * FAULT_OVERSPEED + flags[1] * FAULT_CLIP + flags[2] * FAULT_LOSS
+    ovs_count = np.minimum(state.ovs_count + np.cumsum(overspeed, dtype=np.int64), 0xFFFF)
 
-    return InterpOut(pos=pos, pos_homed=pos_homed, vel=vel,
-                     index_pos=index_pos.astype(np.int32), index_count=index_count, homed=homed,
-                     faults=faults.astype(np.int64), overspeed_count=ovs_count,
-                     extra={"q": q, "fine": f, "qc": qc, **extra})
+    out = InterpOut(pos=pos, pos_homed=pos_homed, vel=vel,
+                    index_pos=index_pos.astype(np.int32), index_count=index_count, homed=homed,
+                    faults=faults.astype(np.int64), overspeed_count=ovs_count,
+                    extra={"q": q, "fine": f, "qc": qc, **extra})
+    nxt = InterpState(n=n0 + n, dec=dec, idx_prev=bool(idx[-1]), index_pos=int(index_pos[-1]),
+                      index_count=int(index_count[-1]), last_rise=int(last_rise[-1]),
+                      last_arm=int(last_arm[-1]), homed=bool(homed[-1]), home=int(home[-1]),
+                      hist=ext[-w:].copy(), sticky=tuple(bool(fl[-1]) for fl in flags),
+                      last_good=int(last_good[-1]), ovs_count=int(ovs_count[-1]),
+                      cal=cal_carry)
+    return out, nxt
 
 
 # ----------------------------------------------------------------------------------------------

@@ -1,6 +1,7 @@
 """Cycle-exact behavioural model of the register file (rtl/bus/hg_regfile.v) built on the RDL.
 
-The generic part comes from the register map (`hapgate.golden.regmap`, compiled from the RDL): which
+The generic part comes from the register map (`hapgate.golden.regmap`, compiled from the RDL
+by `hapgate.flows.regmap`): which
 fields exist at which word address, their reset values, and what a software access does (read
 only, write only and reads 0, read-write, write-1-to-clear, single pulse, range-checked writes
 refused). The hapgate-specific hardware behaviour is written out here:

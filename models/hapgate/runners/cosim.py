@@ -23,7 +23,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..base import report
+from ..base import cbuild, report
 from ..base.paths import ROOT, TB, ensure
 from ..golden import commutation, encsig, interp, kinematics
 from ..golden.top import TopConfig, blocks
@@ -62,12 +62,10 @@ def _fw_lib(bdir: Path, defines: tuple[str, ...] = ()) -> Path:
         cmd = ["gcc", "-std=c99", *FW_WARN, "-O2", *(f"-D{d}" for d in defines),
                "-I", str(FW / "include"), "-c", str(src),
                "-o", str(obj)]
-        out = subprocess.run(cmd, capture_output=True, text=True)
-        if out.returncode != 0:
-            raise RuntimeError(f"firmware build failed: {src.name}\n{out.stderr}")
+        cbuild.run(cmd, bdir / "build.log", f"firmware ({src.name})")
         objs.append(obj)
     lib = bdir / "fw" / "libhgfw.a"
-    subprocess.run(["ar", "rcs", str(lib), *map(str, objs)], check=True)
+    cbuild.run(["ar", "rcs", str(lib), *map(str, objs)], bdir / "build.log", "firmware library")
     return lib
 
 

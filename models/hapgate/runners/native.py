@@ -9,10 +9,12 @@ clock per sample, is the fastest; a board clock gives identical outputs, more sl
 
 from __future__ import annotations
 
-import hashlib
-import json
+import os
+import queue
+import shutil
 import subprocess
 import tempfile
+import threading
 import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
@@ -20,14 +22,13 @@ from pathlib import Path
 
 import numpy as np
 
-from ..base import toolenv
+from ..base import cache, cbuild, toolenv
 from ..base.block import Params
 from ..base.paths import BUILD, RTL, TB, ensure
 from ..base.tables import write_tables
 from ..flows.flow import param_text
 from ..golden import enccal, interp
 from ..golden.interp import InterpConfig
-from .sim import _locked
 
 HARNESS = TB / "native" / "interp" / "interp_harness.cpp"
 SOURCES = [RTL / "interp" / "enc_calib.v", RTL / "interp" / "ratio_div.v",
@@ -67,18 +68,15 @@ def verilate_harness(name: str, top: str, sources: Sequence[Path], params: Param
     bit (tb/device/test_closed_loop.py checks it), only faster."""
     toolenv.apply()
     write_tables(params)
-    key = json.dumps({k: param_text(v) for k, v in sorted(params.items())} |
-                     {"_cflags": cflags, "_ldflags": ldflags} |
-                     ({"_vflags": list(vflags)} if vflags else {}) |
-                     ({"_pgo": PGO_FLAGS} if train is not None else {}))
-    digest = hashlib.sha1(key.encode())
-    for src in [*sources, *harness, *inputs]:
-        digest.update(src.read_bytes())
-    bdir = ensure(BUILD / "native" / f"{name}-{digest.hexdigest()[:12]}")
-    exe = bdir / name
-    with _locked(bdir):
-        if exe.exists():
-            return exe
+    key = cache.digest(
+        files=[*sources, *harness, *inputs],
+        data={k: param_text(v) for k, v in sorted(params.items())} |
+        {"_cflags": cflags, "_ldflags": ldflags} |
+        ({"_vflags": list(vflags)} if vflags else {}) |
+        ({"_pgo": PGO_FLAGS} if train is not None else {}))
+    def build(bdir: Path) -> None:
+        log = bdir / "build.log"
+        log.write_text("")
         if prepare is not None:
             prepare(bdir)
         cmd = ["verilator", "--cc", "--exe"] + ([] if train else ["--build", "-j", "2"]) + ["-O3",
@@ -91,14 +89,13 @@ def verilate_harness(name: str, top: str, sources: Sequence[Path], params: Param
         cmd += list(vflags)
         cmd += [f"-G{k}={param_text(v)}" for k, v in params.items()]
         cmd += [str(s) for s in [*sources, *harness]]
-        out = subprocess.run(cmd, capture_output=True, text=True)
-        log = out.stdout + out.stderr
-        if out.returncode == 0 and train is not None:
-            log += _pgo_build(bdir, f"V{top}.mk", exe, train)
-        (bdir / "build.log").write_text(log)
-        if out.returncode != 0 or not exe.exists():
-            raise RuntimeError(f"native harness {name} failed to build; see {bdir / 'build.log'}")
-    return exe
+        cbuild.run(cmd, log, f"native harness {name}")
+        if train is not None:
+            _pgo_build(bdir, f"V{top}.mk", bdir / name, train, log)
+        if not (bdir / name).exists():
+            raise cbuild.failure(f"native harness {name}", log)
+
+    return cache.cached_dir(BUILD / "native", f"{name}-{key}", build, done=name) / name
 
 
 # Profile-guided optimisation of a Verilated harness (verilate_harness(train=...)): gcc's
@@ -112,29 +109,34 @@ PGO_FLAGS = {"generate": "-O2 -fprofile-generate -fprofile-update=single",
              "use": "-O2 -flto=2 -fprofile-use -fprofile-partial-training -Wno-missing-profile"}
 
 
-def _pgo_build(bdir: Path, makefile: str, exe: Path, train: Callable[[Path], None]) -> str:
-    """Compile the generated model twice around a training run; returns the log. A failed
+def _pgo_build(bdir: Path, makefile: str, exe: Path, train: Callable[[Path], None],
+               log: Path) -> None:
+    """Compile the generated model twice around a training run (logged to `log`). A failed
     training run costs only the speed: the second compile then has no profile to use."""
-    def make(stage: str) -> str:
+    def make(stage: str) -> None:
         for f in [exe, *bdir.glob("*.o"), *bdir.glob("*.a")]:
             f.unlink(missing_ok=True)
         flags = PGO_FLAGS[stage]
         link = "-fprofile-generate" if stage == "generate" else flags
-        out = subprocess.run(["make", "-C", str(bdir), "-f", makefile, "-j", "2", exe.name,
-                              f"OPT_FAST={flags}", f"OPT_SLOW={flags}", f"OPT_GLOBAL={flags}",
-                              f"USER_LDFLAGS={link}"], capture_output=True, text=True)
-        return f"== pgo: {stage} ==\n" + out.stdout + out.stderr
+        with open(log, "a") as fh:
+            fh.write(f"== pgo: {stage} ==\n")
+        cbuild.run(["make", "-C", str(bdir), "-f", makefile, "-j", "2", exe.name,
+                    f"OPT_FAST={flags}", f"OPT_SLOW={flags}", f"OPT_GLOBAL={flags}",
+                    f"USER_LDFLAGS={link}"], log, f"native harness {exe.name} (pgo {stage})",
+                   check=False)
 
     for f in bdir.glob("*.gcda"):
         f.unlink()
-    log = make("generate")
+    make("generate")
+    note = "== pgo: trained ==\n"
     if exe.exists():
         try:
             train(exe)
-            log += "== pgo: trained ==\n"
         except Exception as e:   # noqa: BLE001 -- any failure only loses the profile
-            log += f"== pgo: training failed ({e}); compiled without a profile ==\n"
-    return log + make("use")
+            note = f"== pgo: training failed ({e}); compiled without a profile ==\n"
+        with open(log, "a") as fh:
+            fh.write(note)
+    make("use")
 
 
 def build_interp(cfg: InterpConfig = InterpConfig(), clk_hz: int = interp.MIN_CLK_HZ,
@@ -219,33 +221,14 @@ def run_interp(a: np.ndarray, b: np.ndarray, index: np.ndarray | None = None,
         raise ValueError(f"unknown columns {sorted(unknown)}; known: {', '.join(HARNESS_COLUMNS)}")
     cols = [c for c in HARNESS_COLUMNS if c in columns]
     exe = build_interp(cfg, clk_hz=clk_hz, axes=axes)
-    rec = np.zeros((n, axes, 3), dtype=np.uint8)
-    rec[:, :, 0] = _as_2d(a, n, axes, "int8").view(np.uint8)
-    rec[:, :, 1] = _as_2d(b, n, axes, "int8").view(np.uint8)
-    flags = _as_2d(index, n, axes, "bool").astype(np.uint8) * FLAG_INDEX
-    flags |= _events_to_mask(clear_at, n, axes).astype(np.uint8) * FLAG_CLEAR
-    flags |= _events_to_mask(arm_at, n, axes).astype(np.uint8) * FLAG_ARM
-    flags |= _levels(cal_en, n, axes) * FLAG_CAL_EN
-    flags |= _levels(cal_freeze, n, axes) * FLAG_CAL_FREEZE
-    flags |= _levels(harm_en, n, axes) * FLAG_HARM_EN
-    rec[:, :, 2] = flags
+    rec = pack_interp(a, b, index, axes, clear_at, arm_at, cal_en, cal_freeze, harm_en)
     mask = sum(1 << HARNESS_COLUMNS.index(c) for c in cols)
-    dtype = np.dtype([(f"{c}{ax}", COLUMN_DTYPES[c]) for ax in range(axes) for c in cols])
+    dtype = _out_dtype(cols, axes)
     with tempfile.TemporaryDirectory(dir=ensure(BUILD / "native" / "runs")) as tmp:
         fin, fout = Path(tmp) / "in.bin", Path(tmp) / "out.bin"
         rec.tofile(fin)
-        # CAL_MU carries the observer's settings in bits 13:8 (bit 13: present)
-        obs_cfg = (obs_bw & 15) | (int(obs_type3) << 4)
-        argv = [str(exe), str(fin), str(fout), str(n), str(mask),
-                str((cal_mu & 15) | obs_cfg << 8 | 1 << 13)]
-        if harm_table is not None:
-            h2 = np.atleast_2d(np.asarray(harm_table, dtype=np.int64))
-            ht = np.broadcast_to(h2, (axes, h2.shape[1]))
-            hn = ht.shape[1]
-            full = ht[:, np.arange(256) % hn]          # the 8-bit address aliases mod HN
-            ftab = Path(tmp) / "harm.bin"
-            full.astype(np.int8).tofile(ftab)
-            argv.append(str(ftab))
+        argv = _interp_argv(exe, fin, fout, n, mask, cal_mu, obs_bw, obs_type3, harm_table,
+                            axes, Path(tmp))
         t0 = time.perf_counter()
         out = subprocess.run(argv, capture_output=True, text=True)
         wall = time.perf_counter() - t0
@@ -258,6 +241,187 @@ def run_interp(a: np.ndarray, b: np.ndarray, index: np.ndarray | None = None,
     outputs = [{c: data[f"{c}{ax}"].astype(np.int64) for c in cols} for ax in range(axes)]
     return NativeRun(outputs=outputs, seconds=float(stats.get("seconds", wall)),
                      clocks=int(stats.get("clocks", 0)), stats=stats)
+
+
+def pack_interp(a: np.ndarray, b: np.ndarray, index: np.ndarray | None, axes: int,
+                clear_at: Sequence[Sequence[int]] | None = None,
+                arm_at: Sequence[Sequence[int]] | None = None,
+                cal_en: np.ndarray | bool = False, cal_freeze: np.ndarray | bool = False,
+                harm_en: np.ndarray | bool = False) -> np.ndarray:
+    """The harness's input records (n, axes, 3 bytes: a, b, flags) of samples."""
+    n = np.asarray(a).shape[0]
+    rec = np.zeros((n, axes, 3), dtype=np.uint8)
+    rec[:, :, 0] = _as_2d(a, n, axes, "int8").view(np.uint8)
+    rec[:, :, 1] = _as_2d(b, n, axes, "int8").view(np.uint8)
+    flags = _as_2d(index, n, axes, "bool").astype(np.uint8) * FLAG_INDEX
+    flags |= _events_to_mask(clear_at, n, axes).astype(np.uint8) * FLAG_CLEAR
+    flags |= _events_to_mask(arm_at, n, axes).astype(np.uint8) * FLAG_ARM
+    flags |= _levels(cal_en, n, axes) * FLAG_CAL_EN
+    flags |= _levels(cal_freeze, n, axes) * FLAG_CAL_FREEZE
+    flags |= _levels(harm_en, n, axes) * FLAG_HARM_EN
+    rec[:, :, 2] = flags
+    return rec
+
+
+def _out_dtype(cols: Sequence[str], axes: int) -> np.dtype:
+    return np.dtype([(f"{c}{ax}", COLUMN_DTYPES[c]) for ax in range(axes) for c in cols])
+
+
+def _interp_argv(exe: Path, fin: Path | str, fout: Path | str, n: int, mask: int, cal_mu: int,
+                 obs_bw: int, obs_type3: bool, harm_table: np.ndarray | None, axes: int,
+                 tmp: Path) -> list[str]:
+    # CAL_MU carries the observer's settings in bits 13:8 (bit 13: present)
+    obs_cfg = (obs_bw & 15) | (int(obs_type3) << 4)
+    argv = [str(exe), str(fin), str(fout), str(n), str(mask),
+            str((cal_mu & 15) | obs_cfg << 8 | 1 << 13)]
+    if harm_table is not None:
+        h2 = np.atleast_2d(np.asarray(harm_table, dtype=np.int64))
+        ht = np.broadcast_to(h2, (axes, h2.shape[1]))
+        hn = ht.shape[1]
+        full = ht[:, np.arange(256) % hn]          # the 8-bit address aliases mod HN
+        ftab = tmp / "harm.bin"
+        full.astype(np.int8).tofile(ftab)
+        argv.append(str(ftab))
+    return argv
+
+
+class Stream:
+    """A native harness run through pipes: input records are written to its stdin as they come
+    (`feed`), its output records are read from a second pipe by a thread and handed over as they
+    come (`take`), so memory is bounded by a chunk and the pipes, not by the run. `finish()`
+    closes the input (the harness runs to the end of it, N = 0) and returns the rest and the
+    harness's printed stats. The harness's stdout/stderr go to files (a long stderr cannot block
+    it)."""
+
+    def __init__(self, argv: Callable[[str, str], list[str]], out_dtype: np.dtype,
+                 what: str) -> None:
+        self.what = what
+        self.dtype = out_dtype
+        self._tmp = tempfile.TemporaryDirectory(dir=ensure(BUILD / "native" / "runs"))
+        self.tmp = Path(self._tmp.name)
+        r, w = os.pipe()
+        self._log = [open(self.tmp / n, "w+b") for n in ("stdout", "stderr")]  # noqa: SIM115
+        self.t0 = time.perf_counter()
+        self.proc = subprocess.Popen(argv("/dev/stdin", f"/dev/fd/{w}"), stdin=subprocess.PIPE,
+                                     stdout=self._log[0], stderr=self._log[1], pass_fds=(w,))
+        os.close(w)
+        self._q: queue.Queue[bytes | None] = queue.Queue()
+        self._rd = threading.Thread(target=self._reader, args=(r,), daemon=True)
+        self._rd.start()
+        self._rest = b""
+        self.rows = 0
+
+    def _reader(self, fd: int) -> None:
+        with os.fdopen(fd, "rb", buffering=0) as f:
+            while data := f.read(1 << 20):
+                self._q.put(data)
+        self._q.put(None)
+
+    def feed(self, rec: np.ndarray) -> None:
+        try:
+            assert self.proc.stdin is not None
+            self.proc.stdin.write(np.ascontiguousarray(rec).tobytes())
+        except BrokenPipeError:
+            self._fail()
+
+    def take(self) -> np.ndarray:
+        """The output records that arrived so far (possibly none)."""
+        chunks = [self._rest]
+        while True:
+            try:
+                data = self._q.get_nowait()
+            except queue.Empty:
+                break
+            if data is None:
+                self._q.put(None)
+                break
+            chunks.append(data)
+        buf = b"".join(chunks)
+        k = len(buf) // self.dtype.itemsize * self.dtype.itemsize
+        self._rest = buf[k:]
+        out = np.frombuffer(buf[:k], dtype=self.dtype)
+        self.rows += out.size
+        return out
+
+    def _stderr(self) -> str:
+        self._log[1].seek(0)
+        return self._log[1].read().decode(errors="replace").strip()
+
+    def _fail(self) -> None:
+        code = self.proc.wait()
+        err = self._stderr()
+        self.close()
+        raise RuntimeError(f"{self.what} failed ({code}): {err}")
+
+    def finish(self) -> tuple[np.ndarray, dict[str, str], str]:
+        """Close the input, wait for the end: (the remaining records, the stats the harness
+        printed, its stderr)."""
+        try:
+            assert self.proc.stdin is not None
+            self.proc.stdin.close()
+        except BrokenPipeError:
+            pass
+        code = self.proc.wait()
+        self._rd.join()
+        if code != 0:
+            self._fail()
+        last = self.take()
+        if self._rest:
+            raise RuntimeError(f"{self.what}: a partial record at the end of its output")
+        self._log[0].seek(0)
+        stats = dict(kv.split("=") for kv in self._log[0].read().decode().split())
+        stats.setdefault("seconds", f"{time.perf_counter() - self.t0:.6f}")
+        err = self._stderr()
+        self.close()
+        return last, stats, err
+
+    def close(self) -> None:
+        if self.proc.poll() is None:
+            self.proc.kill()
+            self.proc.wait()
+        for f in self._log:
+            f.close()
+        self._tmp.cleanup()
+
+
+class InterpStream:
+    """`run_interp` chunk by chunk for one axis through one harness process (the replay's rtl
+    engine): `feed(a, b, index)` then `take()` for the rows done so far, `finish()` for the rest.
+    Constant controls for the whole stream (cal_en, harm_en)."""
+
+    def __init__(self, cfg: InterpConfig = InterpConfig(), clk_hz: int = interp.MIN_CLK_HZ,
+                 columns: Sequence[str] = COLUMNS, cal_en: bool = False, cal_mu: int = 6,
+                 harm_table: np.ndarray | None = None, harm_en: bool = False) -> None:
+        self.cols = [c for c in HARNESS_COLUMNS if c in columns]
+        exe = build_interp(cfg, clk_hz=clk_hz, axes=1)
+        mask = sum(1 << HARNESS_COLUMNS.index(c) for c in self.cols)
+        self.cal_en, self.harm_en = cal_en, harm_en
+        tmp = Path(tempfile.mkdtemp(dir=ensure(BUILD / "native" / "runs")))
+        self._harm_dir = tmp
+        self.stream = Stream(lambda fin, fout: _interp_argv(exe, fin, fout, 0, mask, cal_mu, 6,
+                                                            True, harm_table, 1, tmp),
+                             _out_dtype(self.cols, 1), "native harness")
+        self.stats: dict[str, str] = {}
+
+    def feed(self, a: np.ndarray, b: np.ndarray, index: np.ndarray | None) -> None:
+        self.stream.feed(pack_interp(a, b, index, 1, cal_en=self.cal_en, harm_en=self.harm_en))
+
+    def _cols(self, data: np.ndarray) -> dict[str, np.ndarray]:
+        return {c: data[f"{c}0"].astype(np.int64) for c in self.cols}
+
+    def take(self) -> dict[str, np.ndarray]:
+        return self._cols(self.stream.take())
+
+    def finish(self) -> dict[str, np.ndarray]:
+        try:
+            last, self.stats, _ = self.stream.finish()
+        finally:
+            shutil.rmtree(self._harm_dir, ignore_errors=True)
+        return self._cols(last)
+
+    def close(self) -> None:
+        self.stream.close()
+        shutil.rmtree(self._harm_dir, ignore_errors=True)
 
 
 def model_matrix(out: interp.InterpOut, columns: Sequence[str] = COLUMNS) -> dict[str, np.ndarray]:

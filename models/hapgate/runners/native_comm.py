@@ -22,6 +22,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..base.cbuild import BuildError
 from ..base.paths import BUILD, RTL, TB, ensure
 from ..golden import commutation as cm
 from . import native
@@ -78,10 +79,8 @@ def build_commutation(cfg: cm.CommutationConfig = cm.CommutationConfig(),
         return native.verilate_harness("commutation_harness", "commutator", SOURCES, params,
                                        [HARNESS], cflags=flags, inputs=[Path(params["LUT_FILE"])],
                                        vflags=["-DHG_SIM", "-DHG_SIM_SKIP"])
-    except RuntimeError as exc:
-        log = Path(str(exc).rsplit("see ", 1)[-1])
-        stops = re.findall(r"\b(\w+_must_\w+|\w+_needs_\w+)\b", log.read_text()) \
-            if log.exists() else []
+    except BuildError as exc:
+        stops = re.findall(r"\b(\w+_must_\w+|\w+_needs_\w+)\b", exc.text)
         if stops:
             raise ValueError(f"the RTL refuses this configuration: {stops[0]}") from None
         raise
@@ -157,6 +156,45 @@ def run_commutation(frames: cm.Frames, cfg: cm.CommutationConfig = cm.Commutatio
                    cpu_seconds=float(stats.get("cpu_seconds", wall)),
                    clocks=int(stats.get("clocks", 0)), edges=int(stats.get("edges", 0)),
                    skips=int(stats.get("skips", 0)))
+
+
+class CommStream:
+    """`run_commutation` chunk by chunk through one harness process (the replay's rtl engine):
+    `feed(frames)`, then `take()` for the frames done so far and `finish()` for the rest, each
+    as (codes (k, 6), load clocks (k, 6)). The reset frame's words are kept in `reset_words`;
+    `finish()` also counts the port violations the harness reported."""
+
+    def __init__(self, cfg: cm.CommutationConfig = cm.CommutationConfig()) -> None:
+        self.cfg = cfg
+        exe = build_commutation(cfg)
+        self.stream = native.Stream(lambda fin, fout: [str(exe), fin, fout, "0", "skip"],
+                                    REC_OUT, "commutation harness")
+        self.reset_words: np.ndarray | None = None
+        self.violations = 0
+        self.stats: dict[str, str] = {}
+
+    def feed(self, frames: cm.Frames) -> None:
+        self.stream.feed(pack_frames(frames, self.cfg))
+
+    def _split(self, data: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        words = data["word"].astype(np.int64)
+        at = data["at"].astype(np.int64)
+        if self.reset_words is None and data.size:
+            self.reset_words, words, at = words[0], words[1:], at[1:]
+        return cm.decode(words, self.cfg), at
+
+    def take(self) -> tuple[np.ndarray, np.ndarray]:
+        return self._split(self.stream.take())
+
+    def finish(self) -> tuple[np.ndarray, np.ndarray]:
+        last, self.stats, err = self.stream.finish()
+        self.violations = int(self.stats.get("violations", 0))
+        if err:
+            self.violations = max(self.violations, 1)
+        return self._split(last)
+
+    def close(self) -> None:
+        self.stream.close()
 
 
 def schedule_errors(run: CommRun, cfg: cm.CommutationConfig) -> int:

@@ -5,7 +5,6 @@ model, and the simulator list policy (Icarus missing: loud warning; with CI=true
 
 from __future__ import annotations
 
-import hashlib
 import json
 import os
 import re
@@ -14,7 +13,7 @@ import sys
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 
-from ..base import toolenv
+from ..base import cache, toolenv
 from ..base.block import Block, Params
 from ..base.paths import SIM, ensure, locked
 from ..base.tables import write_tables
@@ -43,9 +42,8 @@ def simulators() -> list[str]:
 
 
 def _tag(params: Params, build_args: Sequence[str]) -> str:
-    key = {k: param_text(v) for k, v in sorted(params.items())} | {"_": list(build_args)}
-    text = json.dumps(key)
-    return hashlib.sha1(text.encode()).hexdigest()[:10]
+    return cache.digest(data={k: param_text(v) for k, v in sorted(params.items())}
+                        | {"_": list(build_args)}, length=10)
 
 
 _locked = locked   # (the name the runners and the device modules import)

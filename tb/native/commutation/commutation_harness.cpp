@@ -117,31 +117,50 @@ int main(int argc, char** argv) {
                      mode_arg);
         return 2;
     }
-    const uint64_t n = std::strtoull(argv[3], nullptr, 10);
+    // N_FRAMES 0: every frame of IN until its end (a pipe: the replay streams through it)
+    const uint64_t limit = std::strtoull(argv[3], nullptr, 10);
     FILE* in = std::fopen(argv[1], "rb");
     FILE* out = std::fopen(argv[2], "wb");
-    if (!in || !out || n == 0) {
-        std::fprintf(stderr, "error: cannot open %s or %s (or no frames)\n", argv[1], argv[2]);
+    if (!in || !out) {
+        std::fprintf(stderr, "error: cannot open %s or %s\n", argv[1], argv[2]);
         return 2;
     }
-    std::vector<uint8_t> rows(n * kRecIn);
-    if (std::fread(rows.data(), kRecIn, n, in) != n) {
-        std::fprintf(stderr, "error: %s holds fewer than %llu frames\n", argv[1],
-                     static_cast<unsigned long long>(n));
-        return 3;
+    // the rows, read a block at a time (memory bounded by the block, not by the file)
+    const size_t block = 1 << 14;
+    std::vector<uint8_t> ibuf(block * kRecIn);
+    size_t ibuf_len = 0, ibuf_pos = 0;
+    uint64_t read_rows = 0;
+    auto next_row = [&]() -> const uint8_t* {
+        if (limit && read_rows == limit) return nullptr;
+        if (ibuf_pos == ibuf_len) {
+            const size_t want = limit ? static_cast<size_t>(std::min<uint64_t>(block, limit - read_rows))
+                                      : block;
+            const size_t r = std::fread(ibuf.data(), kRecIn, want, in);
+            if (r == 0) return nullptr;
+            ibuf_len = r * kRecIn;
+            ibuf_pos = 0;
+        }
+        const uint8_t* row = &ibuf[ibuf_pos];
+        ibuf_pos += kRecIn;
+        ++read_rows;
+        return row;
+    };
+    const uint8_t* row0 = next_row();
+    if (!row0) {
+        std::fprintf(stderr, "error: %s holds no frames\n", argv[1]);
+        return 2;
     }
-    std::fclose(in);
 
     auto ctx = std::make_unique<VerilatedContext>();
     auto top = std::make_unique<Vcommutator>(ctx.get());
     Checker chk;
 
-    const uint64_t frames = n + 1;  // the reset frame, then one per row
+    uint64_t frames = UINT64_MAX;  // the reset frame, then one per row: known at the input's end
     std::vector<uint8_t> obuf;
     const size_t chunk = 1 << 14;   // frames per write
     obuf.reserve(chunk * kRecOut);
 
-    present(top.get(), &rows[0]);
+    present(top.get(), row0);
     top->clk = 0;
     top->rst = 1;
     top->eval();
@@ -248,9 +267,19 @@ int main(int argc, char** argv) {
             }
             ++loads;
         }
-        if (frame_edge && presented < n) {  // row `presented` is latched at the next frame start
-            present(top.get(), &rows[presented * kRecIn]);
-            ++presented;
+        if (frame_edge && frames == UINT64_MAX) {  // row `presented` is latched at the next frame start
+            if (const uint8_t* row = next_row()) {
+                present(top.get(), row);
+                ++presented;
+            } else {
+                frames = presented + 1;
+                std::fclose(in);
+                if (limit && presented < limit) {
+                    std::fprintf(stderr, "error: %s holds fewer than %llu frames\n", argv[1],
+                                 static_cast<unsigned long long>(limit));
+                    return 3;
+                }
+            }
         }
         // Falling edge: nothing in the design works on it and the inputs set above are read by
         // the next rising-edge evaluation, so instead of evaluating it, record it in the model's

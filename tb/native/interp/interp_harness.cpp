@@ -68,11 +68,14 @@ void put(std::vector<uint8_t>& buf, T value, int bytes) {
 
 int main(int argc, char** argv) {
     if (argc < 5 || argc > 7) {
-        std::fprintf(stderr, "usage: %s IN OUT N_SAMPLES COLMASK [CAL_MU [HARM_TABLE]]\n",
-                     argv[0]);
+        std::fprintf(stderr, "usage: %s IN OUT N_SAMPLES COLMASK [CAL_MU [HARM_TABLE]]\n"
+                     "  (N_SAMPLES 0: until the end of IN, e.g. a pipe)\n", argv[0]);
         return 2;
     }
-    const uint64_t n = std::strtoull(argv[3], nullptr, 10);
+    // N_SAMPLES 0: read IN (a pipe: the replay streams through it) until its end
+    uint64_t n = std::strtoull(argv[3], nullptr, 10);
+    const bool to_end = n == 0;
+    if (to_end) n = UINT64_MAX;
     const unsigned mask = static_cast<unsigned>(std::strtoul(argv[4], nullptr, 0));
     FILE* in = std::fopen(argv[1], "rb");
     FILE* out = std::fopen(argv[2], "wb");
@@ -159,18 +162,20 @@ int main(int argc, char** argv) {
     const auto t0 = std::chrono::steady_clock::now();
     while (got < n) {
         // clk low: present the next sample in the cycle the FPGA strobes the ADC
-        if (top->adc_strobe && fed < n) {
-            if (ibuf_pos == ibuf_len) {
-                const size_t want = static_cast<size_t>(std::min<uint64_t>(chunk, n - fed));
-                const size_t r = std::fread(ibuf.data(), rec_in, want, in);
-                if (r == 0) {
-                    std::fprintf(stderr, "error: input ended after %llu samples\n",
-                                 static_cast<unsigned long long>(fed));
-                    return 3;
-                }
-                ibuf_len = r * rec_in;
-                ibuf_pos = 0;
+        if (top->adc_strobe && fed < n && ibuf_pos == ibuf_len) {
+            const size_t want = static_cast<size_t>(std::min<uint64_t>(chunk, n - fed));
+            const size_t r = std::fread(ibuf.data(), rec_in, want, in);
+            if (r == 0 && to_end) {
+                n = fed;  // the end of the stream: drain the pipeline
+            } else if (r == 0) {
+                std::fprintf(stderr, "error: input ended after %llu samples\n",
+                             static_cast<unsigned long long>(fed));
+                return 3;
             }
+            ibuf_len = r * rec_in;
+            ibuf_pos = 0;
+        }
+        if (top->adc_strobe && fed < n) {
             uint32_t a = 0, b = 0, idx = 0, clr = 0, arm = 0, cen = 0, cfr = 0, hen = 0;
             for (int ax = 0; ax < AXES; ++ax) {
                 const uint8_t* r = &ibuf[ibuf_pos + 3 * ax];
