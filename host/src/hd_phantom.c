@@ -219,10 +219,13 @@ static int send_force(double fx, double fy, double fz)
         fprintf(g_log, "F,%u,%.17g,%.17g,%.17g,%.9g,%.9g,%.9g,%lu\n", (unsigned)ctr, fx, fy, fz,
                 (double)(float)f[0], (double)(float)f[1], (double)(float)f[2],
                 (unsigned long)g_answered);
+    /* a state newer than both the one this force answered and the one that released the
+     * last force: one force per state, whether or not GetPosition came in between */
+    const uint32_t after = (int32_t)(g_answered - g_paced) > 0 ? g_answered : g_paced;
     hg_dev_state_t s;
-    r = hg_wait_push(g_dev, g_paced, &s, g_timeout_s);
+    r = hg_wait_push(g_dev, after, &s, g_timeout_s);
     if (r == HG_E_REFUSED)
-        r = hg_wait_push(g_dev, g_paced, &s, g_timeout_s);
+        r = hg_wait_push(g_dev, after, &s, g_timeout_s);
     if (r != HG_OK)
         return -1;
     g_paced = s.seq;

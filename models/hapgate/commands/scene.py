@@ -108,6 +108,11 @@ def run_file(file: Path, out_dir: Path | None = None,
         with Progress(total=scene.run.duration_s, label=scene.name, unit="s") as bar:
             live_kw = {"view": live[0]} if live else {}     # the runner's signature otherwise
             r = runner.run(scene, progress=bar, out_dir=out, **live_kw)
+    except KeyboardInterrupt:          # Ctrl-C during the run: the harness is stopped with it
+        _err(f"{scene.source}: interrupted")
+        if live is not None:
+            live[1].close()
+        return 130
     except SceneError as exc:          # the runner refuses a combination it cannot build
         _err(str(exc))
         return EXIT_BAD_INPUT

@@ -31,7 +31,15 @@ ENV_RGB = (120, 160, 255)
 REDRAW_HZ = 20.0             # page redraws per second of wall time, at most
 M_PER_N = 0.005              # force arrow: 5 mm per newton
 TRAIL_S = 2.0                # endpoint trail: the last 2 s of simulated time
-REACH = 0.1                  # |p| <= L_beta + L_gamma: the workspace box drawn around it
+# the workspace box the firmware reports in INFO (dsp-fw/src/hg_link.c, default linkage), m
+BOX_LO, BOX_HI = (-0.086, 0.016, -0.093), (0.086, 0.099, 0.093)
+
+
+def box_edges(lo: tuple[float, float, float], hi: tuple[float, float, float]) -> np.ndarray:
+    """The 12 edges of an axis-aligned box, as (12, 2, 3) line segments."""
+    c = np.array([[(hi if (k >> i) & 1 else lo)[i] for i in range(3)] for k in range(8)])
+    pairs = [(a, a | 1 << i) for a in range(8) for i in range(3) if not a >> i & 1]
+    return np.array([[c[a], c[b]] for a, b in pairs])
 LINEAR: Any = {"x": {"time": False}}   # uPlot's x axis: numbers, not dates
 CRANK_R = 0.03               # cranks drawn as 90-degree arcs of this radius
 
@@ -202,8 +210,8 @@ class Page:
         self.server.initial_camera.position = (0.16, 0.17, 0.2)
         self.server.initial_camera.look_at = (0.0, 0.05, 0.0)
         gui.configure_theme(control_width="large", show_share_button=False)
-        sc.add_box("/workspace", color=(160, 160, 160), dimensions=(2 * REACH, REACH, 2 * REACH),
-                   wireframe=True, position=(0.0, REACH / 2, 0.0))
+        sc.add_line_segments("/workspace", box_edges(BOX_LO, BOX_HI), (160, 160, 160),
+                             thickness=0.001)
         bars, shafts, p = linkage(kinematics.ik(np.array([0.0, 0.07, 0.0]))[0])
         self.h_link = sc.add_line_segments("/linkage", bars, LINK_RGB, thickness=0.004)
         self.h_shaft = sc.add_line_segments("/shafts", shafts, SHAFT_RGB, thickness=0.008)
