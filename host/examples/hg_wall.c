@@ -205,9 +205,9 @@ int main(int argc, char **argv)
     printf("loop rate      %8.1f Hz  (stream %.0f Hz; %llu forces over %.3f s device time, "
            "%.2f s wall)\n", ls.achieved_hz, ls.rate_hz, (unsigned long long)ls.calls,
            ls.device_s, wall_s);
-    printf("loop interval  p50 %.3f  p99 %.3f  max %.3f ms (device time); missed ticks %llu\n",
-           ls.interval_ms[0], ls.interval_ms[1], ls.interval_ms[2],
-           (unsigned long long)ls.missed_ticks);
+    printf("loop interval  p50 %.3f  p99 %.3f  max %.3f ms (device time); missed ticks %llu; "
+           "real-time priority %s\n", ls.interval_ms[0], ls.interval_ms[1], ls.interval_ms[2],
+           (unsigned long long)ls.missed_ticks, ls.realtime ? "yes" : "no");
     printf("loop latency   p50 %.3f  p99 %.3f  max %.3f ms (device time, state tick -> force's "
            "first tick; %llu forces)\n", ls.latency_ms[0], ls.latency_ms[1], ls.latency_ms[2],
            (unsigned long long)ls.latency_n);

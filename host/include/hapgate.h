@@ -146,7 +146,8 @@ int hg_write_raw(hg_dev_t *dev, const void *bytes, size_t n);
  * the device's f_max is scaled to 0.999 f_max (counted); a non-finite one ends the loop with
  * HG_E_ARG and is not sent. The loop thread never allocates; states that arrive while the
  * callback runs are skipped (counted as missed ticks), so a slow callback never stalls the
- * link. */
+ * link. Where the OS allows it, the loop and the reader run at a real-time priority while a
+ * loop runs (stats.realtime says whether it was granted). */
 typedef int (*hg_loop_fn)(const hg_dev_state_t *s, double f[3], void *user);
 
 typedef struct {
@@ -162,6 +163,8 @@ typedef struct {
     double latency_ms[3];    /* p50, p99, max: state tick -> the first tick rendering the
                                 force computed from it (reported by the device)            */
     uint64_t latency_n;
+    int realtime;            /* the loop and reader threads got SCHED_FIFO priority (root,
+                                CAP_SYS_NICE or an rtprio limit), as HDAPI's scheduler has */
 } hg_loop_stats_t;
 
 int hg_loop_start(hg_dev_t *dev, double rate_hz, unsigned ttl_ms, hg_loop_fn fn, void *user);

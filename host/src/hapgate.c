@@ -8,6 +8,7 @@
 #include <math.h>
 #include <poll.h>
 #include <pthread.h>
+#include <sched.h>
 #include <stdlib.h>
 #include <string.h>
 #include <termios.h>
@@ -24,6 +25,7 @@
 #define HIST_N 1024u  /* histogram bins, one per tick; longer values share the last bin   */
 #define POLL_MS 20    /* the reader's poll period: how soon it sees a stop or a silence   */
 #define F_SCALE 0.999 /* a loop force longer than f_max is scaled to this fraction of it  */
+#define RT_PRIO 50    /* SCHED_FIFO priority of the reader and the loop while a loop runs  */
 
 typedef struct {
     uint64_t bin[HIST_N];
@@ -894,6 +896,16 @@ static void *loop_main(void *arg)
     return NULL;
 }
 
+/* Real-time priority for a servo thread, as HDAPI's scheduler has: granted to root or with
+ * CAP_SYS_NICE / an rtprio limit, else the thread keeps its normal priority. 1 if granted. */
+static int realtime(pthread_t t, int on)
+{
+    struct sched_param sp;
+    memset(&sp, 0, sizeof sp);
+    sp.sched_priority = on ? RT_PRIO : 0;
+    return pthread_setschedparam(t, on ? SCHED_FIFO : SCHED_OTHER, &sp) == 0 && on;
+}
+
 int hg_loop_start(hg_dev_t *d, double rate_hz, unsigned ttl_ms, hg_loop_fn fn, void *user)
 {
     if (!d || !fn || ttl_ms == 0 || ttl_ms > 0xFFFFu)
@@ -930,6 +942,10 @@ int hg_loop_start(hg_dev_t *d, double rate_hz, unsigned ttl_ms, hg_loop_fn fn, v
         return HG_E_NOMEM;
     }
     d->loop_started = 1;
+    const int rt = realtime(d->loop, 1) & realtime(d->rx, 1);
+    pthread_mutex_lock(&d->mu);
+    d->ls.realtime = rt;
+    pthread_mutex_unlock(&d->mu);
     return HG_OK;
 }
 
@@ -960,6 +976,7 @@ int hg_loop_stop(hg_dev_t *d, hg_loop_stats_t *st)
     if (d->loop_started) {
         pthread_join(d->loop, NULL);
         d->loop_started = 0;
+        realtime(d->rx, 0); /* the reader back to normal between loops */
     }
     hg_loop_stats_t tmp;
     hg_loop_get_stats(d, st ? st : &tmp);
