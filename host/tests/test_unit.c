@@ -153,6 +153,22 @@ static void fake_stop(fake_t *f)
     pthread_mutex_destroy(&f->mu);
 }
 
+/* The device end started and the library opened on it. */
+static hg_dev_t *open_fake(fake_t *f, uint32_t baud, double timeout_s)
+{
+    hg_dev_t *d = NULL;
+    fake_start(f);
+    CHECK_EQ(hg_open(&d, f->slave, baud, timeout_s), HG_OK);
+    return d;
+}
+
+/* hg_close (with the status expected of it), then the device end stopped. */
+static void close_fake(fake_t *f, hg_dev_t *d, int want)
+{
+    CHECK_EQ(hg_close(d), want);
+    fake_stop(f);
+}
+
 static double now_s(void)
 {
     struct timespec t;
@@ -204,9 +220,7 @@ static void test_open_errors(void)
 static void test_requests(void)
 {
     fake_t f;
-    fake_start(&f);
-    hg_dev_t *d = NULL;
-    CHECK_EQ(hg_open(&d, f.slave, 1000000, 2.0), HG_OK);
+    hg_dev_t *d = open_fake(&f, 1000000, 2.0);
     hg_dev_info_t i;
     CHECK_EQ(hg_get_info(d, &i), HG_OK);
     CHECK_EQ(i.protocol, 2);
@@ -281,9 +295,7 @@ static hg_loop_stats_t run_loop(hg_dev_t *d, cb_t *c)
 static void test_loop(void)
 {
     fake_t f;
-    fake_start(&f);
-    hg_dev_t *d = NULL;
-    CHECK_EQ(hg_open(&d, f.slave, 0, 2.0), HG_OK);
+    hg_dev_t *d = open_fake(&f, 0, 2.0);
     CHECK_EQ(hg_set_scene(d, HG_SCENE_PC_FORCE, NULL, NULL, 0, 0, 0), HG_OK);
     CHECK_EQ(hg_enable(d, 1), HG_OK);
     cb_t c = { 0, 300, 0 };
@@ -311,8 +323,7 @@ static void test_loop(void)
     CHECK_EQ(llround(ls.device_s * 1000.0), (long long)ls.calls - 1 + (long long)ls.missed_ticks);
     CHECK_EQ(after.push_gaps, before.push_gaps);
     CHECK(after.pushes - before.pushes >= (uint64_t)ls.calls + ls.missed_ticks - 1);
-    CHECK_EQ(hg_close(d), HG_OK);
-    fake_stop(&f);
+    close_fake(&f, d, HG_OK);
 }
 
 static int nan_force(const hg_dev_state_t *s, double f[3], void *user)
@@ -325,9 +336,7 @@ static int nan_force(const hg_dev_state_t *s, double f[3], void *user)
 static void test_loop_refuses_nonfinite(void)
 {
     fake_t f;
-    fake_start(&f);
-    hg_dev_t *d = NULL;
-    CHECK_EQ(hg_open(&d, f.slave, 0, 2.0), HG_OK);
+    hg_dev_t *d = open_fake(&f, 0, 2.0);
     hg_loop_stats_t ls;
     CHECK_EQ(hg_loop_start(d, 0.0, 10, nan_force, NULL), HG_OK);
     do {
@@ -336,16 +345,13 @@ static void test_loop_refuses_nonfinite(void)
     } while (ls.running);
     CHECK_EQ(hg_loop_stop(d, &ls), HG_E_ARG);
     CHECK_EQ(ls.calls, 0);
-    CHECK_EQ(hg_close(d), HG_OK);
-    fake_stop(&f);
+    close_fake(&f, d, HG_OK);
 }
 
 static void test_garbage_from_device(void)
 {
     fake_t f;
-    fake_start(&f);
-    hg_dev_t *d = NULL;
-    CHECK_EQ(hg_open(&d, f.slave, 0, 2.0), HG_OK);
+    hg_dev_t *d = open_fake(&f, 0, 2.0);
     hg_dev_stats_t a, b;
     hg_dev_state_t s;
     CHECK_EQ(hg_stream_start(d, 500.0, NULL), HG_OK);
@@ -357,16 +363,13 @@ static void test_garbage_from_device(void)
     CHECK(b.host_bad_framing + b.host_bad_crc >= a.host_bad_framing + a.host_bad_crc + 2);
     CHECK_EQ(b.push_gaps, 0);
     CHECK_EQ(hg_next_push(d, &s, 2.0), HG_OK);
-    CHECK_EQ(hg_close(d), HG_OK);
-    fake_stop(&f);
+    close_fake(&f, d, HG_OK);
 }
 
 static void test_link_lost(void)
 {
     fake_t f;
-    fake_start(&f);
-    hg_dev_t *d = NULL;
-    CHECK_EQ(hg_open(&d, f.slave, 0, 2.0), HG_OK);
+    hg_dev_t *d = open_fake(&f, 0, 2.0);
     CHECK_EQ(hg_enable(d, 1), HG_OK);
     cb_t c = { 0, 1 << 30, 0 };
     CHECK_EQ(hg_loop_start(d, 1000.0, 10, push_down, &c), HG_OK);
@@ -387,16 +390,13 @@ static void test_link_lost(void)
     CHECK_EQ(hg_set_force(d, fz, 10, 0, NULL), HG_E_LINK_LOST);
     CHECK_EQ(hg_next_push(d, &s, 0.1), HG_E_LINK_LOST);
     CHECK_EQ(hg_write_raw(d, "x", 1), HG_E_LINK_LOST);
-    CHECK_EQ(hg_close(d), HG_E_LINK_LOST); /* and frees everything (ASan: no leak) */
-    fake_stop(&f);
+    close_fake(&f, d, HG_E_LINK_LOST); /* and frees everything (ASan: no leak) */
 }
 
 static void test_stream_silence(void)
 {
     fake_t f;
-    fake_start(&f);
-    hg_dev_t *d = NULL;
-    CHECK_EQ(hg_open(&d, f.slave, 0, 0.3), HG_OK);
+    hg_dev_t *d = open_fake(&f, 0, 0.3);
     hg_dev_state_t s;
     CHECK_EQ(hg_stream_start(d, 1000.0, NULL), HG_OK);
     CHECK_EQ(hg_next_push(d, &s, 1.0), HG_OK);
@@ -407,8 +407,7 @@ static void test_stream_silence(void)
         r = hg_next_push(d, &s, 1.0);
     CHECK_EQ(r, HG_E_LINK_LOST);
     CHECK_EQ(hg_get_state(d, &s), HG_E_LINK_LOST); /* the loss is the device's, for good */
-    CHECK_EQ(hg_close(d), HG_E_LINK_LOST);
-    fake_stop(&f);
+    close_fake(&f, d, HG_E_LINK_LOST);
 }
 
 static const struct {
