@@ -18,6 +18,7 @@ from ..base.block import Block, Params
 from ..base.paths import SIM, ensure, locked
 from ..base.tables import write_tables
 from ..flows.flow import param_text
+from . import covbuild
 
 ALL_SIMS = ("verilator", "icarus")
 # Where the simulator writes time: every testbench uses 1 ns / 1 ps.
@@ -74,6 +75,9 @@ def run_cocotb(
     toolenv.apply()
     params = block.params() if params is None else params
     write_tables(params)
+    if sim == "verilator":   # coverage runs (HG_COVERAGE_DIR): flags + sources, own build dir
+        cov_flags, cov_sources = covbuild.extra(block.top)
+        build_args, extra_sources = [*build_args, *cov_flags], [*extra_sources, *cov_sources]
     bdir = build_dir(block, sim, params, build_args)
     runner = get_runner(sim)
     args = list(build_args)
