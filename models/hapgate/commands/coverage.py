@@ -258,7 +258,7 @@ def write_html(info: Path, rs: Sequence[Row], out: Path) -> str:
     return "plain"
 
 
-def report(dat_files: Sequence[Path], seconds: float | None = None) -> list[Row]:
+def report(dat_files: Sequence[Path], ran: str, seconds: float | None = None) -> list[Row]:
     points = covdat.read_all(dat_files)
     rs = rows(points, load_exclusions())
     ensure(OUT)
@@ -273,7 +273,8 @@ def report(dat_files: Sequence[Path], seconds: float | None = None) -> list[Row]
         for r in rs for m in METRICS if any(c == 0 for *_, c in r.items[m]))
     write_text(OUT / "uncovered.md", uncovered)
     write_text(DOC, DOC_HEAD + f"Configuration: `{CONFIG}` (every parameter set the block "
-               f"tests build, merged), from {len(dat_files)} coverage files.\n\n" + tab
+               f"tests build, merged), from {len(dat_files)} coverage files of the tests in {ran}."
+               "\n\n" + tab
                + "\nThe items not covered are listed in `build/reports/coverage/uncovered.md` "
                "after a run.\n")
     print(tab)
@@ -317,6 +318,8 @@ def main(args: argparse.Namespace) -> int:
         cmd = [sys.executable, "-m", "pytest", "-n", str(args.jobs), "-p", "no:cacheprovider",
                "-k", sel, *paths]
         print(f"coverage run: {' '.join(cmd[2:])}  (coverage files: {DAT})", flush=True)
+        write_text(DAT / "ran.txt", ", ".join(f"`{p}`" for p in paths)
+                   + (f" (-k {args.k})" if args.k else ""))
         rc = subprocess.run(cmd, cwd=ROOT, env=os.environ | {covbuild.ENV: str(DAT)}).returncode
         if rc not in (0, 1):
             print(f"pytest exited {rc}: no report", file=sys.stderr)
@@ -326,7 +329,8 @@ def main(args: argparse.Namespace) -> int:
         print(f"no coverage files in {DAT}", file=sys.stderr)
         return 1
     try:
-        report(files, time.perf_counter() - t0)
+        ran = (DAT / "ran.txt").read_text() if (DAT / "ran.txt").exists() else "?"
+        report(files, ran, time.perf_counter() - t0)
     except (BadInput, covdat.CovFormatError) as e:
         print(f"error: {e}", file=sys.stderr)
         return 2
