@@ -4,9 +4,9 @@ Runs the Verilator tests of the blocks (cocotb and native harnesses; Icarus has 
 with HG_COVERAGE_DIR set, so every Verilator build is a coverage build (runners/covbuild.py:
 line, branch, FSM and toggle coverage, counts zeroed at the first reset release, one file per
 simulation process), then merges the files (base/covdat.py), applies
-tb/coverage/exclusions.toml and writes build/reports/coverage/: `table.md` (and the same table
-on stdout), `summary.json`, `coverage.info` (lcov) and `html/` (genhtml, or a plain table page
-without it), and the generated page docs/coverage.md.
+tb/coverage/exclusions.toml and writes build/reports/coverage/: `table-<configuration>.md`
+(and the same tables on stdout), `summary.json`, `coverage.info` (lcov) and `html/` (genhtml,
+or a plain table page without it), and the generated page docs/coverage.md.
 
 Metrics per RTL module: lines (a source line is covered when a line-coverage block on it ran),
 branches (every if/else/case arm), toggles of the module's ports only (each bit's rise and fall
@@ -47,7 +47,12 @@ GROUPS = {"commutation": ["tb/commutation"], "dac_sched": ["tb/dac_sched"],
 DESELECT = "not icarus and not netlist and not gatelevel"
 CATEGORIES = ("UNR", "NON_RTL", "UNSUPPORTED", "EXTERNAL", "LOW_RISK")
 METRICS = ("line", "branch", "toggle", "fsm")
-CONFIG = "suite"   # every parameter set the selected tests build, merged
+# the configurations reported: every parameter set the selected tests build, merged (cocotb
+# and native harness runs); the blocks' default parameter set alone (cocotb runs only)
+CONFIGS = {"suite": "every parameter set the selected tests build, merged (cocotb tests and "
+                    "native harnesses)",
+           "default": "each block's default parameter set, the design the spec describes "
+                      "(cocotb tests only)"}
 
 
 class BadInput(ValueError):
@@ -200,12 +205,12 @@ def table(rs: Sequence[Row]) -> str:
 def summary(rs: Sequence[Row]) -> dict:
     def pct(t: covdat.Tally) -> float | None:
         return None if t.pct is None else round(t.pct, 2)
-    return {CONFIG: {r.module: {"line_pct": pct(r.tally("line")),
+    return {r.module: {"line_pct": pct(r.tally("line")),
                                 "branch_pct": pct(r.tally("branch")),
                                 "toggle_pct": pct(r.tally("toggle")),
                                 "fsm_pct": pct(r.tally("fsm")),
                                 "functional_pct": None, "excluded": r.excluded}
-                     for r in rs}}
+                     for r in rs}
 
 
 def lcov_info(rs: Sequence[Row]) -> str:
@@ -258,13 +263,30 @@ def write_html(info: Path, rs: Sequence[Row], out: Path) -> str:
     return "plain"
 
 
-def report(dat_files: Sequence[Path], ran: str, seconds: float | None = None) -> list[Row]:
-    points = covdat.read_all(dat_files)
-    rs = rows(points, load_exclusions())
+def config_files(dat: Path = DAT) -> dict[str, list[Path]]:
+    """The coverage files of each configuration (see CONFIGS and runners/covbuild.run_dir)."""
+    return {"suite": sorted(dat.rglob("sim-*")),
+            "default": sorted((dat / "default").glob("sim-*"))}
+
+
+def report(files: dict[str, list[Path]], ran: str, seconds: float | None = None
+           ) -> dict[str, list[Row]]:
+    exclusions = load_exclusions()
     ensure(OUT)
-    tab = table(rs)
-    write_text(OUT / "table.md", tab)
-    write_text(OUT / "summary.json", json.dumps(summary(rs), indent=2) + "\n")
+    out: dict[str, list[Row]] = {}
+    doc = [DOC_HEAD, f"From the tests in {ran}.\n"]
+    for cfg, fs in files.items():
+        if not fs:
+            continue
+        rs = out[cfg] = rows(covdat.read_all(fs), exclusions)
+        tab = table(rs)
+        write_text(OUT / f"table-{cfg}.md", tab)
+        doc.append(f"\n## Configuration `{cfg}`\n\n{CONFIGS[cfg]}; {len(fs)} coverage "
+                   f"files.\n\n{tab}")
+        print(f"configuration {cfg} ({len(fs)} files): {CONFIGS[cfg]}\n{tab}")
+    write_text(OUT / "summary.json", json.dumps(
+        {cfg: summary(rs) for cfg, rs in out.items()}, indent=2) + "\n")
+    rs = out["suite"]
     info = OUT / "coverage.info"
     write_text(info, lcov_info(rs))
     how = write_html(info, rs, OUT / "html")
@@ -272,16 +294,12 @@ def report(dat_files: Sequence[Path], ran: str, seconds: float | None = None) ->
         f"- `{r.module}` {m}: " + ", ".join(lab for lab, _, c in r.items[m] if c == 0) + "\n"
         for r in rs for m in METRICS if any(c == 0 for *_, c in r.items[m]))
     write_text(OUT / "uncovered.md", uncovered)
-    write_text(DOC, DOC_HEAD + f"Configuration: `{CONFIG}` (every parameter set the block "
-               f"tests build, merged), from {len(dat_files)} coverage files of the tests in {ran}."
-               "\n\n" + tab
-               + "\nThe items not covered are listed in `build/reports/coverage/uncovered.md` "
-               "after a run.\n")
-    print(tab)
-    print(f"{len(dat_files)} coverage files; report: {OUT} (html: {how}, "
-          f"{OUT / 'html' / 'index.html'})"
+    doc.append("\nThe items not covered (configuration `suite`) are listed in "
+               "`build/reports/coverage/uncovered.md` after a run.\n")
+    write_text(DOC, "".join(doc))
+    print(f"report: {OUT} (lcov and html of `suite`: {how}, {OUT / 'html' / 'index.html'})"
           + (f"; {seconds:.0f} s" if seconds is not None else ""))
-    return rs
+    return out
 
 
 DOC_HEAD = """# Coverage
@@ -324,8 +342,8 @@ def main(args: argparse.Namespace) -> int:
         if rc not in (0, 1):
             print(f"pytest exited {rc}: no report", file=sys.stderr)
             return rc
-    files = sorted(DAT.glob("sim-*"))
-    if not files:
+    files = config_files()
+    if not files["suite"]:
         print(f"no coverage files in {DAT}", file=sys.stderr)
         return 1
     try:

@@ -22,6 +22,9 @@ from ..base import cache
 from ..base.paths import BUILD, TB
 
 ENV = "HG_COVERAGE_DIR"
+# a run's own folder, read before ENV (cocotb's runner lets the inherited environment win over
+# a test's extra_env, so the folder of one run needs a name of its own)
+RUN_ENV = "HG_COVERAGE_RUN_DIR"
 FLAGS = ("--coverage-line", "--coverage-toggle", "--coverage-fsm")
 ZERO = TB / "coverage" / "cov_zero.sv"
 # the reset of a top whose reset is not `rst` (the board tops' active-low pin)
@@ -32,6 +35,18 @@ def active() -> Path | None:
     """The directory coverage files go to, when this is a coverage run."""
     d = os.environ.get(ENV)
     return Path(d) if d else None
+
+
+def run_dir(default_params: bool) -> Path | None:
+    """Where a cocotb run's files go: <dir>/default for the block's default parameter set (the
+    design the spec describes), <dir>/other for any other; None outside a coverage run.
+    (Native harness runs write to <dir> itself: they count in the merged `suite` table only.)"""
+    d = active()
+    if d is None:
+        return None
+    sub = d / ("default" if default_params else "other")
+    sub.mkdir(parents=True, exist_ok=True)
+    return sub
 
 
 def bind_file(top: str) -> Path:
