@@ -97,8 +97,8 @@ def run_cocotb(
     name = re.sub(r"[^A-Za-z0-9_.-]+", "_", os.environ.get("PYTEST_CURRENT_TEST", test_module))
     tdir = ensure(bdir / "runs" / name[:120])
     env = {"HG_PARAMS": json.dumps({k: param_text(v) for k, v in params.items()})}
-    if sim == "verilator" and (cdir := covbuild.run_dir(
-            _tag(params, ()) == _tag(block.params(), ()))) is not None:
+    if sim == "verilator" and covbuild.active() is not None:   # default parameters or not
+        cdir = covbuild.run_dir(_tag(params, ()) == _tag(block.params(), ()))
         env[covbuild.RUN_ENV] = str(cdir)
     env |= dict(extra_env or {})
     if str(test_dir_of) not in sys.path:  # the runner passes sys.path on as PYTHONPATH
