@@ -25,7 +25,9 @@ ENV = "HG_COVERAGE_DIR"
 # a run's own folder, read before ENV (cocotb's runner lets the inherited environment win over
 # a test's extra_env, so the folder of one run needs a name of its own)
 RUN_ENV = "HG_COVERAGE_RUN_DIR"
-FLAGS = ("--coverage-line", "--coverage-toggle", "--coverage-fsm")
+# (no --coverage-fsm: the 5.048 wheel stops with an internal error, "AstNode is not of expected
+# type, but instead has type 'SEL'", at rtl/bus/hg_regfile.v:159 when it is on)
+FLAGS = ("--coverage-line", "--coverage-toggle")
 ZERO = TB / "coverage" / "cov_zero.sv"
 # the reset of a top whose reset is not `rst` (the board tops' active-low pin)
 RESETS = {"hapgate_ice40_hx8k": "!rst_n", "hapgate_ecp5_evn": "!rst_n"}
