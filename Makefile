@@ -17,6 +17,9 @@
 #   make gatelevel the board tops' post-synthesis netlists beside their RTL (minutes)
 #   make versions the tools in use, with their paths
 #   make mutants  mutation testing: every bug in tb/mutants/mutants.toml must be killed (long)
+#   make coverage code coverage of the RTL from the block tests on Verilator: table, summary.json,
+#                 lcov and HTML in build/reports/coverage/, docs/coverage.md (long)
+#                 (COVERAGE_ARGS="--only dac_sched" runs some block folders)
 #   make formal   SymbiYosys proofs (tb/formal/) and the broken copies each must reject
 #   make regs     regenerate the register header/document from rtl/regs/hapgate.rdl
 SHELL   := bash
@@ -27,7 +30,7 @@ HG      := $(VENV)/bin/hapgate
 PYTEST  := $(VENV)/bin/pytest
 PYTEST_ARGS ?= -n auto
 
-.PHONY: all host venv deps demo test lint bench docs soak versions synth gatelevel formal regs mutants clean distclean
+.PHONY: all host venv deps demo test lint bench docs soak versions synth gatelevel formal regs mutants coverage clean distclean
 
 all: venv host
 
@@ -70,6 +73,10 @@ docs: $(STAMP)
 # Mutation testing (not part of `make test`): MUTANTS_ARGS="--only NAME ..." or "--jobs 2"
 mutants: $(STAMP)
 	$(HG) mutants $(MUTANTS_ARGS)
+
+# Code coverage (not part of `make test`; its builds are separate ones): genhtml needs deps
+coverage: deps $(STAMP)
+	$(HG) coverage $(COVERAGE_ARGS)
 
 SOAK_WORKERS ?= 2
 soak: $(STAMP)

@@ -9,6 +9,8 @@ PACKAGES=(
     # chromedriver at /usr/bin/chromedriver)
     chromium
     chromium-driver
+    # make coverage: genhtml (lcov) makes the HTML report from build/reports/coverage/coverage.info
+    lcov
     # (more packages: one line each, with the tests that need them above it)
 )
 

@@ -12,7 +12,18 @@ from ..base import toolenv
 from ..base.report import table
 from ..flows import blocks, boards, flow, fusesoc, stage
 from ..runners.sim import MissingSimulator, simulators
-from . import bench, demo, device, harm, mutants, replay_commutation, replay_interp, scene, sweep
+from . import (
+    bench,
+    coverage,
+    demo,
+    device,
+    harm,
+    mutants,
+    replay_commutation,
+    replay_interp,
+    scene,
+    sweep,
+)
 from . import view as view_cmd
 
 REPLAY = {"interp": replay_interp, "commutation": replay_commutation}
@@ -168,6 +179,11 @@ def main(argv: list[str] | None = None) -> int:
                         "must be killed by its tests (long; not in make test)")
     mutants.add_arguments(mp)
     mp.set_defaults(fn=mutants.main)
+
+    cp = sub.add_parser("coverage", help="code coverage of the RTL from the block tests on "
+                        "Verilator (build/reports/coverage/; long)")
+    coverage.add_arguments(cp)
+    cp.set_defaults(fn=coverage.main)
 
     scene.add_arguments(sub.add_parser(
         "scene", help="virtual-device scenes: run FILE [--out DIR] | check FILE..."))

@@ -29,6 +29,7 @@ from ..base.tables import write_tables
 from ..flows.flow import param_text
 from ..golden import enccal, interp
 from ..golden.interp import InterpConfig
+from . import covbuild
 
 HARNESS = TB / "native" / "interp" / "interp_harness.cpp"
 SOURCES = [RTL / "interp" / "enc_calib.v", RTL / "interp" / "ratio_div.v",
@@ -68,6 +69,8 @@ def verilate_harness(name: str, top: str, sources: Sequence[Path], params: Param
     bit (tb/device/test_closed_loop.py checks it), only faster."""
     toolenv.apply()
     write_tables(params)
+    cov_flags, cov_sources = covbuild.extra(top)   # coverage runs only (HG_COVERAGE_DIR)
+    vflags, sources = [*vflags, *cov_flags], [*sources, *cov_sources]
     key = cache.digest(
         files=[*sources, *harness, *inputs],
         data={k: param_text(v) for k, v in sorted(params.items())} |

@@ -18,6 +18,7 @@ from ..base.block import Block, Params
 from ..base.paths import SIM, ensure, locked
 from ..base.tables import write_tables
 from ..flows.flow import param_text
+from . import covbuild
 
 ALL_SIMS = ("verilator", "icarus")
 # Where the simulator writes time: every testbench uses 1 ns / 1 ps.
@@ -74,6 +75,9 @@ def run_cocotb(
     toolenv.apply()
     params = block.params() if params is None else params
     write_tables(params)
+    if sim == "verilator":   # coverage runs (HG_COVERAGE_DIR): flags + sources, own build dir
+        cov_flags, cov_sources = covbuild.extra(block.top)
+        build_args, extra_sources = [*build_args, *cov_flags], [*extra_sources, *cov_sources]
     bdir = build_dir(block, sim, params, build_args)
     runner = get_runner(sim)
     args = list(build_args)
@@ -93,6 +97,9 @@ def run_cocotb(
     name = re.sub(r"[^A-Za-z0-9_.-]+", "_", os.environ.get("PYTEST_CURRENT_TEST", test_module))
     tdir = ensure(bdir / "runs" / name[:120])
     env = {"HG_PARAMS": json.dumps({k: param_text(v) for k, v in params.items()})}
+    if sim == "verilator" and covbuild.active() is not None:   # default parameters or not
+        cdir = covbuild.run_dir(_tag(params, ()) == _tag(block.params(), ()))
+        env[covbuild.RUN_ENV] = str(cdir)
     env |= dict(extra_env or {})
     if str(test_dir_of) not in sys.path:  # the runner passes sys.path on as PYTHONPATH
         sys.path.insert(0, str(test_dir_of))

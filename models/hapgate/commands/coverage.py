@@ -1,0 +1,362 @@
+"""`make coverage` (= `hapgate coverage`): code coverage of the RTL from the suite's own tests.
+
+Runs the Verilator tests of the blocks (cocotb and native harnesses; Icarus has no coverage)
+with HG_COVERAGE_DIR set, so every Verilator build is a coverage build (runners/covbuild.py:
+line, branch and toggle coverage, counts zeroed at the first reset release, one file per
+simulation process), then merges the files (base/covdat.py), applies
+tb/coverage/exclusions.toml and writes build/reports/coverage/: `table-<configuration>.md`
+(and the same tables on stdout), `summary.json`, `coverage.info` (lcov) and `html/` (genhtml,
+or a plain table page without it), and the generated page docs/coverage.md.
+
+Metrics per RTL module: lines (a source line is covered when a line-coverage block on it ran),
+branches (every if/else/case arm), toggles of the module's ports only (each bit's rise and fall
+are two items). No FSM coverage: the wheel's --coverage-fsm fails on the bus (covbuild.py).
+"""
+
+from __future__ import annotations
+
+import argparse
+import html
+import json
+import os
+import re
+import shutil
+import subprocess
+import sys
+import time
+from collections.abc import Sequence
+from dataclasses import dataclass
+from pathlib import Path
+
+import tomllib
+
+from ..base import covdat
+from ..base.atomic import write_bytes as write_text
+from ..base.paths import BUILD, REPORTS, ROOT, RTL, TB, ensure
+from ..runners import covbuild
+
+OUT = REPORTS / "coverage"
+DAT = BUILD / "coverage" / "dat"
+EXCLUSIONS = TB / "coverage" / "exclusions.toml"
+DOC = ROOT / "docs" / "coverage.md"
+# test groups: the block test folders (cocotb tests and native harness tests alike)
+GROUPS = {"commutation": ["tb/commutation"], "dac_sched": ["tb/dac_sched"],
+          "interp": ["tb/interp"], "bus": ["tb/bus"], "top": ["tb/top"]}
+# what a coverage run leaves out: Icarus (no coverage), netlist and gate-level simulations
+# (their sources are Yosys output, not rtl/)
+DESELECT = "not icarus and not netlist and not gatelevel"
+CATEGORIES = ("UNR", "NON_RTL", "UNSUPPORTED", "EXTERNAL", "LOW_RISK")
+METRICS = ("line", "branch", "toggle")
+# the configurations reported: every parameter set the selected tests build, merged (cocotb
+# and native harness runs); the blocks' default parameter set alone (cocotb runs only)
+CONFIGS = {"suite": "every parameter set the selected tests build, merged (cocotb tests and "
+                    "native harnesses)",
+           "default": "each block's default parameter set, the design the spec describes "
+                      "(cocotb tests only)"}
+
+
+class BadInput(ValueError):
+    """Bad input file: the message names it (exit 2)."""
+
+
+@dataclass(frozen=True)
+class Exclusion:
+    module: str
+    metric: str
+    category: str
+    reason: str
+    line: int | None = None
+    signal: str | None = None
+
+
+def load_exclusions(path: Path = EXCLUSIONS) -> list[Exclusion]:
+    """The reviewed exclusions; unknown keys, categories or metrics are refused with the file."""
+    try:
+        data = tomllib.loads(path.read_text())
+    except tomllib.TOMLDecodeError as e:
+        raise BadInput(f"{path}: {e}") from None
+    unknown = set(data) - {"exclude"}
+    if unknown:
+        raise BadInput(f"{path}: unknown keys {sorted(unknown)} (only [[exclude]] tables)")
+    out = []
+    for i, e in enumerate(data.get("exclude", []), start=1):
+        where = f"{path}: [[exclude]] #{i}"
+        extra = set(e) - {"module", "metric", "category", "reason", "line", "signal"}
+        if extra:
+            raise BadInput(f"{where}: unknown keys {sorted(extra)}")
+        for k in ("module", "metric", "category", "reason"):
+            if not isinstance(e.get(k), str) or not e[k].strip():
+                raise BadInput(f"{where}: `{k}` must be a non-empty string")
+        if e["category"] not in CATEGORIES:
+            raise BadInput(f"{where}: category {e['category']!r} not one of {CATEGORIES}")
+        if e["metric"] not in METRICS:
+            raise BadInput(f"{where}: metric {e['metric']!r} not one of {METRICS}")
+        if e["metric"] == "toggle" and not isinstance(e.get("signal"), str):
+            raise BadInput(f"{where}: a toggle exclusion names its port (`signal`)")
+        if e["metric"] in ("line", "branch") and not isinstance(e.get("line"), int):
+            raise BadInput(f"{where}: a {e['metric']} exclusion names its source `line`")
+        out.append(Exclusion(**e))
+    return out
+
+
+def module_ports(src: Path, module: str) -> list[str]:
+    """The port names of `module` in `src` (the ANSI header of the Verilog-2005 RTL)."""
+    text = re.sub(r"//[^\n]*|/\*.*?\*/", " ", src.read_text(), flags=re.S)
+    m = re.search(rf"\bmodule\s+{re.escape(module)}\b", text)
+    if m is None:
+        return []
+    i = m.end()
+
+    def group(j: int) -> int:           # index after the parenthesised group starting at j
+        depth = 0
+        for k in range(j, len(text)):
+            depth += {"(": 1, ")": -1}.get(text[k], 0)
+            if depth == 0:
+                return k + 1
+        return len(text)
+
+    rest = text[i:].lstrip()
+    i = len(text) - len(rest)
+    if rest.startswith("#"):
+        i = group(text.index("(", i))
+    j = text.index("(", i)
+    header = text[j + 1:group(j) - 1]
+    names = []
+    for piece in header.split(","):
+        piece = re.sub(r"\[[^\]]*\]", " ", piece)
+        ids = re.findall(r"[A-Za-z_]\w*", piece)
+        if ids:
+            names.append(ids[-1])
+    return names
+
+
+@dataclass
+class Row:
+    module: str
+    file: str
+    items: dict[str, list[tuple[str, int, int]]]   # metric -> (label, line, count)
+    excluded: int
+
+    def tally(self, metric: str) -> covdat.Tally:
+        got = self.items.get(metric, [])
+        return covdat.Tally(sum(1 for *_, c in got if c > 0), len(got))
+
+
+def rows(points: Sequence[covdat.Point], exclusions: Sequence[Exclusion]) -> list[Row]:
+    """One row per RTL module (sources under rtl/), exclusions applied (each must match).
+    Verilator names a module built with other parameters `<module>__<tag>`: those are merged
+    into the module's row (the same point in several parameter sets: counts summed)."""
+    def plain(p: covdat.Point) -> covdat.Point:
+        keys = tuple((k, v.split("__")[0]) if k == "page" else (k, v) for k, v in p.keys)
+        return covdat.Point(keys, p.count, p.hier)
+
+    by_mod: dict[str, list[covdat.Point]] = {}
+    rtl = [plain(p) for p in points if Path(p.file).resolve().is_relative_to(RTL.resolve())]
+    for p in covdat.merge([rtl]):
+        by_mod.setdefault(p.module, []).append(p)
+    used = [0] * len(exclusions)
+    out = []
+    for mod in sorted(by_mod):
+        pts = by_mod[mod]
+        src = Path(pts[0].file)
+        ports = set(module_ports(src, mod))
+        items: dict[str, list[tuple[str, int, int]]] = {
+            "line": [(f"line {ln}", ln, c)
+                     for (_, ln), c in sorted(covdat.line_counts(pts).items())],
+            "branch": [(f"{p.comment} @{p.line}:{p.get('n')}", p.line, p.count)
+                       for p in covdat.branches(pts)],
+            "toggle": [(p.comment, p.line, p.count) for p in covdat.toggles(pts, ports)],
+        }
+        n_ex = 0
+        for k, ex in enumerate(exclusions):
+            if ex.module != mod:
+                continue
+            keep = []
+            for it in items[ex.metric]:
+                hit = (covdat.signal_of(it[0]) == ex.signal if ex.metric == "toggle"
+                       else it[1] == ex.line)
+                if hit:
+                    used[k] += 1
+                    n_ex += 1
+                else:
+                    keep.append(it)
+            items[ex.metric] = keep
+        out.append(Row(mod, str(src), items, n_ex))
+    stale = [exclusions[k] for k, n in enumerate(used) if n == 0]
+    if stale:
+        raise BadInput(f"{EXCLUSIONS}: exclusions that match nothing: "
+                       + "; ".join(f"{e.module} {e.metric} {e.line or e.signal}" for e in stale))
+    return out
+
+
+def _fmt(t: covdat.Tally) -> str:
+    return "—" if t.total == 0 else f"{t.covered}/{t.total} ({t.pct:.1f} %)"
+
+
+def table(rs: Sequence[Row]) -> str:
+    head = ("| module | lines | branches | port toggles | excluded |\n"
+            "|---|---|---|---|---|\n")
+    return head + "".join(
+        f"| `{r.module}` | {_fmt(r.tally('line'))} | {_fmt(r.tally('branch'))} | "
+        f"{_fmt(r.tally('toggle'))} | {r.excluded} |\n" for r in rs)
+
+
+def summary(rs: Sequence[Row]) -> dict:
+    def pct(t: covdat.Tally) -> float | None:
+        return None if t.pct is None else round(t.pct, 2)
+    return {r.module: {"line_pct": pct(r.tally("line")),
+                                "branch_pct": pct(r.tally("branch")),
+                                "toggle_pct": pct(r.tally("toggle")),
+                                "functional_pct": None, "excluded": r.excluded}
+                     for r in rs}
+
+
+def lcov_info(rs: Sequence[Row]) -> str:
+    """lcov tracefile: per source file its lines (DA) and branch arms (BRDA), exclusions out."""
+    by_file: dict[str, list[Row]] = {}
+    for r in rs:
+        by_file.setdefault(r.file, []).append(r)
+    out = ["TN:hapgate"]
+    for f, frs in sorted(by_file.items()):
+        da = sorted({(ln, c) for r in frs for _, ln, c in r.items["line"]})
+        br = sorted((ln, c) for r in frs for _, ln, c in r.items["branch"])
+        out.append(f"SF:{f}")
+        out += [f"DA:{ln},{c}" for ln, c in da]
+        out.append(f"LF:{len(da)}\nLH:{sum(1 for _, c in da if c)}")
+        arm: dict[int, int] = {}
+        for ln, c in br:
+            arm[ln] = arm.get(ln, -1) + 1
+            out.append(f"BRDA:{ln},0,{arm[ln]},{c}")
+        out.append(f"BRF:{len(br)}\nBRH:{sum(1 for _, c in br if c)}\nend_of_record")
+    return "\n".join(out) + "\n"
+
+
+def write_html(info: Path, rs: Sequence[Row], out: Path) -> str:
+    """genhtml's report when lcov is installed, else one plain page of the table and the
+    uncovered items. Returns which."""
+    if out.exists():
+        shutil.rmtree(out)
+    genhtml = shutil.which("genhtml")
+    if genhtml:
+        r = subprocess.run([genhtml, "-q", "--rc", "lcov_branch_coverage=1", "-o", str(out),
+                            "--title", "hapgate RTL coverage", str(info)],
+                           capture_output=True, text=True)
+        if r.returncode == 0:
+            return "genhtml"
+        print(f"genhtml refused {info} ({r.stderr.strip()[-300:]}); writing a plain page",
+              file=sys.stderr)
+    ensure(out)
+    body = ["<h1>hapgate RTL coverage</h1><table border=1><tr><th>module<th>lines<th>branches"
+            "<th>port toggles<th>excluded</tr>"]
+    for r in rs:
+        body.append(f"<tr><td>{html.escape(r.module)}" + "".join(
+            f"<td>{_fmt(r.tally(m))}" for m in METRICS) + f"<td>{r.excluded}</tr>")
+    body.append("</table>")
+    for r in rs:
+        miss = [f"{m}: {lab}" for m in METRICS for lab, _, c in r.items[m] if c == 0]
+        if miss:
+            body.append(f"<h2>{html.escape(r.module)} — not covered</h2><pre>"
+                        + html.escape("\n".join(miss)) + "</pre>")
+    write_text(out / "index.html", "<!doctype html><meta charset=utf-8>\n" + "\n".join(body))
+    return "plain"
+
+
+def config_files(dat: Path = DAT) -> dict[str, list[Path]]:
+    """The coverage files of each configuration (see CONFIGS and runners/covbuild.run_dir)."""
+    return {"suite": sorted(dat.rglob("sim-*")),
+            "default": sorted((dat / "default").glob("sim-*"))}
+
+
+def report(files: dict[str, list[Path]], ran: str, seconds: float | None = None
+           ) -> dict[str, list[Row]]:
+    exclusions = load_exclusions()
+    ensure(OUT)
+    out: dict[str, list[Row]] = {}
+    doc = [DOC_HEAD, f"From the tests in {ran}.\n"]
+    for cfg, fs in files.items():
+        if not fs:
+            continue
+        rs = out[cfg] = rows(covdat.read_all(fs), exclusions)
+        tab = table(rs)
+        write_text(OUT / f"table-{cfg}.md", tab)
+        doc.append(f"\n## Configuration `{cfg}`\n\n{CONFIGS[cfg]}; {len(fs)} coverage "
+                   f"files.\n\n{tab}")
+        print(f"configuration {cfg} ({len(fs)} files): {CONFIGS[cfg]}\n{tab}")
+    write_text(OUT / "summary.json", json.dumps(
+        {cfg: summary(rs) for cfg, rs in out.items()}, indent=2) + "\n")
+    rs = out["suite"]
+    info = OUT / "coverage.info"
+    write_text(info, lcov_info(rs))
+    how = write_html(info, rs, OUT / "html")
+    uncovered = "".join(
+        f"- `{r.module}` {m}: " + ", ".join(lab for lab, _, c in r.items[m] if c == 0) + "\n"
+        for r in rs for m in METRICS if any(c == 0 for *_, c in r.items[m]))
+    write_text(OUT / "uncovered.md", uncovered)
+    doc.append("\nThe items not covered (configuration `suite`) are listed in "
+               "`build/reports/coverage/uncovered.md` after a run.\n")
+    write_text(DOC, "".join(doc))
+    print(f"report: {OUT} (lcov and html of `suite`: {how}, {OUT / 'html' / 'index.html'})"
+          + (f"; {seconds:.0f} s" if seconds is not None else ""))
+    return out
+
+
+DOC_HEAD = """# Coverage
+
+<!-- generated by `make coverage` (hapgate.commands.coverage); do not edit by hand -->
+
+Code coverage of the RTL by the block tests on Verilator: how it is measured is in
+[verification.md](verification.md#coverage-make-coverage). Lines, branches (every if/else/case
+arm) and toggles of each module's ports (a bit's rise and fall count as two items), as
+covered / total.
+
+"""
+
+
+def add_arguments(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--only", nargs="+", choices=sorted(GROUPS), metavar="GROUP",
+                   help=f"test groups to run (default: all of {', '.join(GROUPS)})")
+    p.add_argument("--jobs", default="2", help="pytest-xdist workers (-n; default 2)")
+    p.add_argument("--report-only", action="store_true",
+                   help="no tests: report the coverage files of the last run")
+    p.add_argument("-k", dest="k", default=None,
+                   help="a further pytest -k expression (e.g. a quick subset)")
+
+
+def main(args: argparse.Namespace) -> int:
+    t0 = time.perf_counter()
+    rc = 0
+    if not args.report_only:
+        if DAT.exists():
+            shutil.rmtree(DAT)
+        ensure(DAT)
+        paths = [p for g in (args.only or GROUPS) for p in GROUPS[g]]
+        sel = DESELECT + (f" and ({args.k})" if args.k else "")
+        cmd = [sys.executable, "-m", "pytest", "-n", str(args.jobs), "-p", "no:cacheprovider",
+               "-k", sel, *paths]
+        print(f"coverage run: {' '.join(cmd[2:])}  (coverage files: {DAT})", flush=True)
+        write_text(DAT / "ran.txt", ", ".join(f"`{p}`" for p in paths)
+                   + (f" (-k {args.k})" if args.k else ""))
+        rc = subprocess.run(cmd, cwd=ROOT, env=os.environ | {covbuild.ENV: str(DAT)}).returncode
+        if rc not in (0, 1):
+            print(f"pytest exited {rc}: no report", file=sys.stderr)
+            return rc
+    files = config_files()
+    if not files["suite"]:
+        print(f"no coverage files in {DAT}", file=sys.stderr)
+        return 1
+    try:
+        ran = (DAT / "ran.txt").read_text() if (DAT / "ran.txt").exists() else "?"
+        report(files, ran, time.perf_counter() - t0)
+    except (BadInput, covdat.CovFormatError) as e:
+        print(f"error: {e}", file=sys.stderr)
+        return 2
+    if rc:
+        print("some tests failed: the report counts what ran", file=sys.stderr)
+    return rc
+
+
+if __name__ == "__main__":
+    ap = argparse.ArgumentParser(prog="python -m hapgate.commands.coverage",
+                                 description=__doc__.splitlines()[0])
+    add_arguments(ap)
+    sys.exit(main(ap.parse_args()))
