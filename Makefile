@@ -28,7 +28,7 @@ VENV    := .venv
 STAMP   := $(VENV)/.installed
 HG      := $(VENV)/bin/hapgate
 PYTEST  := $(VENV)/bin/pytest
-PYTEST_ARGS ?= -n auto
+PYTEST_ARGS ?= -n auto --durations=15
 
 .PHONY: all host venv deps demo test lint bench docs soak versions synth gatelevel formal regs mutants coverage clean distclean
 
