@@ -95,7 +95,7 @@ def wait_state(url: str, cond, timeout: float = BUILD_S, every: float = 0.02) ->
 
 
 @pytest.fixture(scope="module")
-def browser() -> Iterator:
+def chrome() -> Iterator:
     assert CHROMEDRIVER.exists() and shutil.which("chromium"), \
         "Debian's chromium and chromium-driver are missing: run tb/debian-deps.sh as root"
     from selenium import webdriver
@@ -103,26 +103,47 @@ def browser() -> Iterator:
 
     opts = webdriver.ChromeOptions()
     for a in ("--headless=new", "--no-sandbox", "--disable-dev-shm-usage",
-              "--window-size=1400,900", "--enable-unsafe-swiftshader", "--use-angle=swiftshader"):
+              "--window-size=1200,800", "--enable-unsafe-swiftshader", "--use-angle=swiftshader"):
         opts.add_argument(a)
     opts.binary_location = shutil.which("chromium")
+    # get() returns at once: open_page waits for the text it needs, on a loaded machine too
+    opts.page_load_strategy = "none"
     opts.set_capability("goog:loggingPrefs", {"browser": "ALL"})
     # the driver from Debian, named explicitly: selenium-manager never runs (no downloads)
     d = webdriver.Chrome(service=Service(str(CHROMEDRIVER)), options=opts)
     d.set_page_load_timeout(120)
+    d.command_executor.client_config.timeout = 120    # no driver call waits for ever
     yield d
     d.quit()
+
+
+@pytest.fixture
+def browser(chrome) -> Iterator:
+    """The browser for one test; afterwards a blank page, so that no 3-D page goes on
+    rendering (software WebGL takes a core) while the next tests run."""
+    yield chrome
+    blank(chrome)
+
+
+def blank(browser, timeout: float = 120) -> None:
+    """A blank page, loaded (get() returns at once: page_load_strategy none)."""
+    browser.get("about:blank")
+    t0 = time.monotonic()
+    while browser.execute_script("return document.URL") != "about:blank":
+        assert time.monotonic() - t0 < timeout, "about:blank never loaded"
+        time.sleep(0.05)
 
 
 def open_page(browser, url: str, text: str, timeout: float = 120) -> str:
     """Load the page, wait until its body shows `text`; the body's text. (The log of the
     page before, whose server may be gone, is drained first.)"""
-    browser.get("about:blank")
+    blank(browser)
     browser.get_log("browser")
     browser.get(url)
     t0 = time.monotonic()
+    body = ""
     while time.monotonic() - t0 < timeout:
-        body = browser.find_element("tag name", "body").text
+        body = browser.execute_script("return document.body ? document.body.innerText : ''")
         if text in body:
             return body
         time.sleep(0.2)
@@ -276,7 +297,7 @@ def test_pause_stops_time_and_forces_off_zeroes_the_torque(tmp_path, browser) ->
 
 
 def test_device_serve_view(browser) -> None:
-    proc = Proc(["device", "serve", "--axes", "1", "--pace", "free", "--view"])
+    proc = Proc(["device", "serve", "--axes", "1", "--pace", "realtime", "--view"])
     try:
         port = proc.wait_line("port: ")
         url = proc.wait_line("view: ", timeout=120)
