@@ -98,7 +98,7 @@ def run_cocotb(
     tdir = ensure(bdir / "runs" / name[:120])
     env = {"HG_PARAMS": json.dumps({k: param_text(v) for k, v in params.items()})}
     if sim == "verilator" and covbuild.active() is not None:   # default parameters or not
-        cdir = covbuild.run_dir(_tag(params, ()) == _tag(block.params(), ()))
+        cdir = covbuild.run_dir(_tag(params, ()) == _tag(block.params(), ()), block.top)
         env[covbuild.RUN_ENV] = str(cdir)
     env |= dict(extra_env or {})
     if str(test_dir_of) not in sys.path:  # the runner passes sys.path on as PYTHONPATH
