@@ -183,9 +183,11 @@ typedef struct {
     int32_t torque;          /* code for the active axis                                      */
     bool drive;
     /* per-step working state */
-    double t_field;          /* field angle, 1/1024 elec. cycle, unwrapped                    */
-    double field_end;
-    double s_x, s_y, s_xx, s_xy, s_n;     /* ALIGN: count vs field line fit                */
+    double t_field;          /* ALIGN field angle, 1/1024 elec. cycle, unwrapped              */
+    double scan_end;         /* ALIGN: where the forward ramp turns                           */
+    double target;           /* HOME / RETURN: the rotor's target, counts from the step start */
+    double path;             /* HOME: path the target covered, counts                         */
+    double s_x, s_y, s_xx, s_xy, s_n;     /* ALIGN: count vs field line fit sums          */
     /* ALIGN: circular sums of (field - s * u), [s = +1, s = -1][all, forward, back][cos, sin] */
     double align_cs[2][3][2];
     int32_t p_min, p_max;
@@ -196,12 +198,13 @@ typedef struct {
     double id_ata[HG_BU_ID_N][HG_BU_ID_N], id_aty[HG_BU_ID_N], id_yty;
     double id_row[HG_BU_ID_N], id_y;      /* IDENT: the window being integrated            */
     double id_x[3];                       /* IDENT: last three positions (rad)             */
-    double id_v_start;
-    uint32_t id_win;
-    double id_phase[6];
-    double id_tau_prev;
-    double id_xmax;
-    uint32_t id_seed;
+    double id_v_start, id_x_start;        /* IDENT: v and x at the window start          */
+    double id_tau_now;                    /* IDENT: torque written this tick (N m)       */
+    uint32_t id_win;                      /* IDENT: intervals since the first boundary   */
+    double id_phase[6];                   /* IDENT: multisine phases (from the seed)     */
+    double id_tau_prev;                   /* IDENT: torque written the tick before       */
+    double id_xmax;                       /* IDENT: largest |x| seen (rad)               */
+    uint32_t id_seed;                     /* IDENT: hg_bringup_start's seed              */
 } hg_bringup_t;
 
 void hg_bringup_default_cfg(hg_bringup_cfg_t *c);

@@ -122,9 +122,9 @@ static int32_t tau_code(const hg_bringup_t *b, double tau)
     return (int32_t)(x < 0.0 ? x - 0.5 : x + 0.5);
 }
 
-static void set_check(hg_bringup_t *b, unsigned id, double value, double limit)
+static void set_check(hg_bringup_t *b, unsigned axis, unsigned id, double value, double limit)
 {
-    hg_bu_check_t *c = &b->res[b->axis].chk[id];
+    hg_bu_check_t *c = &b->res[axis].chk[id];
     c->value = (float)value;
     c->limit = (float)limit;
     c->done = 1;
@@ -245,8 +245,8 @@ static bool rotor_follows(hg_bringup_t *b)
     const unsigned a = b->axis;
     const double cpe = (double)HG_ENC_COUNTS_PER_REV / (double)b->cfg.pole_pairs;
     const double pos = (double)(int32_t)((uint32_t)b->pos[a] - (uint32_t)b->p_start[a]);
-    if (fabs(pos - b->field_end) > cpe / 4.0) {
-        fail(b, HG_BU_ERR_NO_MOVE, fabs(pos - b->field_end) * 360.0 / cpe, 90.0);
+    if (fabs(pos - b->target) > cpe / 4.0) {
+        fail(b, HG_BU_ERR_NO_MOVE, fabs(pos - b->target) * 360.0 / cpe, 90.0);
         return false;
     }
     return true;
@@ -264,16 +264,16 @@ static void return_tick(hg_bringup_t *b)
     const double speed = fabs((double)b->vel[a]) / counts_per_rad(b);
     if (!rotor_follows(b))
         return;
-    if (fabs(b->field_end - ref) <= step) {
-        b->field_end = ref;
+    if (fabs(b->target - ref) <= step) {
+        b->target = ref;
         if (fabs(pos - ref) < cpe / 64.0 && speed < 0.01 * (double)b->cfg.speed_max) {
             finish(b);
             return;
         }
     } else {
-        b->field_end += b->field_end < ref ? step : -step;
+        b->target += b->target < ref ? step : -step;
     }
-    field_at_count(b, (double)b->p_start[a] + b->field_end);
+    field_at_count(b, (double)b->p_start[a] + b->target);
 }
 
 /* ---------------------------------------------------------------- ALIGN */
@@ -288,7 +288,7 @@ static void return_tick(hg_bringup_t *b)
 static void align_enter(hg_bringup_t *b)
 {
     b->t_field = 0.0;
-    b->field_end = (double)b->cfg.align_cycles * CODES;
+    b->scan_end = (double)b->cfg.align_cycles * CODES;
     b->s_x = b->s_y = b->s_xx = b->s_xy = b->s_n = 0.0;
     for (unsigned k = 0; k < 2; k++)
         for (unsigned d = 0; d < 3; d++)
@@ -353,10 +353,10 @@ static void align_fit(hg_bringup_t *b)
     r->align_lambda = (float)lambda;
     r->offset_raw = (float)wrap_codes(lambda + QUARTER);
     r->move_elec_deg = (float)move;
-    set_check(b, HG_BU_CHK_ALIGN_MOVE, move, (double)b->cfg.align_min_move);
-    set_check(b, HG_BU_CHK_ALIGN_CPE, cpe_err, (double)b->cfg.align_cpe_tol * 100.0);
-    set_check(b, HG_BU_CHK_ALIGN_RESID, spread, (double)b->cfg.align_resid_max);
-    set_check(b, HG_BU_CHK_ALIGN_LAG, fabs(lag) * 360.0 / CODES, (double)b->cfg.align_lag_max);
+    set_check(b, b->axis, HG_BU_CHK_ALIGN_MOVE, move, (double)b->cfg.align_min_move);
+    set_check(b, b->axis, HG_BU_CHK_ALIGN_CPE, cpe_err, (double)b->cfg.align_cpe_tol * 100.0);
+    set_check(b, b->axis, HG_BU_CHK_ALIGN_RESID, spread, (double)b->cfg.align_resid_max);
+    set_check(b, b->axis, HG_BU_CHK_ALIGN_LAG, fabs(lag) * 360.0 / CODES, (double)b->cfg.align_lag_max);
 
     /* the first failing check names the error, in the order that explains the others */
     static const struct { unsigned chk; uint8_t err; } order[] = {
@@ -375,9 +375,9 @@ static void align_fit(hg_bringup_t *b)
     }
     b->calib.axis[b->axis].flags |= HG_CAL_ALIGNED;
     /* from here the field can place the rotor: walk it back to the reference pose */
-    b->field_end = (double)(int32_t)((uint32_t)b->pos[b->axis] - (uint32_t)b->p_start[b->axis]);
+    b->target = (double)(int32_t)((uint32_t)b->pos[b->axis] - (uint32_t)b->p_start[b->axis]);
     b->state = HG_BU_RETURN;
-    field_at_count(b, (double)b->p_start[b->axis] + b->field_end);
+    field_at_count(b, (double)b->p_start[b->axis] + b->target);
 }
 
 static void align_tick(hg_bringup_t *b)
@@ -403,8 +403,8 @@ static void align_tick(hg_bringup_t *b)
     case HG_BU_ALIGN_FWD:
         align_sample(b, true);
         b->t_field += per_tick;
-        if (b->t_field >= b->field_end) {
-            b->t_field = b->field_end;
+        if (b->t_field >= b->scan_end) {
+            b->t_field = b->scan_end;
             b->state = HG_BU_ALIGN_BACK;
         }
         break;
@@ -440,8 +440,8 @@ static void home_enter(hg_bringup_t *b)
     b->torque = tau_code(b, (double)b->cfg.home_tau);
     b->dir = 1;
     b->leg = 0;
-    b->field_end = 0.0; /* target, counts from the start */
-    b->s_n = 0.0;       /* path covered, counts            */
+    b->target = 0.0;
+    b->path = 0.0;
     b->state = HG_BU_HOME_SEARCH;
     fpga_write32(AX(b->axis, HG_AX_TQ_LIMIT), (uint32_t)b->torque);
     field_at_count(b, (double)b->p_start[b->axis]);
@@ -464,27 +464,27 @@ static void home_tick(hg_bringup_t *b, uint32_t *ctrl_extra)
     const double limit_deg = 3.0 * (double)b->cfg.home_range * 360.0 / TWO_PI_D;
     if ((b->status & HG_STAT_HOMED(a)) && b->ticks > 2) {
         r->home_count = (int32_t)((uint32_t)b->pos[a] - (uint32_t)b->pos_homed[a]);
-        r->home_travel = (float)(b->s_n / counts_per_rad(b));
+        r->home_travel = (float)(b->path / counts_per_rad(b));
         r->home_virtual = false;
-        set_check(b, HG_BU_CHK_HOME_TRAVEL, b->s_n / counts_per_rad(b) * 360.0 / TWO_PI_D, limit_deg);
+        set_check(b, b->axis, HG_BU_CHK_HOME_TRAVEL, b->path / counts_per_rad(b) * 360.0 / TWO_PI_D, limit_deg);
         b->calib.axis[a].flags |= HG_CAL_HOMED;
         b->state = HG_BU_RETURN;
         return;
     }
-    b->field_end += (double)b->dir * step;
-    b->s_n += step;
-    if (b->leg == 0 && b->field_end >= range) {
+    b->target += (double)b->dir * step;
+    b->path += step;
+    if (b->leg == 0 && b->target >= range) {
         b->dir = -1;
         b->leg = 1;
-    } else if (b->leg == 1 && b->field_end <= -range) {
-        const double covered = b->s_n / counts_per_rad(b);
+    } else if (b->leg == 1 && b->target <= -range) {
+        const double covered = b->path / counts_per_rad(b);
         r->home_travel = (float)covered;
-        set_check(b, HG_BU_CHK_HOME_TRAVEL, covered * 360.0 / TWO_PI_D, limit_deg);
+        set_check(b, b->axis, HG_BU_CHK_HOME_TRAVEL, covered * 360.0 / TWO_PI_D, limit_deg);
         r->chk[HG_BU_CHK_HOME_TRAVEL].pass = 0; /* no index: fails whatever the figure */
         fail(b, HG_BU_ERR_NO_INDEX, covered, 3.0 * (double)b->cfg.home_range);
         return;
     }
-    field_at_count(b, (double)b->p_start[a] + b->field_end);
+    field_at_count(b, (double)b->p_start[a] + b->target);
 }
 
 /* ---------------------------------------------------------------- GUIDED */
@@ -515,7 +515,6 @@ static void guided_tick(hg_bringup_t *b)
     }
     if (all || waited >= (double)b->cfg.guided_timeout_s) {
         uint8_t err = HG_BU_OK;
-        const uint8_t keep = b->axis;
         for (unsigned i = 0; i < HG_NAXES; i++) {
             if (b->expect[i] == 0)
                 continue;
@@ -530,15 +529,13 @@ static void guided_tick(hg_bringup_t *b)
                 b->calib.axis[i].flags &= (uint8_t)~HG_CAL_DIR_SEEN;
                 err = HG_BU_ERR_GUIDED_TIMEOUT;
             }
-            b->axis = (uint8_t)i;
-            set_check(b, HG_BU_CHK_GUIDED_WAIT, (double)r->guided_wait_s, (double)b->cfg.guided_timeout_s);
-            set_check(b, HG_BU_CHK_GUIDED_MOVE, (double)r->guided_move * 360.0 / TWO_PI_D,
+            set_check(b, i, HG_BU_CHK_GUIDED_WAIT, (double)r->guided_wait_s, (double)b->cfg.guided_timeout_s);
+            set_check(b, i, HG_BU_CHK_GUIDED_MOVE, (double)r->guided_move * 360.0 / TWO_PI_D,
                       (double)b->cfg.guided_min_move * 360.0 / TWO_PI_D);
             if (!seen)
                 b->res[i].chk[HG_BU_CHK_GUIDED_WAIT].pass = 0;
             finalize_axis(b, i);
         }
-        b->axis = keep;
         if (err != HG_BU_OK)
             fail(b, err, waited, (double)b->cfg.guided_timeout_s);
         else
@@ -579,8 +576,7 @@ static void ident_enter(hg_bringup_t *b)
     b->id_yty = b->id_y = 0.0;
     b->id_x[0] = b->id_x[1] = b->id_x[2] = 0.0;
     b->id_win = 0;
-    b->id_tau_prev = b->id_v_start = b->s_y = 0.0;
-    b->s_x = 0.0; /* x at the window start */
+    b->id_tau_prev = b->id_tau_now = b->id_v_start = b->id_x_start = 0.0;
     b->id_xmax = 0.0;
     uint32_t seed = b->id_seed;
     for (unsigned k = 0; k < 6; k++)
@@ -602,7 +598,7 @@ static void ident_accumulate(hg_bringup_t *b, double x_new)
     const double dx = b->id_x[1] - b->id_x[0];
     if (b->id_win == 0) { /* first boundary */
         b->id_v_start = v_mid;
-        b->s_x = b->id_x[1];
+        b->id_x_start = b->id_x[1];
         b->id_win = 1;
         return;
     }
@@ -611,7 +607,7 @@ static void ident_accumulate(hg_bringup_t *b, double x_new)
     b->id_y += b->id_tau_prev * dt; /* the torque held over that interval */
     if (b->id_win++ % ID_WIN == 0) {
         b->id_row[0] = v_mid - b->id_v_start;
-        b->id_row[1] = b->id_x[1] - b->s_x;
+        b->id_row[1] = b->id_x[1] - b->id_x_start;
         for (unsigned i = 0; i < HG_BU_ID_N; i++) {
             for (unsigned j = 0; j < HG_BU_ID_N; j++)
                 b->id_ata[i][j] += b->id_row[i] * b->id_row[j];
@@ -619,7 +615,7 @@ static void ident_accumulate(hg_bringup_t *b, double x_new)
         }
         b->id_yty += b->id_y * b->id_y;
         b->id_v_start = v_mid;
-        b->s_x = b->id_x[1];
+        b->id_x_start = b->id_x[1];
         for (unsigned i = 0; i < HG_BU_ID_N; i++)
             b->id_row[i] = 0.0;
         b->id_y = 0.0;
@@ -698,8 +694,8 @@ static void ident_fit(hg_bringup_t *b)
     r->tau_gravity = (float)(ok ? th[3] * (double)dir : 0.0);
     r->kt_amp = (float)((double)m->kt * (double)m->amp_gain);
     r->ident_resid = (float)resid;
-    set_check(b, HG_BU_CHK_IDENT_RESID, resid * 100.0, (double)b->cfg.id_resid_max * 100.0);
-    set_check(b, HG_BU_CHK_IDENT_TRAVEL, b->id_xmax * 360.0 / TWO_PI_D,
+    set_check(b, b->axis, HG_BU_CHK_IDENT_RESID, resid * 100.0, (double)b->cfg.id_resid_max * 100.0);
+    set_check(b, b->axis, HG_BU_CHK_IDENT_TRAVEL, b->id_xmax * 360.0 / TWO_PI_D,
               (double)b->cfg.travel_max * 360.0 / TWO_PI_D);
     if (!ok || !(th[0] > 0.0) || !r->chk[HG_BU_CHK_IDENT_RESID].pass)
         fail(b, HG_BU_ERR_FIT, resid * 100.0, (double)b->cfg.id_resid_max * 100.0);
@@ -742,8 +738,8 @@ static void ident_tick(hg_bringup_t *b)
     tau = tau > lim ? lim : (tau < -lim ? -lim : tau);
     b->torque = tau_code(b, tau);
     /* the torques of the last two ticks, as written (held over k-2 -> k-1 and k-1 -> k) */
-    b->id_tau_prev = b->s_y;
-    b->s_y = (double)b->torque / code_per_nm(&b->servo->cfg.motor[b->axis]);
+    b->id_tau_prev = b->id_tau_now;
+    b->id_tau_now = (double)b->torque / code_per_nm(&b->servo->cfg.motor[b->axis]);
 }
 
 /* ---------------------------------------------------------------- the tick */
@@ -824,7 +820,7 @@ void hg_bringup_step(hg_bringup_t *b)
         case HG_BU_STEP_ALIGN: align_enter(b); break;
         case HG_BU_STEP_HOME: home_enter(b); break;
         case HG_BU_STEP_IDENT: ident_enter(b); break;
-        default: b->drive = false; b->state = HG_BU_GUIDED_WAIT; break;
+        default: b->drive = false; b->mode = HG_MODE_OFF; b->state = HG_BU_GUIDED_WAIT; break;
         }
     }
     b->ticks++;

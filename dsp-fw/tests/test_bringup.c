@@ -481,6 +481,24 @@ void test_bringup_fault_mid_scan(void)
     CHECK(B.err == HG_BU_ERR_SPEED);
     CHECK(B.err_value > 10.0f && B.err_limit == 10.0f);
     check_zero_torque_now();
+
+    /* travel bound: a hand pushes the joint slowly (2.6 rad/s at most) beyond travel_max */
+    setup_sim();
+    hg_bringup_cfg_t c;
+    hg_bringup_default_cfg(&c);
+    c.align_cycles = 0.25f;
+    c.travel_max = 2.4f; /* the plan: (0.25 + 0.5) cycles at 2 pole pairs = 2.36 rad */
+    setup_fw(&c, NULL);
+    CHECK(start(HG_BU_STEP_ALIGN, 2) == HG_BU_OK);
+    run_ticks(500);
+    SIM.ax[2].hand_q0 = SIM.ax[2].q;
+    SIM.ax[2].hand_t0 = SIM.t;
+    SIM.ax[2].hand_T = 1.5;
+    SIM.ax[2].hand_dq = 2.5;
+    run_ticks(2000);
+    CHECK(B.err == HG_BU_ERR_TRAVEL);
+    CHECK(B.err_value > 2.4f && B.err_value < 2.41f && B.err_limit == 2.4f);
+    check_zero_torque_now();
 }
 
 /* ---------------------------------------------------------------- HOME */
