@@ -98,6 +98,7 @@ typedef struct {
 
 /* What bring-up measured on one axis (for the report; hg_calib_t holds what the firmware uses). */
 typedef struct {
+    bool aligned, homed;     /* ALIGN / HOME succeeded in this power-up (the fields below hold) */
     /* ALIGN */
     int8_t scan_sign;        /* +1: counts increase as the field angle advances             */
     float counts_per_elec;   /* measured counts per electrical cycle                         */

@@ -152,14 +152,14 @@ static void finalize_axis(hg_bringup_t *b, unsigned i)
     const int8_t dir = r->guided_reversed ? (int8_t)-b->servo->cfg.enc[i].dir : b->servo->cfg.enc[i].dir;
     c->enc_dir = dir;
     c->pole_pairs = b->cfg.pole_pairs;
-    if (c->flags & HG_CAL_ALIGNED) {
+    if (r->aligned) {
         c->phases_swapped = (uint8_t)(r->scan_sign * dir < 0);
-        const int32_t shift = (c->flags & HG_CAL_HOMED) && !r->home_virtual ? r->home_count : 0;
+        const int32_t shift = r->homed ? r->home_count : 0;
         double off = offset_in_frame(b, i, shift) + (c->phases_swapped ? CODES / 2.0 : 0.0);
         off = wrap_codes(off);
         c->comm_offset = (uint32_t)(off + 0.5) & 1023u;
     }
-    if ((c->flags & HG_CAL_HOMED) && !r->home_virtual) {
+    if (r->homed) {
         const double cpr = (double)b->servo->cfg.enc[i].counts_per_rev;
         const int32_t q_counts = (int32_t)lround((double)b->cfg.q_ref[i] * cpr / TWO_PI_D);
         r->enc_offset = (int32_t)((uint32_t)r->ref_count - (uint32_t)(dir * q_counts));
@@ -369,11 +369,13 @@ static void align_fit(hg_bringup_t *b)
         const hg_bu_check_t *c = &r->chk[order[k].chk];
         if (!c->pass) {
             b->calib.axis[b->axis].flags &= (uint8_t)~HG_CAL_ALIGNED;
+            r->aligned = false;
             fail(b, order[k].err, (double)c->value, (double)c->limit);
             return;
         }
     }
     b->calib.axis[b->axis].flags |= HG_CAL_ALIGNED;
+    r->aligned = true;
     /* from here the field can place the rotor: walk it back to the reference pose */
     b->target = (double)(int32_t)((uint32_t)b->pos[b->axis] - (uint32_t)b->p_start[b->axis]);
     b->state = HG_BU_RETURN;
@@ -466,6 +468,7 @@ static void home_tick(hg_bringup_t *b, uint32_t *ctrl_extra)
         r->home_count = (int32_t)((uint32_t)b->pos[a] - (uint32_t)b->pos_homed[a]);
         r->home_travel = (float)(b->path / counts_per_rad(b));
         r->home_virtual = false;
+        r->homed = true;
         set_check(b, b->axis, HG_BU_CHK_HOME_TRAVEL, b->path / counts_per_rad(b) * 360.0 / TWO_PI_D, limit_deg);
         b->calib.axis[a].flags |= HG_CAL_HOMED;
         b->state = HG_BU_RETURN;
@@ -908,7 +911,6 @@ int hg_bringup_start(hg_bringup_t *b, uint8_t step, uint8_t axis, const int8_t e
         return HG_BU_ERR_ARG;
     if (c->pole_pairs == 0)
         return HG_BU_ERR_CONFIG;
-    const uint8_t flags = b->calib.axis[axis].flags;
     uint32_t limit_s = 0; /* time bound, s (ceiling) */
     switch (step) {
     case HG_BU_STEP_ALIGN: {
@@ -926,11 +928,13 @@ int hg_bringup_start(hg_bringup_t *b, uint8_t step, uint8_t axis, const int8_t e
                              + TWO_PI_D / 2.0 / (double)c->pole_pairs / (double)c->home_speed) + 3u;
         for (unsigned k = HG_BU_CHK_ALIGN_MOVE; k <= HG_BU_CHK_ALIGN_LAG; k++)
             b->res[axis].chk[k].done = 0;
+        b->res[axis].aligned = b->res[axis].homed = false; /* a new scan: the old frame is gone */
         break;
     }
     case HG_BU_STEP_HOME:
-        if (!(flags & HG_CAL_ALIGNED))
+        if (!b->res[axis].aligned) /* the field must be placed: lambda of this power-up */
             return HG_BU_ERR_NOT_READY;
+        b->res[axis].homed = false;
         if (!(c->home_speed > HG_C(0.0) && c->home_range > HG_C(0.0)))
             return HG_BU_ERR_ARG;
         if ((double)c->home_range + TWO_PI_D / 4.0 / (double)c->pole_pairs > (double)c->travel_max) {
@@ -963,7 +967,7 @@ int hg_bringup_start(hg_bringup_t *b, uint8_t step, uint8_t axis, const int8_t e
         break;
     }
     default: /* IDENT */
-        if (!(flags & HG_CAL_ALIGNED))
+        if (!b->res[axis].aligned)
             return HG_BU_ERR_NOT_READY;
         if (b->res[axis].scan_sign != 1) {
             /* the commutator's angle runs against the rotor: no FPGA offset can drive it */
