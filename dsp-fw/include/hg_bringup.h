@@ -114,9 +114,10 @@ typedef struct {
     float home_travel;       /* rad covered by the search                                      */
     bool home_virtual;       /* RESTART: no index search, home from the reference pose         */
     /* GUIDED */
+    int8_t dir_base;         /* enc_dir before the guided move: stored calibration or configured */
     float guided_move;       /* rad along the named direction (joint sign applied)            */
     float guided_wait_s;
-    bool guided_reversed;    /* counts ran against the configured direction: enc_dir flipped  */
+    bool guided_reversed;    /* counts ran against dir_base: enc_dir flipped                  */
     bool refused;            /* guided move not seen: the axis stays disabled                  */
     /* IDENT (SI, in the nominal torque scale kt * amp_gain * dac_fs of hg_motor_t) */
     float inertia;           /* kg m^2                       */

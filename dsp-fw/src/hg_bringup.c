@@ -149,7 +149,7 @@ static void finalize_axis(hg_bringup_t *b, unsigned i)
 {
     hg_axis_calib_t *c = &b->calib.axis[i];
     hg_bu_axis_t *r = &b->res[i];
-    const int8_t dir = r->guided_reversed ? (int8_t)-b->servo->cfg.enc[i].dir : b->servo->cfg.enc[i].dir;
+    const int8_t dir = r->guided_reversed ? (int8_t)-r->dir_base : r->dir_base;
     c->enc_dir = dir;
     c->pole_pairs = b->cfg.pole_pairs;
     if (r->aligned) {
@@ -505,7 +505,7 @@ static void guided_tick(hg_bringup_t *b)
         hg_bu_axis_t *r = &b->res[i];
         const double cpr = (double)b->servo->cfg.enc[i].counts_per_rev;
         const double d = (double)(int32_t)((uint32_t)b->pos[i] - (uint32_t)b->p_start[i]) * TWO_PI_D / cpr;
-        const double along = d * (double)b->servo->cfg.enc[i].dir * (double)b->expect[i];
+        const double along = d * (double)r->dir_base * (double)b->expect[i];
         if (!(b->seen & (1u << i)) && fabs(d) >= (double)b->cfg.guided_min_move) {
             b->seen |= (uint8_t)(1u << i);
             r->guided_move = (float)fabs(d);
@@ -863,6 +863,7 @@ void hg_bringup_init(hg_bringup_t *b, hg_servo_t *s, const hg_bringup_cfg_t *cfg
             b->calib.axis[i].enc_dir = s->cfg.enc[i].dir;
             b->calib.axis[i].pole_pairs = cfg->pole_pairs;
         }
+        b->res[i].dir_base = b->calib.axis[i].enc_dir == -1 ? (int8_t)-1 : (int8_t)1;
     }
     b->state = HG_BU_IDLE;
 }

@@ -282,6 +282,8 @@ static void check_zero_torque_now(void)
     CHECK((hal_sim_regs[HG_REG_CTRL] & HG_CTRL_GLOBAL_EN) == 0);
 }
 
+static void hand_move(unsigned i, double t0, double dq);
+
 /* ---------------------------------------------------------------- ALIGN */
 
 void test_bringup_align_offsets(void)
@@ -586,6 +588,16 @@ void test_bringup_restart(void)
     CHECK(!a->homed);
     CHECK(torque_ratio(2, B.calib.axis[2].comm_offset) >= 0.999);
     CHECK_NEAR(B.res[2].enc_offset, sim_count(a, 0.0), 2);
+    /* a guided move confirms the stored direction and leaves the restart's figures alone */
+    const uint32_t off = B.calib.axis[2].comm_offset;
+    const int32_t itz = B.calib.axis[2].index_to_zero;
+    const int8_t expect[3] = { 0, 0, 1 };
+    CHECK(hg_bringup_start(&B, HG_BU_STEP_GUIDED, 2, expect, 0) == HG_BU_OK);
+    hand_move(2, 0.2, 0.2);
+    run_step();
+    CHECK(B.err == HG_BU_OK && !B.res[2].guided_reversed);
+    CHECK(B.calib.axis[2].comm_offset == off && B.calib.axis[2].index_to_zero == itz);
+    CHECK(B.calib.axis[2].enc_dir == 1 && (B.calib.axis[2].flags & HG_CAL_DIR_SEEN));
     /* a restart needs a stored calibration */
     setup_sim();
     setup_fw(NULL, NULL);
@@ -710,4 +722,16 @@ void test_bringup_ident(void)
 {
     ident_case(1, 5e-5, 2e-4, 2e-3, 5e-3);
     ident_case(7, 3e-5, 4e-4, 1e-3, -3e-3);
+
+    /* a fault in the middle of the excitation: zero torque on that tick */
+    setup_sim();
+    setup_fw(NULL, NULL);
+    align_and_home(0);
+    CHECK(hg_bringup_start(&B, HG_BU_STEP_IDENT, 0, NULL, 3) == HG_BU_OK);
+    run_ticks(3000);
+    CHECK(B.state == HG_BU_IDENT_RUN && hal_sim_torque(0) != 0);
+    SIM.ax[0].fault = 1;
+    sim_tick();
+    CHECK(B.err == HG_BU_ERR_FAULT);
+    check_zero_torque_now();
 }
