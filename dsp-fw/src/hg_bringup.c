@@ -89,8 +89,15 @@ static double wrap_half(double x) /* to [-512, 512) */
 /* The commutator's angle of a count: (counts * PP mod 2^20) / 1024, exact in integers. */
 static double count_angle(const hg_bringup_t *b, int32_t counts)
 {
-    const uint32_t u = ((uint32_t)counts * (uint32_t)b->cfg.pole_pairs) & (HG_ENC_COUNTS_PER_REV - 1u);
+    const uint32_t u = ((uint32_t)counts * (uint32_t)b->cfg.pole_pairs)
+                     & (HG_ENC_COUNTS_PER_REV - 1u);
     return (double)u / (double)(HG_ENC_COUNTS_PER_REV / 1024u);
+}
+
+/* x - y in counts, modular (no signed overflow whatever the counter did) */
+static int32_t cdiff(int32_t x, int32_t y)
+{
+    return (int32_t)((uint32_t)x - (uint32_t)y);
 }
 
 static double counts_per_rad(const hg_bringup_t *b)
@@ -118,7 +125,8 @@ static double code_per_nm(const hg_motor_t *m)
 static int32_t tau_code(const hg_bringup_t *b, double tau)
 {
     double x = tau * code_per_nm(&b->servo->cfg.motor[b->axis]);
-    x = x > (double)HG_TORQUE_FS ? (double)HG_TORQUE_FS : (x < -(double)HG_TORQUE_FS ? -(double)HG_TORQUE_FS : x);
+    const double fs = (double)HG_TORQUE_FS;
+    x = x > fs ? fs : (x < -fs ? -fs : x);
     return (int32_t)(x < 0.0 ? x - 0.5 : x + 0.5);
 }
 
@@ -162,8 +170,8 @@ static void finalize_axis(hg_bringup_t *b, unsigned i)
     if (r->homed) {
         const double cpr = (double)b->servo->cfg.enc[i].counts_per_rev;
         const int32_t q_counts = (int32_t)lround((double)b->cfg.q_ref[i] * cpr / TWO_PI_D);
-        r->enc_offset = (int32_t)((uint32_t)r->ref_count - (uint32_t)(dir * q_counts));
-        c->index_to_zero = (int32_t)((uint32_t)r->enc_offset - (uint32_t)r->home_count);
+        r->enc_offset = cdiff(r->ref_count, dir * q_counts);
+        c->index_to_zero = cdiff(r->enc_offset, r->home_count);
     }
     if (r->refused)
         c->flags &= (uint8_t) ~(HG_CAL_HOMED | HG_CAL_ALIGNED); /* torque stays refused */
@@ -224,7 +232,8 @@ static void write_outputs(hg_bringup_t *b, uint32_t ctrl_extra)
     fpga_write32(AX(a, HG_AX_MODE), b->mode);
     fpga_write32(AX(a, HG_AX_OFFSET), b->offset & 1023u);
     fpga_write32(AX(a, HG_AX_TORQUE), b->drive ? (uint32_t)(uint16_t)(int16_t)b->torque : 0u);
-    fpga_write32(HG_REG_CTRL, (b->drive ? HG_CTRL_GLOBAL_EN | HG_CTRL_AXIS_EN(a) : 0u) | ctrl_extra);
+    const uint32_t en = b->drive ? HG_CTRL_GLOBAL_EN | HG_CTRL_AXIS_EN(a) : 0u;
+    fpga_write32(HG_REG_CTRL, en | ctrl_extra);
     fpga_write32(HG_REG_WDOG, HG_WDOG_KEY);
 }
 
@@ -244,7 +253,7 @@ static bool rotor_follows(hg_bringup_t *b)
 {
     const unsigned a = b->axis;
     const double cpe = (double)HG_ENC_COUNTS_PER_REV / (double)b->cfg.pole_pairs;
-    const double pos = (double)(int32_t)((uint32_t)b->pos[a] - (uint32_t)b->p_start[a]);
+    const double pos = (double)cdiff(b->pos[a], b->p_start[a]);
     if (fabs(pos - b->target) > cpe / 4.0) {
         fail(b, HG_BU_ERR_NO_MOVE, fabs(pos - b->target) * 360.0 / cpe, 90.0);
         return false;
@@ -259,8 +268,8 @@ static void return_tick(hg_bringup_t *b)
     const unsigned a = b->axis;
     const double step = (double)b->cfg.home_speed * counts_per_rad(b) / rate(b);
     const double cpe = (double)HG_ENC_COUNTS_PER_REV / (double)b->cfg.pole_pairs;
-    const double ref = (double)(int32_t)((uint32_t)b->res[a].ref_count - (uint32_t)b->p_start[a]);
-    const double pos = (double)(int32_t)((uint32_t)b->pos[a] - (uint32_t)b->p_start[a]);
+    const double ref = (double)cdiff(b->res[a].ref_count, b->p_start[a]);
+    const double pos = (double)cdiff(b->pos[a], b->p_start[a]);
     const double speed = fabs((double)b->vel[a]) / counts_per_rad(b);
     if (!rotor_follows(b))
         return;
@@ -277,13 +286,14 @@ static void return_tick(hg_bringup_t *b)
 }
 
 /* ---------------------------------------------------------------- ALIGN */
-/* Lock the field at code 0 (current ramped in over 3/4 of the lock time: friction then holds
- * the rotor in quasi-static equilibrium all the way, so it is drawn into the nearest rest rather
- * than thrown; a step of current would swing it through up to half a cycle at tens of rad/s), ramp it forward align_cycles and back. Every
- * tick of the ramps is one sample (field, count): a line fit gives the sign and the counts per
- * electrical cycle; the circular mean of field - s * u gives lambda. Forward and back sample
- * the same field angles, so the friction lag (rotor behind the field in both directions)
- * cancels in both fits; half their difference is reported as the lag. */
+/* Lock the field at code 0, the current ramped in over 3/4 of the lock time (a step of current
+ * would swing the rotor through up to half a cycle at tens of rad/s; on the stable side the ramp
+ * draws it in quasi-statically, on the unstable side the governor below bounds it), then ramp
+ * the field align_cycles forward and back at full current. Every tick of the ramps is one
+ * sample (field, count): a line fit gives the sign and the counts per electrical cycle; the
+ * circular mean of field - s * u gives lambda. Forward and back sample the same field angles,
+ * so the friction lag (rotor behind the field in both directions) cancels in both fits; half
+ * their difference is reported as the lag. Then the walk back to the reference pose (RETURN). */
 
 static void align_enter(hg_bringup_t *b)
 {
@@ -305,7 +315,7 @@ static void align_sample(hg_bringup_t *b, bool fwd)
 {
     const int32_t p = b->pos[b->axis];
     const double x = floor(b->t_field) + 0.5; /* the angle ALIGN puts the vector at */
-    const double y = (double)(int32_t)((uint32_t)p - (uint32_t)b->p_start[b->axis]);
+    const double y = (double)cdiff(p, b->p_start[b->axis]);
     b->s_x += x;
     b->s_y += y;
     b->s_xx += x * x;
@@ -335,13 +345,15 @@ static void align_fit(hg_bringup_t *b)
     const double slope = den > 0.0 ? (n * b->s_xy - b->s_x * b->s_y) / den : 0.0; /* counts/code */
     const int8_t s = slope < 0.0 ? -1 : 1;
     const double (*cs)[2] = b->align_cs[s > 0 ? 0 : 1];
-    const double sc = cs[0][0], ss = cs[0][1], fc = cs[1][0], fs = cs[1][1], bc = cs[2][0], bs = cs[2][1];
+    const double sc = cs[0][0], ss = cs[0][1];               /* all samples */
+    const double fc = cs[1][0], fs = cs[1][1], bc = cs[2][0], bs = cs[2][1]; /* fwd, back */
     const double lambda = wrap_codes(atan2(ss, sc) * CODES / TWO_PI_D);
     const double lag = wrap_half((atan2(fs, fc) - atan2(bs, bc)) * CODES / TWO_PI_D) / 2.0;
     const double rbar = sqrt(sc * sc + ss * ss) / (n > 0.0 ? n : 1.0);
     /* circular standard deviation sqrt(-2 ln R), in electrical degrees */
-    const double spread = rbar > 0.0 ? sqrt(-2.0 * log(rbar > 1.0 ? 1.0 : rbar)) * 360.0 / TWO_PI_D : 360.0;
-    const double move = (double)(int32_t)((uint32_t)b->p_max - (uint32_t)b->p_min) * pp * 360.0 / cpr;
+    const double spread =
+        rbar > 0.0 ? sqrt(-2.0 * log(rbar > 1.0 ? 1.0 : rbar)) * 360.0 / TWO_PI_D : 360.0;
+    const double move = (double)cdiff(b->p_max, b->p_min) * pp * 360.0 / cpr;
     const double cpe = fabs(slope) * CODES;
     const double cpe_cfg = cpr / pp;
     const double cpe_err = fabs(cpe / cpe_cfg - 1.0) * 100.0;
@@ -356,7 +368,8 @@ static void align_fit(hg_bringup_t *b)
     set_check(b, b->axis, HG_BU_CHK_ALIGN_MOVE, move, (double)b->cfg.align_min_move);
     set_check(b, b->axis, HG_BU_CHK_ALIGN_CPE, cpe_err, (double)b->cfg.align_cpe_tol * 100.0);
     set_check(b, b->axis, HG_BU_CHK_ALIGN_RESID, spread, (double)b->cfg.align_resid_max);
-    set_check(b, b->axis, HG_BU_CHK_ALIGN_LAG, fabs(lag) * 360.0 / CODES, (double)b->cfg.align_lag_max);
+    set_check(b, b->axis, HG_BU_CHK_ALIGN_LAG, fabs(lag) * 360.0 / CODES,
+              (double)b->cfg.align_lag_max);
 
     /* the first failing check names the error, in the order that explains the others */
     static const struct { unsigned chk; uint8_t err; } order[] = {
@@ -377,7 +390,7 @@ static void align_fit(hg_bringup_t *b)
     b->calib.axis[b->axis].flags |= HG_CAL_ALIGNED;
     r->aligned = true;
     /* from here the field can place the rotor: walk it back to the reference pose */
-    b->target = (double)(int32_t)((uint32_t)b->pos[b->axis] - (uint32_t)b->p_start[b->axis]);
+    b->target = (double)cdiff(b->pos[b->axis], b->p_start[b->axis]);
     b->state = HG_BU_RETURN;
     field_at_count(b, (double)b->p_start[b->axis] + b->target);
 }
@@ -393,11 +406,13 @@ static void align_tick(hg_bringup_t *b)
         /* Near the unstable rest (half a cycle away) the rotor runs away as the current grows,
          * in a direction the scan has not measured yet: a governor that takes the current off
          * between 30 % and 60 % of speed_max bounds it without knowing the sign. */
-        const double w = fabs((double)b->vel[b->axis]) / counts_per_rad(b) / (double)b->cfg.speed_max;
+        const double w =
+            fabs((double)b->vel[b->axis]) / counts_per_rad(b) / (double)b->cfg.speed_max;
         const double gov = w < 0.3 ? 1.0 : (w > 0.6 ? 0.0 : (0.6 - w) / 0.3);
         b->torque = (int32_t)(full * (ramp < 1.0 ? ramp : 1.0) * gov);
         if (b->ticks >= lock) {
             b->state = HG_BU_ALIGN_FWD;
+            b->torque = (int32_t)full;
             b->p_min = b->p_max = b->pos[b->axis]; /* movement counts from the scan on */
         }
         break;
@@ -465,11 +480,12 @@ static void home_tick(hg_bringup_t *b, uint32_t *ctrl_extra)
         return;
     const double limit_deg = 3.0 * (double)b->cfg.home_range * 360.0 / TWO_PI_D;
     if ((b->status & HG_STAT_HOMED(a)) && b->ticks > 2) {
-        r->home_count = (int32_t)((uint32_t)b->pos[a] - (uint32_t)b->pos_homed[a]);
+        r->home_count = cdiff(b->pos[a], b->pos_homed[a]);
         r->home_travel = (float)(b->path / counts_per_rad(b));
         r->home_virtual = false;
         r->homed = true;
-        set_check(b, b->axis, HG_BU_CHK_HOME_TRAVEL, b->path / counts_per_rad(b) * 360.0 / TWO_PI_D, limit_deg);
+        set_check(b, b->axis, HG_BU_CHK_HOME_TRAVEL,
+                  b->path / counts_per_rad(b) * 360.0 / TWO_PI_D, limit_deg);
         b->calib.axis[a].flags |= HG_CAL_HOMED;
         b->state = HG_BU_RETURN;
         return;
@@ -504,7 +520,7 @@ static void guided_tick(hg_bringup_t *b)
             continue;
         hg_bu_axis_t *r = &b->res[i];
         const double cpr = (double)b->servo->cfg.enc[i].counts_per_rev;
-        const double d = (double)(int32_t)((uint32_t)b->pos[i] - (uint32_t)b->p_start[i]) * TWO_PI_D / cpr;
+        const double d = (double)cdiff(b->pos[i], b->p_start[i]) * TWO_PI_D / cpr;
         const double along = d * (double)r->dir_base * (double)b->expect[i];
         if (!(b->seen & (1u << i)) && fabs(d) >= (double)b->cfg.guided_min_move) {
             b->seen |= (uint8_t)(1u << i);
@@ -524,7 +540,7 @@ static void guided_tick(hg_bringup_t *b)
             hg_bu_axis_t *r = &b->res[i];
             const bool seen = b->seen & (1u << i);
             const double cpr = (double)b->servo->cfg.enc[i].counts_per_rev;
-            const double d = (double)(int32_t)((uint32_t)b->pos[i] - (uint32_t)b->p_start[i]) * TWO_PI_D / cpr;
+            const double d = (double)cdiff(b->pos[i], b->p_start[i]) * TWO_PI_D / cpr;
             if (!seen) {
                 r->guided_move = (float)fabs(d);
                 r->guided_wait_s = (float)waited;
@@ -532,7 +548,8 @@ static void guided_tick(hg_bringup_t *b)
                 b->calib.axis[i].flags &= (uint8_t)~HG_CAL_DIR_SEEN;
                 err = HG_BU_ERR_GUIDED_TIMEOUT;
             }
-            set_check(b, i, HG_BU_CHK_GUIDED_WAIT, (double)r->guided_wait_s, (double)b->cfg.guided_timeout_s);
+            set_check(b, i, HG_BU_CHK_GUIDED_WAIT, (double)r->guided_wait_s,
+                      (double)b->cfg.guided_timeout_s);
             set_check(b, i, HG_BU_CHK_GUIDED_MOVE, (double)r->guided_move * 360.0 / TWO_PI_D,
                       (double)b->cfg.guided_min_move * 360.0 / TWO_PI_D);
             if (!seen)
@@ -570,7 +587,8 @@ static void ident_enter(hg_bringup_t *b)
     b->mode = HG_MODE_TORQUE;
     b->drive = true;
     b->torque = 0;
-    b->offset = (uint32_t)(wrap_codes(offset_in_frame(b, b->axis, (int32_t)((uint32_t)b->pos[b->axis] - (uint32_t)b->pos_homed[b->axis])) + 0.5)) & 1023u;
+    const int32_t frame = cdiff(b->pos[b->axis], b->pos_homed[b->axis]); /* the FPGA's home */
+    b->offset = (uint32_t)(offset_in_frame(b, b->axis, frame) + 0.5) & 1023u;
     for (unsigned i = 0; i < HG_BU_ID_N; i++) {
         b->id_aty[i] = b->id_row[i] = 0.0;
         for (unsigned j = 0; j < HG_BU_ID_N; j++)
@@ -697,7 +715,8 @@ static void ident_fit(hg_bringup_t *b)
     r->tau_gravity = (float)(ok ? th[3] * (double)dir : 0.0);
     r->kt_amp = (float)((double)m->kt * (double)m->amp_gain);
     r->ident_resid = (float)resid;
-    set_check(b, b->axis, HG_BU_CHK_IDENT_RESID, resid * 100.0, (double)b->cfg.id_resid_max * 100.0);
+    set_check(b, b->axis, HG_BU_CHK_IDENT_RESID, resid * 100.0,
+              (double)b->cfg.id_resid_max * 100.0);
     set_check(b, b->axis, HG_BU_CHK_IDENT_TRAVEL, b->id_xmax * 360.0 / TWO_PI_D,
               (double)b->cfg.travel_max * 360.0 / TWO_PI_D);
     if (!ok || !(th[0] > 0.0) || !r->chk[HG_BU_CHK_IDENT_RESID].pass)
@@ -709,7 +728,7 @@ static void ident_fit(hg_bringup_t *b)
 static void ident_tick(hg_bringup_t *b)
 {
     const double t = (double)b->ticks / rate(b);
-    const double x = (double)(int32_t)((uint32_t)b->pos[b->axis] - (uint32_t)b->p_start[b->axis])
+    const double x = (double)cdiff(b->pos[b->axis], b->p_start[b->axis])
                    / counts_per_rad(b);
     const double v = (x - b->id_x[2]) * rate(b);
     b->id_xmax = fabs(x) > b->id_xmax ? fabs(x) : b->id_xmax;
@@ -758,7 +777,8 @@ static bool read_snapshot(hg_bringup_t *b)
     }
     const uint32_t seq1 = fpga_read32(HG_REG_SEQ);
     const uint32_t dseq = seq0 - b->seq;
-    const bool ok = seq0 == seq1 && (!b->have_prev || (dseq >= 1u && dseq <= 1u + b->servo->cfg.max_missed));
+    const bool ok = seq0 == seq1
+                 && (!b->have_prev || (dseq >= 1u && dseq <= 1u + b->servo->cfg.max_missed));
     if (!ok) {
         fail(b, HG_BU_ERR_STALE, (double)dseq, 1.0 + (double)b->servo->cfg.max_missed);
         return false;
@@ -797,7 +817,7 @@ static bool within_bounds(hg_bringup_t *b)
         fail(b, HG_BU_ERR_SPEED, speed, (double)b->cfg.speed_max);
         return false;
     }
-    const double travel = fabs((double)(int32_t)((uint32_t)b->pos[a] - (uint32_t)b->p_start[a]))
+    const double travel = fabs((double)cdiff(b->pos[a], b->p_start[a]))
                         / counts_per_rad(b);
     if (travel > (double)b->cfg.travel_max) {
         fail(b, HG_BU_ERR_TRAVEL, travel, (double)b->cfg.travel_max);
@@ -890,11 +910,12 @@ static int restart(hg_bringup_t *b, uint8_t axis)
     const int32_t q_counts = (int32_t)lround((double)b->cfg.q_ref[axis] * cpr / TWO_PI_D);
     const int32_t d_ref = (int32_t)((uint32_t)c->index_to_zero + (uint32_t)(c->enc_dir * q_counts));
     const int8_t s = (int8_t)(c->phases_swapped ? -c->enc_dir : c->enc_dir);
-    r->home_count = (int32_t)((uint32_t)r->ref_count - (uint32_t)d_ref);
+    r->home_count = cdiff(r->ref_count, d_ref);
     r->home_virtual = true;
     r->scan_sign = s;
     r->enc_offset = (int32_t)((uint32_t)r->home_count + (uint32_t)c->index_to_zero);
-    const double off = wrap_codes((double)c->comm_offset - (double)s * count_angle(b, r->home_count));
+    const double off =
+        wrap_codes((double)c->comm_offset - (double)s * count_angle(b, r->home_count));
     c->comm_offset = (uint32_t)(off + 0.5) & 1023u;
     r->duration_s[HG_BU_STEP_RESTART] = 0.0f;
     return HG_BU_OK;
@@ -925,7 +946,8 @@ int hg_bringup_start(hg_bringup_t *b, uint8_t step, uint8_t axis, const int8_t e
             return HG_BU_ERR_CONFIG;
         }
         /* lock, the scan both ways, the walk back (at most half a cycle) */
-        limit_s = (uint32_t)((double)c->align_lock_s + 2.0 * (double)c->align_cycles / (double)c->align_rate
+        limit_s = (uint32_t)((double)c->align_lock_s
+                             + 2.0 * (double)c->align_cycles / (double)c->align_rate
                              + TWO_PI_D / 2.0 / (double)c->pole_pairs / (double)c->home_speed) + 3u;
         for (unsigned k = HG_BU_CHK_ALIGN_MOVE; k <= HG_BU_CHK_ALIGN_LAG; k++)
             b->res[axis].chk[k].done = 0;
@@ -938,7 +960,8 @@ int hg_bringup_start(hg_bringup_t *b, uint8_t step, uint8_t axis, const int8_t e
         b->res[axis].homed = false;
         if (!(c->home_speed > HG_C(0.0) && c->home_range > HG_C(0.0)))
             return HG_BU_ERR_ARG;
-        if ((double)c->home_range + TWO_PI_D / 4.0 / (double)c->pole_pairs > (double)c->travel_max) {
+        const double plan = (double)c->home_range + TWO_PI_D / 4.0 / (double)c->pole_pairs;
+        if (plan > (double)c->travel_max) {
             b->err_value = (float)c->home_range;
             b->err_limit = (float)c->travel_max;
             return HG_BU_ERR_CONFIG;
@@ -958,8 +981,10 @@ int hg_bringup_start(hg_bringup_t *b, uint8_t step, uint8_t axis, const int8_t e
                 return HG_BU_ERR_ARG;
             b->expect[i] = expect[i];
             any = any || expect[i] != 0;
-            if (expect[i] != 0)
-                b->res[i].chk[HG_BU_CHK_GUIDED_WAIT].done = b->res[i].chk[HG_BU_CHK_GUIDED_MOVE].done = 0;
+            if (expect[i] != 0) {
+                b->res[i].chk[HG_BU_CHK_GUIDED_WAIT].done = 0;
+                b->res[i].chk[HG_BU_CHK_GUIDED_MOVE].done = 0;
+            }
         }
         if (!any)
             return HG_BU_ERR_ARG;
@@ -980,7 +1005,8 @@ int hg_bringup_start(hg_bringup_t *b, uint8_t step, uint8_t axis, const int8_t e
             return HG_BU_ERR_ARG;
         limit_s = (uint32_t)((double)c->id_duration_s + (double)c->id_settle_s) + 2u;
         b->id_seed = seed;
-        b->res[axis].chk[HG_BU_CHK_IDENT_RESID].done = b->res[axis].chk[HG_BU_CHK_IDENT_TRAVEL].done = 0;
+        b->res[axis].chk[HG_BU_CHK_IDENT_RESID].done = 0;
+        b->res[axis].chk[HG_BU_CHK_IDENT_TRAVEL].done = 0;
         break;
     }
     const uint32_t t = hg_hal_irq_save();

@@ -137,7 +137,8 @@ static void sim_tick(void)
         const uint32_t off = hal_sim_regs[HG_REG_AXIS(i, HG_AX_OFFSET)] & 1023u;
         const double lim = fmin((double)hal_sim_regs[HG_REG_AXIS(i, HG_AX_TQ_LIMIT)], 32768.0);
         double t = fmax(-lim, fmin(lim, (double)hal_sim_torque(i)));
-        if (!(ctrl & HG_CTRL_GLOBAL_EN) || !(ctrl & HG_CTRL_AXIS_EN(i)) || mode == HG_MODE_OFF || a->fault)
+        const bool on = (ctrl & HG_CTRL_GLOBAL_EN) && (ctrl & HG_CTRL_AXIS_EN(i));
+        if (!on || mode == HG_MODE_OFF || a->fault)
             t = 0.0;
         for (int k = 0; k < SUB; k++) {
             const double t_now = SIM.t + h * (k + 1);
@@ -151,18 +152,22 @@ static void sim_tick(void)
                 a->v = (qn - a->q) / h;
                 a->q = qn;
             } else {
-                const double f = a->tau - a->b * a->v - a->g
-                               - (a->k_grip > 0.0 ? a->k_grip * (a->q - a->q_grip) + a->b_grip * a->v : 0.0);
+                const double grip =
+                    a->k_grip > 0.0 ? a->k_grip * (a->q - a->q_grip) + a->b_grip * a->v : 0.0;
+                const double f = a->tau - a->b * a->v - a->g - grip; /* all but Coulomb */
                 if (a->v == 0.0 && fabs(f) <= a->c) {
                     /* stuck */
                 } else {
-                    const double sg = a->v != 0.0 ? (a->v > 0.0 ? 1.0 : -1.0) : (f > 0.0 ? 1.0 : -1.0);
+                    const double dir = a->v != 0.0 ? a->v : f; /* moving, or breaking away */
+                    const double sg = dir > 0.0 ? 1.0 : -1.0;
                     const double v1 = a->v + (f - a->c * sg) / a->J * h;
                     a->v = (a->v != 0.0 && v1 * a->v < 0.0) ? 0.0 : v1;
                 }
                 a->q += a->v * h;
             }
-            if ((q0 - a->q_index) * (a->q - a->q_index) < 0.0 || (a->q == a->q_index && q0 != a->q)) {
+            const bool crossed = (q0 - a->q_index) * (a->q - a->q_index) < 0.0
+                              || (a->q == a->q_index && q0 != a->q);
+            if (crossed) {
                 a->idx_pos = sim_count(a, a->q_index);
                 if (a->armed) {
                     a->home = a->idx_pos;
@@ -244,18 +249,17 @@ static int start(uint8_t step, uint8_t axis)
     return hg_bringup_start(&B, step, axis, NULL, 1);
 }
 
-/* The OFFSET register that commutates axis a exactly, from the plant's truth: in SINE mode the
- * commutator aims at s * u + OFFSET (u of POS_HOMED), the motor gives kt I cos(c - e); with
- * s * u = s * pp * enc_dir * (q - q0) for q0 the home's angle, c = e for all q needs
- * s * enc_dir = 1 (the commutation follows the rotor), and for the swapped amplifier the
- * field runs the other way; a positive code must push +q. Worked out per case: */
+/* The OFFSET (degrees) with which a positive code gives full +q torque on axis a, from the
+ * plant's truth, the FPGA's home at joint angle q_home (before homing: the power-up pose, where
+ * POS_HOMED = 0). The winding gives kt I cos(c - e), e = pp (q - q_index) + off; with a and b
+ * swapped, -kt I cos(c + e - 120 deg). The commutation angle c = s pp enc_dir (q - q_home) + OFF
+ * follows the rotor with s enc_dir = +1 (matched) or -1 (swapped); base = pp (q_home - q_index):
+ *   matched: c - e = OFF - off - base,          full +q torque at OFF = off + base
+ *   swapped: c + e - 120 = OFF + off + base - 120, at 180 deg: OFF = 300 - off - base */
 static double truth_offset_deg(const sim_ax_t *a, double q_home)
 {
     const double base = (double)a->pp * (q_home - a->q_index) * 180.0 / PI_D;
-    if (!a->swapped) /* torque = kt I cos(c - e), c = pp (q - q_home) * enc_dir * s + OFF, e = pp (q - q_i) + off */
-        return wrap180(a->off_deg + base);
-    /* swapped: torque = -kt I cos(c + e - 120 deg) with c = -(e - off - base) + OFF: OFF = 300 - off - base */
-    return wrap180(300.0 - a->off_deg - base);
+    return wrap180(a->swapped ? 300.0 - a->off_deg - base : a->off_deg + base);
 }
 
 /* Smallest delivered/commanded torque over a revolution with OFFSET reg and positive code:
@@ -304,7 +308,8 @@ void test_bringup_align_offsets(void)
         /* not homed: the raw-count frame, whose "home" is the power-up pose */
         const double want = truth_offset_deg(&SIM.ax[ax], SIM.ax[ax].q_pu);
         CHECK_NEAR(wrap180((double)r->offset_raw * 360.0 / 1024.0 - want), 0.0, 1.0);
-        CHECK_NEAR(wrap180((double)hg_bringup_offset_deg(B.calib.axis[ax].comm_offset) - want), 0.0, 1.0);
+        const double reg = (double)hg_bringup_offset_deg(B.calib.axis[ax].comm_offset);
+        CHECK_NEAR(wrap180(reg - want), 0.0, 1.0);
         CHECK(torque_ratio(ax, B.calib.axis[ax].comm_offset) >= 0.999);
         CHECK_NEAR(r->counts_per_elec, CPR / SIM.ax[ax].pp, 0.002 * CPR / SIM.ax[ax].pp);
         CHECK(r->chk[HG_BU_CHK_ALIGN_MOVE].done && r->chk[HG_BU_CHK_ALIGN_MOVE].pass);
@@ -534,14 +539,14 @@ void test_bringup_home(void)
      * its target by a degree or so) */
     CHECK(q_h > a->q_index);
     CHECK_NEAR(r->home_travel, 1.2 + 1.2 + (q_h - a->q_index), 0.03);
-    CHECK_NEAR(r->chk[HG_BU_CHK_HOME_TRAVEL].value, (1.2 + 1.2 + (q_h - a->q_index)) * 180.0 / PI_D, 2.0);
+    CHECK_NEAR(r->chk[HG_BU_CHK_HOME_TRAVEL].value, (2.4 + q_h - a->q_index) * 180.0 / PI_D, 2.0);
     /* at rest in the reference pose (within 1/64 electrical cycle) */
     CHECK_NEAR(a->q, a->q_pu, 2.0 * PI_D / 2.0 / 64.0);
     CHECK(fabs(a->v) < 0.1);
     /* index frame now: the plant's offset itself */
-    CHECK_NEAR(wrap180((double)hg_bringup_offset_deg(B.calib.axis[1].comm_offset) - truth_offset_deg(a, a->q_index)),
-               0.0, 1.0);
-    CHECK_NEAR(wrap180((double)hg_bringup_offset_deg(B.calib.axis[1].comm_offset) - 77.0), 0.0, 1.0);
+    const double reg = (double)hg_bringup_offset_deg(B.calib.axis[1].comm_offset);
+    CHECK_NEAR(wrap180(reg - truth_offset_deg(a, a->q_index)), 0.0, 1.0);
+    CHECK_NEAR(wrap180(reg - 77.0), 0.0, 1.0);
     CHECK(torque_ratio(1, B.calib.axis[1].comm_offset) >= 0.999);
     /* index_to_zero: q = 0 lies -q_pu from the reference pose; offset = index + index_to_zero */
     const int32_t zero = sim_count(a, 0.0);
