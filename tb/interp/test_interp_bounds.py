@@ -39,7 +39,8 @@ def quadrant(a: int, b: int) -> int:
 class Plan:
     """Samples of one axis: each case is preceded by healthy mid-quadrant points that walk one
     quadrant per sample to the case's quadrant (no overspeed on the way, and at least one sample
-    inside the window), and a fault clear on its first sample (a clear applies before its sample is evaluated)."""
+    inside the window), and a fault clear on its first sample (a clear applies before its
+    sample is evaluated)."""
 
     def __init__(self) -> None:
         self.a: list[int] = []
