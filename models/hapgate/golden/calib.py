@@ -64,6 +64,19 @@ class AxisCalib:
                 int(self.index_to_zero_counts), self.offset_code() if self.aligned else 0)
 
 
+def from_words(words: Any) -> AxisCalib:
+    """The inverse of AxisCalib.words() (the offset to the OFFSET register's 360/1024 deg
+    electrical, in -180..180)."""
+    flags, d, sw, pp, i2z, code = (int(w) for w in words)
+    sigma = -1.0 if sw else 1.0
+    shift = QUARTER_LINE if d < 0 else 0
+    deg = code * 360.0 / OFFSET_CODES
+    c = sigma * (deg + (60.0 if sw else 0.0) + d * sigma * pp * shift * 360.0 / COUNTS_PER_REV)
+    c = (c + 180.0) % 360.0 - 180.0
+    return AxisCalib(i2z, c, bool(sw), d, pp, bool(flags & CAL_DIR_SEEN),
+                     bool(flags & CAL_HOMED), bool(flags & CAL_ALIGNED))
+
+
 NONE = (AxisCalib(homed=False, aligned=False),) * 3   # "none": the firmware starts uncalibrated
 
 
