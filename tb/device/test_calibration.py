@@ -68,7 +68,7 @@ def refused(tmp_path: Path, text: str) -> str:
 @pytest.mark.parametrize("path", BRINGUP, ids=[p.stem for p in BRINGUP])
 def test_bringup_scenes_load_uncalibrated(path: Path) -> None:
     s = sc.load(path)
-    assert s.firmware.calibration == "none" and s.calib == calib.NONE
+    assert s.calibration == "none" and s.calib() == calib.NONE
     assert any(getattr(s.plant, k) != getattr(sc.PlantCfg(), k) for k in sc.BRINGUP_KEYS)
 
 
@@ -85,24 +85,26 @@ def test_defaults_and_the_calibration_default(tmp_path: Path) -> None:
     assert (d.comm_offset_elec_deg, d.phases_swapped, d.encoder_dir, d.index_q_deg) == \
         ((0.0, 0.0, 0.0), (False, False, False), (1, 1, 1), None)
     wall = sc.load(SCENES / "wall.toml")
-    assert wall.firmware.calibration == "truth"
+    assert wall.firmware.calibration is None and wall.calibration == "truth"
     # truth of today's device: homed and aligned, offset 0, index_to_zero from the index at
     # q0 - 0.25 deg (the harness's former arithmetic)
-    for i, a in enumerate(wall.calib):
+    for i, a in enumerate(wall.calib()):
         qi = math.radians(wall.run.q0_deg[i]) - math.radians(0.5) / 2
         assert a.words() == (3, 1, 0, 2, round(-qi / (2 * math.pi) * 2**20), 0)
     # any bring-up key switches the default to "none"; an explicit value wins
     p = tmp_path / "s.toml"
     p.write_text("[plant]\nencoder_dir = [1, 1, 1]\n")
-    assert sc.load(p).firmware.calibration == "none"
+    assert sc.load(p).calibration == "none"
     p.write_text("[plant]\nencoder_dir = [1, 1, 1]\n[firmware]\ncalibration = \"truth\"\n")
-    assert sc.load(p).calib == wall.override({"run.q0_deg": list(sc.load(p).run.q0_deg)}).calib
+    plain = tmp_path / "plain.toml"
+    plain.write_text("")
+    assert sc.load(p).calib() == sc.load(plain).calib() != calib.NONE
     # a calibration file, relative to the scene's folder
     (tmp_path / "cal").mkdir()
     (tmp_path / "cal" / "c.toml").write_text(calib.dumps(
         [calib.AxisCalib(10 * i - 7, 30.0 * i, i == 1, 1 - 2 * (i == 2), 2) for i in range(3)]))
     p.write_text("[firmware]\ncalibration = \"cal/c.toml\"\n")
-    got = sc.load(p).calib
+    got = sc.load(p).calib()
     assert [a.index_to_zero_counts for a in got] == [-7, 3, 13]
     assert [a.phases_swapped for a in got] == [False, True, False]
     assert [a.encoder_dir for a in got] == [1, 1, -1] and got[1].comm_offset_elec_deg == 30.0
@@ -179,7 +181,7 @@ def test_default_keys_are_bit_identical(tmp_path: Path) -> None:
                               "plant.phases_swapped": [False] * 3,
                               "plant.encoder_dir": [1, 1, 1],
                               "firmware.calibration": "truth"})
-    assert explicit.firmware.calibration == "truth" and explicit.calib == base.calib
+    assert explicit.calibration == "truth" and explicit.calib() == base.calib()
     a, b = runner.simulate(base), runner.simulate(explicit)
     assert _records(a) == _records(b)
     assert a.frames.size > 3000 and np.abs(a.frames["tau"]).max() > 0.05
@@ -202,7 +204,7 @@ def test_truth_delivers_the_commanded_torque_and_a_wrong_calibration_does_not(
     assert delivered(r), r
     wrong = [calib.AxisCalib(a.index_to_zero_counts, a.comm_offset_elec_deg + d,
                              a.phases_swapped, a.encoder_dir, a.pole_pairs)
-             for a, d in zip(truth.calib, (90.0, 0.0, 180.0), strict=True)]
+             for a, d in zip(truth.calib(), (90.0, 0.0, 180.0), strict=True)]
     (tmp_path / "wrong.toml").write_text(calib.dumps(wrong))
     r = _ratios(grip(tmp_path, plant, 'calibration = "wrong.toml"'))
     assert abs(r[0]) < 0.02 and delivered(r[1:2]) and r[2] < -0.99, r
@@ -234,6 +236,6 @@ def test_reversed_encoder_with_truth_on_the_gateware(tmp_path: Path) -> None:
 def test_harness_gets_the_calibration_words() -> None:
     s = sc.load(SCENES / "unaligned.toml").override({"firmware.calibration": "truth"})
     words = [int(w) for w in harness.calib_line(s).split("=")[1].split()]
-    assert words == [w for a in s.calib for w in a.words()] and len(words) == 18
+    assert words == [w for a in s.calib() for w in a.words()] and len(words) == 18
     assert words[6 * 2 + 1] == -1 and words[6 * 1 + 2] == 1 and words[5] == round(
         120 / 360 * 1024)

@@ -112,12 +112,11 @@ def _plant_bringup(scene: Any) -> tuple[tuple[float, ...], tuple[bool, ...], tup
 
 
 def calib_line(scene: Any) -> str:
-    """The firmware's calibration (scene.calib, hg_axis_calib_t words per axis), for the run
+    """The firmware's calibration (scene.calib(), hg_axis_calib_t words per axis), for the run
     configuration: `calib = flags dir swapped pole_pairs index_to_zero offset` x 3."""
-    cal = getattr(scene, "calib", ()) or ()
-    if not cal:
+    if not hasattr(scene, "calib"):
         return ""
-    return "calib = " + " ".join(str(w) for a in cal for w in a.words())
+    return "calib = " + " ".join(str(w) for a in scene.calib() for w in a.words())
 
 
 def _enc(scene: Any, i: int) -> Any:

@@ -225,8 +225,6 @@ class Scene:
     plant: PlantCfg = PlantCfg()
     expect: ExpectCfg = ExpectCfg()
     pc: PcCfg | None = None          # [pc]: the scripted PC (env kind "pc" only)
-    calib: tuple[calib.AxisCalib, ...] = ()   # the firmware's calibration, resolved on load
-    #                                   from firmware.calibration (three axes)
     source: str = field(default="<scene>", compare=False)   # file it came from
     raw: str = field(default="{}", compare=False, repr=False)   # the TOML table, as JSON
 
@@ -237,6 +235,20 @@ class Scene:
     @property
     def q0_rad(self) -> np.ndarray:
         return np.deg2rad(np.asarray(self.run.q0_deg or DEFAULT_Q0_DEG, dtype=np.float64))
+
+    @property
+    def calibration(self) -> str:
+        """firmware.calibration, the default resolved: "none" when the scene sets a bring-up
+        key of [plant] (BRINGUP_KEYS), else "truth"."""
+        if self.firmware.calibration is not None:
+            return self.firmware.calibration
+        given = json.loads(self.raw).get("plant", {})
+        return "none" if any(k in given for k in BRINGUP_KEYS) else "truth"
+
+    def calib(self) -> tuple[calib.AxisCalib, ...]:
+        """The calibration the firmware starts with (three axes): calib.NONE, the plant's own
+        (calib.truth) or the file's (relative to the scene's folder; checked on load)."""
+        return _calib(self.calibration, self.plant, self.run, self.source)
 
     def signal_spec(self, axis: int) -> encsig.SignalSpec:
         """The encoder signal model of one axis, seeded from [run] seed and the axis."""
@@ -327,14 +339,32 @@ def from_dict(d: Mapping[str, Any], source: str = "<scene>") -> Scene:
     pc = v.pc(v.sub(top, "pc")) if "pc" in top else None
     v.consistent(run, faults, expect, env, pc, plant)
     run = replace(run, q0_deg=v.q0(run, hand))
-    firmware, cal = v.calibration(firmware, plant, run, v.sub(top, "plant"))
     raw = json.dumps(d, default=str)
-    return Scene(run, env, hand, encoders, faults, firmware, plant, expect, pc=pc, calib=cal,
-                 source=source, raw=raw)
+    out = Scene(run, env, hand, encoders, faults, firmware, plant, expect, pc=pc,
+                source=source, raw=raw)
+    v.calibration(out)
+    return out
 
 
 SWEEP_DEG = 0.5                  # the harness's homing sweep ends at q0 (harness.SWEEP_DEG)
 INDEX_MARGIN_DEG = 0.05          # an index this close to either end of it may not be crossed
+
+
+def _calib(mode: str, plant: PlantCfg, run: RunCfg, source: str
+           ) -> tuple[calib.AxisCalib, ...]:
+    if mode == "none":
+        return calib.NONE
+    if mode == "truth":   # the harness's index (harness.q_index), to the bit
+        qi = (np.deg2rad(np.asarray(plant.index_q_deg, dtype=np.float64))
+              if plant.index_q_deg is not None else
+              np.deg2rad(np.asarray(run.q0_deg or DEFAULT_Q0_DEG, dtype=np.float64))
+              - np.deg2rad(SWEEP_DEG) / 2)
+        return calib.truth(qi, plant.comm_offset_elec_deg, plant.phases_swapped,
+                           plant.encoder_dir, plant.pole_pairs)
+    path = Path(mode)
+    if not path.is_absolute() and source not in ("<scene>", ""):
+        path = Path(source).parent / path
+    return calib.load(path)
 
 
 def index_rad(scene: Scene) -> np.ndarray:
@@ -636,41 +666,26 @@ class _Validator:
             "test_limits": lambda x, k: self.bool_(x, k), "calibration": calibration})
         return FirmwareCfg(**kw)  # type: ignore[arg-type]
 
-    def calibration(self, fw: FirmwareCfg, plant: PlantCfg, run: RunCfg,
-                    given: dict[str, Any]) -> tuple[FirmwareCfg, tuple[calib.AxisCalib, ...]]:
-        """Resolve firmware.calibration and load it (a file: relative to the scene's folder).
-        A homed calibration needs the index on the harness's homing sweep (README "Homing")."""
-        mode = fw.calibration
-        if mode is None:
-            mode = "none" if any(k in given for k in BRINGUP_KEYS) else "truth"
-        q0 = np.asarray(run.q0_deg, dtype=np.float64)
-        qi = (np.asarray(plant.index_q_deg, dtype=np.float64) if plant.index_q_deg is not None
-              else q0 - SWEEP_DEG / 2)
-        if mode == "none":
-            cal: tuple[calib.AxisCalib, ...] = calib.NONE
-        elif mode == "truth":   # index_rad's arithmetic: the harness's index, to the bit
-            qi_rad = (np.deg2rad(qi) if plant.index_q_deg is not None
-                      else np.deg2rad(q0) - np.deg2rad(SWEEP_DEG) / 2)
-            cal = calib.truth(qi_rad, plant.comm_offset_elec_deg, plant.phases_swapped,
-                              plant.encoder_dir, plant.pole_pairs)
-        else:
-            path = Path(mode)
-            if not path.is_absolute() and self.src not in ("<scene>", ""):
-                path = Path(self.src).parent / path
-            try:
-                cal = calib.load(path)
-            except calib.CalibError as exc:
-                raise self.fail("firmware.calibration", str(exc)) from None
+    def calibration(self, scene: Scene) -> None:
+        """Check the calibration the scene resolves to (a file: that it loads). A homed one
+        needs each index on the harness's homing sweep (its README, "Homing")."""
+        mode = scene.calibration
+        try:
+            scene.calib()
+        except calib.CalibError as exc:
+            raise self.fail("firmware.calibration", str(exc)) from None
+        plant = scene.plant
         if mode != "none" and plant.index_q_deg is not None:
+            q0 = np.asarray(scene.run.q0_deg, dtype=np.float64)
             for i in range(3):
+                qi = plant.index_q_deg[i]
                 lo, hi = q0[i] - SWEEP_DEG + INDEX_MARGIN_DEG, q0[i] - INDEX_MARGIN_DEG
-                if not lo <= qi[i] <= hi:
+                if not lo <= qi <= hi:
                     raise self.fail(f"plant.index_q_deg[{i}]",
-                                    f"{qi[i]:g} deg: with a homed calibration ({mode!r}) the "
+                                    f"{qi:g} deg: with a homed calibration ({mode!r}) the "
                                     f"index must lie on the homing sweep, {lo:g}..{hi:g} deg "
                                     "(q0 - 0.45 .. q0 - 0.05): use calibration = \"none\" "
                                     "for an index elsewhere")
-        return replace(fw, calibration=mode), cal
 
     def plant(self, d: dict[str, Any]) -> PlantCfg:
         def pos(hi: float, unit: str) -> Callable[[object, str], float]:
