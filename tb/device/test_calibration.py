@@ -239,3 +239,14 @@ def test_harness_gets_the_calibration_words() -> None:
     assert words == [w for a in s.calib() for w in a.words()] and len(words) == 18
     assert words[6 * 2 + 1] == -1 and words[6 * 1 + 2] == 1 and words[5] == round(
         120 / 360 * 1024)
+
+
+def test_an_index_off_the_sweep_on_a_held_axis_runs_uncalibrated(tmp_path: Path) -> None:
+    """bringup/index.toml with one axis built: the held axes' registers come from a sweep
+    that never meets their index (nothing homed), which an uncalibrated firmware accepts."""
+    s = sc.load(SCENES / "bringup" / "index.toml").override(
+        {"run.axes": [1], "run.duration_s": 0.01, "run.fidelity": "model"})
+    held = harness.hold_values(s, s.q0_rad)
+    assert held["hold_index_count"] == [0, 0, 0]
+    raw = runner.simulate(s)
+    assert raw.summary["fw_err"] == "0" and not raw.ticks["drive"].any()

@@ -193,7 +193,7 @@ def hold_values(scene: Any, q0: np.ndarray) -> dict[str, list[int]]:
             a, b = b, a
         o = interp.run(a, b, encsig.index_bit(lines), InterpConfig(coarse=_coarse(scene)),
                        arm_at=[0])
-        if not bool(o.homed[-1]):
+        if not bool(o.homed[-1]) and getattr(scene, "calibration", "truth") != "none":
             raise DeviceError(f"axis {i}: the homing sweep did not home the held axis")
         out["hold_pos_homed"][i] = int(o.pos_homed[-1])
         out["hold_index_pos"][i] = int(o.index_pos[-1])
