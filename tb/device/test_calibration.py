@@ -250,3 +250,22 @@ def test_an_index_off_the_sweep_on_a_held_axis_runs_uncalibrated(tmp_path: Path)
     assert held["hold_index_count"] == [0, 0, 0]
     raw = runner.simulate(s)
     assert raw.summary["fw_err"] == "0" and not raw.ticks["drive"].any()
+
+
+def test_an_index_moved_along_the_sweep_with_truth(tmp_path: Path) -> None:
+    """index_q_deg given (on the homing sweep, 0.1 and 0.4 deg before the start pose, not
+    half-way): "truth" homes the firmware there, so its joint angles are the true ones
+    (within the interpolator's error on these signals, <= 25 counts) and every motor delivers
+    its torque. A calibration that keeps the old index_to_zero reads each joint off by the
+    shift: 0.15 deg = 437 counts."""
+    s = grip(tmp_path, "", "")
+    q0 = np.asarray(s.run.q0_deg)
+    moved = s.override({"plant.index_q_deg": list(q0 - [0.1, 0.4, 0.1]),
+                        "firmware.calibration": "truth"})
+    r = runner.run(moved)
+    assert r.metrics["position_error_counts"] <= 25, r.metrics
+    assert delivered(r.per_axis["torque_ratio"]), r.per_axis
+    (tmp_path / "old.toml").write_text(calib.dumps(s.calib()))
+    r = runner.run(moved.override({"firmware.calibration": "old.toml"}))
+    err = r.per_axis["pos_err_max_counts"]
+    assert all(abs(e - 0.15 / 360 * 2**20) <= 25 for e in err), err
