@@ -121,6 +121,10 @@ def cmd_fusesoc(args: argparse.Namespace) -> int:
     return fusesoc.run(args.args)
 
 
+def cmd_core(args: argparse.Namespace) -> int:
+    return fusesoc.write_core(check=args.check)
+
+
 def cmd_demo(args: argparse.Namespace) -> int:
     return demo.main(args)
 
@@ -161,6 +165,10 @@ def main(argv: list[str] | None = None) -> int:
     fp = sub.add_parser("fusesoc", help="fusesoc with the pinned tools (hapgate.core)")
     fp.add_argument("args", nargs=argparse.REMAINDER, help="fusesoc arguments")
     fp.set_defaults(fn=cmd_fusesoc)
+    cp = sub.add_parser("core", help="write hapgate.core from the named configurations, the "
+                        "blocks and the boards (--check: exit 1 if the committed one differs)")
+    cp.add_argument("--check", action="store_true", help="compare only")
+    cp.set_defaults(fn=cmd_core)
     sub.add_parser("demo", help="the main job: run the design on RTL and models, compare"
                    ).set_defaults(fn=cmd_demo)
     rp = sub.add_parser("replay", help="run a capture CSV through the RTL or the model")
