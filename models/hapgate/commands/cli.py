@@ -61,7 +61,8 @@ def cmd_lint(args: argparse.Namespace) -> int:
                                (5, ("HG_SIM",))):
                 jobs.append((flow.lint_verilator, block, params | {"AXIS_MASK": mask}, defs))
         if not args.no_synth:
-            jobs += [(flow.synth, block, params, target) for target in block.lint_synth]
+            targets = block.lint_synth + (block.synth_only if args.table else ())
+            jobs += [(flow.synth, block, params, target) for target in targets]
     with ThreadPoolExecutor(max_workers=os.cpu_count() or 2) as pool:  # tools are processes
         findings = list(pool.map(lambda j: j[0](*j[1:]), jobs))
     for f in findings:
@@ -79,6 +80,7 @@ def cmd_lint(args: argparse.Namespace) -> int:
 
 def cmd_synth(args: argparse.Namespace) -> int:
     args.no_synth = False
+    args.table = True      # every named configuration's synthesis too
     return cmd_lint(args)
 
 
@@ -189,7 +191,7 @@ def main(argv: list[str] | None = None) -> int:
         sp = sub.add_parser(name, help=hlp)
         sp.add_argument("block", nargs="*", help="blocks (default: all)")
         sp.add_argument("--no-synth", action="store_true", help="skip the Yosys checks")
-        sp.set_defaults(fn=fn)
+        sp.set_defaults(fn=fn, table=False)
     pp = sub.add_parser("pnr", help="synthesize and place-and-route the board tops (nextpnr); "
                         "up5k-interp: one interpolator axis alone on a UP5K, angle-stage variants")
     pp.add_argument("board", nargs="*", help="boards (default: all)")

@@ -313,13 +313,16 @@ def from_json(text: str) -> Config:
 
 def blocks() -> list[Block]:
     """hapgate_top with the paper's parameters, and one block per other named configuration
-    (hapgate_top_NAME): `hapgate lint` and `hapgate synth` check every one."""
+    (hapgate_top_NAME): `hapgate lint` lints every one, `hapgate synth` synthesizes every one
+    for its resource table."""
     out = []
     for name, cfg in registry().items():
         out.append(Block(name="hapgate_top" if name == "paper" else f"hapgate_top_{name}",
                          top="hapgate_top", sources=SOURCES, params=cfg.rtl_params,
                          doc=f"the FPGA, configuration {name}: {cfg.doc}",
-                         lint_synth=("generic", "ice40") if name == "paper" else ("ice40",)))
+                         # make lint synthesizes the paper's; `hapgate synth` every one
+                         lint_synth=("generic", "ice40") if name == "paper" else (),
+                         synth_only=() if name == "paper" else ("ice40",)))
     return out
 
 
