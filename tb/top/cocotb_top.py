@@ -436,21 +436,22 @@ async def homed_truth(dut) -> None:
     want = 8191 * tq / 32767 * np.sin(theta - (ch % 2) * 2 * np.pi / 3)
     # budget, in electrical angle: 1/2 ROM code (a code stands for the middle of its bin), the
     # 1/3 code by which b falls short of 120deg, the interpolator (ideal signals: < 1 count of
-    # 1024 per line; plain quadrature: < 1 step of 4 per line, 256 counts), and the shaft motion
-    # over one sample + the interpolator's latency + 1 clocks before the latch; plus 1/2 LSB of
-    # rounding and 1/2 LSB of the ROM's own rounding
+    # 1024 per line = 2/1024 of a code; plain quadrature's 256-count steps fall on the
+    # commutation's 512-count codes, so they add nothing), and the shaft motion over one sample
+    # + the interpolator's latency + 1 clocks before the latch; plus 1/2 LSB of rounding and 1/2
+    # LSB of the ROM's own rounding
     v_counts_s = TRUTH_REV_S * counts
     motion = v_counts_s * (1.0 / CFG.sample_hz + (CFG.interp.latency + 1) / CLK_HZ)
     codes_per_count = POLE_PAIRS * 1024 / counts
-    resolution = 1024 // 4 if CFG.interp.coarse else 1                      # counts
-    ang = 2 * np.pi / 1024 * (0.5 + np.where(ch % 2, 1 / 3, 0) + resolution * codes_per_count
+    ang = 2 * np.pi / 1024 * (0.5 + np.where(ch % 2, 1 / 3, 0) + 2 / 1024
                               + motion * codes_per_count)
     budget = 8191 * np.abs(tq) / 32767 * ang + 1.0
     err = np.abs(code - want)
     worst = int(np.argmax(np.where(check, err / budget, 0)))
     dut._log.info(
         f"homed truth, seed {seed}: power-up lines {x[0].round(1).tolist()}, "
-        f"{int(check.sum())} loads checked, max |err| {err[check].max():.1f} LSB, worst "
+        f"{int(check.sum())} loads checked, max |err| {err[check].max():.1f} LSB, RMS "
+        f"{np.sqrt(np.mean(err[check] ** 2)):.2f} LSB, worst "
         f"err/budget {err[worst] / budget[worst]:.3f} (channel {ch[worst]}, frame {frame[worst]})")
     assert np.all(err[check] <= budget[check]), (
         f"load {worst} (channel {ch[worst]}, frame {frame[worst]}): code {code[worst]}, "
