@@ -3,7 +3,10 @@
 #
 #   make          the venv, the C host library and the CHAI3D shims (build/host/lib/)
 #   make demo     the main job (what it runs grows with each block)
-#   make test     deps + lint + the docs site + every test (pytest -n auto, Verilator and Icarus)
+#   make test     deps + lint + the docs site + the first tier of tests (pytest -n auto,
+#                 Verilator and Icarus; ~10 min on 2 cores from a fresh clone)
+#   make regress  the second tier: the long runs, second simulators and netlists
+#                 (tb/conftest.py REGRESS lists them and why); CI runs it after make test
 #   make deps     the Debian packages the tests need (tb/debian-deps.sh: installs them as root,
 #                 else names the missing ones and fails)
 #   make lint     ruff, verilator -Wall, Icarus elaboration, Yosys synthesis checks
@@ -30,7 +33,7 @@ HG      := $(VENV)/bin/hapgate
 PYTEST  := $(VENV)/bin/pytest
 PYTEST_ARGS ?= -n auto --durations=15
 
-.PHONY: all host venv deps demo test lint bench docs soak versions synth gatelevel formal regs mutants coverage clean distclean
+.PHONY: all host venv deps demo test regress lint bench docs soak versions synth gatelevel formal regs mutants coverage clean distclean
 
 all: venv host
 
@@ -59,7 +62,10 @@ deps:
 
 test: deps lint docs host
 	$(HG) check-sims
-	$(PYTEST) $(PYTEST_ARGS) tb
+	$(PYTEST) $(PYTEST_ARGS) -m "not regress" tb
+
+regress: deps $(STAMP) host
+	$(PYTEST) $(PYTEST_ARGS) -m regress tb
 
 demo: $(STAMP)
 	$(HG) demo

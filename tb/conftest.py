@@ -4,6 +4,7 @@ tests scheduled first (with `-n auto` a long test collected last would run alone
 from __future__ import annotations
 
 import os
+import re
 
 import pytest
 from hapgate.base import toolenv
@@ -39,5 +40,47 @@ def _rank(item: pytest.Item) -> int:
     return len(LONG_FIRST)
 
 
-def pytest_collection_modifyitems(items: list[pytest.Item]) -> None:
+# The second tier (`make regress`, run by CI after `make test`): tests whose length is their
+# point, or that repeat on a second simulator or a netlist what the first tier proves on the
+# RTL. Node-id pattern (re.search) -> why it is long and what the first tier keeps. `make test`
+# deselects them (-m "not regress"), `make regress` runs only them (-m regress); an entry that
+# matches no test fails the collection, so a renamed test cannot drop out of both tiers.
+REGRESS: dict[str, str] = {
+    r"\[(.*-)?icarus(-.*)?\]$":
+        "Icarus, the second simulator: the same bit-exact checks run on Verilator in tier 1",
+    r"^tb/top/test_top_netlist\.py::":
+        "the top's post-synthesis netlists beside the RTL; tier 1 keeps the RTL bit-exact runs",
+    r"^tb/interp/test_enc_interp_netlist\.py::":
+        "the interpolator's netlist; tier 1 keeps the RTL bit-exact runs and lint's synthesis",
+    r"^tb/boards/test_board_tops\.py::test_board_netlist_":
+        "a board top's netlist; tier 1 keeps the board tops' RTL bit-exact runs",
+    r"^tb/device/test_closed_loop\.py::test_pgo_build_changes_nothing":
+        "builds the profile-guided device harness (a second, slower build of the same RTL)",
+    r"^tb/interp/test_calib_native\.py::test_ten_million_samples":
+        "10^7 samples for divergence; tier 1 keeps the calibration's bit-exact and truth tests",
+    r"^tb/device/test_soak\.py::test_soak_1e7":
+        "a 10^7-sample soak; tier 1 keeps the shorter no-slip runs",
+}
+
+
+def pytest_configure(config: pytest.Config) -> None:
+    config.addinivalue_line("markers", "regress: the second tier (make regress; tb/conftest.py "
+                                       "REGRESS says why each test is there)")
+
+
+@pytest.hookimpl(tryfirst=True)   # before -m deselects by the marker added here
+def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item]) -> None:
+    used = dict.fromkeys(REGRESS, 0)
+    for item in items:
+        for pattern in REGRESS:
+            if re.search(pattern, item.nodeid):
+                item.add_marker(pytest.mark.regress)
+                used[pattern] += 1
+                break
+    whole = not config.args or all(a.rstrip("/") in ("tb", str(config.rootpath / "tb"))
+                                   for a in config.args)
+    stale = [p for p, n in used.items() if n == 0]
+    if whole and stale and not config.getoption("keyword"):
+        raise pytest.UsageError("tb/conftest.py REGRESS entries that match no test: "
+                                + ", ".join(stale))
     items.sort(key=_rank)   # stable: the rest keep their order

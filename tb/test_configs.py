@@ -213,10 +213,24 @@ def _config_params() -> set[str]:
     return keys
 
 
+def _block_params() -> list[set[str]]:
+    """Each sub-block's parameters (every module under rtl/ but the top and the board tops)."""
+    return [set(boards.module_params(f)) for f in sorted(RTL.rglob("*.v"))
+            if f.parent.name not in ("top", "boards")]
+
+
+def _whole_fpga(keys: list[str]) -> bool:
+    """Two or more configuration parameters that no single block takes together: a parameter
+    set of the whole FPGA (a block's own sweep, e.g. dac_sched's SKEW_NS and FRAME_NS, is not
+    one)."""
+    return len(keys) >= 2 and not any(set(keys) <= b for b in _block_params())
+
+
 def parameter_sets(source: str, path: Path) -> list[str]:
     """Where `source` writes a parameter set: a construction of TopConfig or the registry's
     Config (found through imports, aliases and module attributes, not by name), or a dict
-    literal (or dict(...)) giving constant values to two or more configuration parameters."""
+    literal (or dict(...)) giving constant values to configuration parameters that no single
+    block takes together."""
     tree = ast.parse(source)
     here = _module_of(path)
     names: set[str] = set()        # local names bound to one of the classes
@@ -251,16 +265,16 @@ def parameter_sets(source: str, path: Path) -> list[str]:
                 out.append(f"{path.relative_to(ROOT)}:{node.lineno}: constructs "
                            f"{ast.unparse(f)}")
             if isinstance(f, ast.Name) and f.id == "dict":
-                consts = [k.arg for k in node.keywords
+                consts = [str(k.arg) for k in node.keywords
                           if k.arg in vocab and isinstance(k.value, ast.Constant)]
-                if len(consts) >= 2:
+                if _whole_fpga(consts):
                     out.append(f"{path.relative_to(ROOT)}:{node.lineno}: dict of "
                                f"{', '.join(consts)}")
         if isinstance(node, ast.Dict):
             consts = [k.value for k, v in zip(node.keys, node.values)
                       if isinstance(k, ast.Constant) and k.value in vocab
                       and isinstance(v, ast.Constant)]
-            if len(consts) >= 2:
+            if _whole_fpga(consts):
                 out.append(f"{path.relative_to(ROOT)}:{node.lineno}: parameter dict of "
                            f"{', '.join(consts)}")
     return out
@@ -276,8 +290,8 @@ def test_scanner_sees_through_names() -> None:
         "import hapgate.golden.top as t\nt.TopConfig(clk_hz=2)\n",
         "import hapgate\nhapgate.golden.configs.Config(name='x')\n",
         "from hapgate.golden import configs as c\nc.Config(**d)\n",
-        "p = {'SERIAL_MUL': 1, 'SQ_RAM': 1}\n",
-        "p = dict(CLK_HZ=12_000_000, LUT_BITS=7)\n",
+        "p = {'SERIAL_MUL': 1, 'SQ_RAM': 1}\n",              # commutator + interpolator
+        "p = dict(CLK_HZ=12_000_000, LINES_LOG2=10)\n",     # LINES_LOG2: the top's alone
     ]
     for src in caught:
         assert parameter_sets(src, p), src
@@ -287,6 +301,7 @@ def test_scanner_sees_through_names() -> None:
         "from dataclasses import dataclass\nclass Config: ...\nConfig()\n",
         "from hapgate.golden import configs\nconfigs.get('hx8k').replace(clk_hz=16_000_000)\n",
         "p = {'LUT_BITS': 9}\n", "p = {'CLK_HZ': clk, 'AXIS_MASK': 5}\n",
+        "p = {'SKEW_NS': 2000, 'FRAME_NS': 12000}\n",       # dac_sched's own sweep
     ]
     for src in fine:
         assert not parameter_sets(src, p), src

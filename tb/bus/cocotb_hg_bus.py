@@ -18,7 +18,7 @@ from cocotb.utils import get_sim_time
 from hapgate.flows import regmap
 from hapgate.golden import emif
 from hapgate.golden.regmodel import WDOG_KEY, AxisInputs, RegModel
-from hapgate.runners import cocotb_emif, tbutil
+from hapgate.runners import cocotb_emif, funcov, tbutil
 
 P = tbutil.params()
 CLK_HZ = int(P["CLK_HZ"])  # type: ignore[arg-type]
@@ -123,6 +123,7 @@ def replay(model: RegModel, master: cocotb_emif.EmifMaster, mon: cocotb_emif.Mon
     proto = sorted(p for p in mon.proto if p > model.done)
     pi = 0
     reads = 0
+    seen: list[tuple[str | None, bool, bool]] = []   # functional coverage (coverage runs)
     for a, c in zip(acc, com):
         assert (c.we, c.word) == (a.we, a.word), f"issued {a}, committed {c}"
         if a.we:
@@ -131,6 +132,8 @@ def replay(model: RegModel, master: cocotb_emif.EmifMaster, mon: cocotb_emif.Mon
             model.proto_error(proto[pi])
             pi += 1
         exp = model.access(c.word, c.we, c.wdata, c.edge)
+        reg = model.words.get(c.word)
+        seen.append((reg.name if reg else None, bool(c.we), model.seq > 0))
         if not a.we:
             reads += 1
             if a.rdata != exp or a.oe != 1:
@@ -141,6 +144,9 @@ def replay(model: RegModel, master: cocotb_emif.EmifMaster, mon: cocotb_emif.Mon
             errors.append(f"ready low at the end of a served strobe (edge {c.edge})")
     for p in proto[pi:]:
         model.proto_error(p)
+    if funcov.active():
+        funcov.sample_bus(seen)
+        funcov.flush()
     return reads, errors
 
 

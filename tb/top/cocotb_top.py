@@ -32,7 +32,7 @@ from hapgate.golden import commutation, emif, encsig, interp, velobs
 from hapgate.golden import top as topm
 from hapgate.golden.commutation import SINE, SIX_STEP
 from hapgate.golden.regmodel import WDOG_KEY, AxisInputs, RegModel
-from hapgate.runners import cocotb_emif, tbutil
+from hapgate.runners import cocotb_emif, funcov, tbutil
 from hapgate.runners.cocotb_dac import DacModel
 
 P = tbutil.params()
@@ -321,6 +321,9 @@ async def firmware_like_run(dut) -> None:
     dis = [c.edge for c in mon.committed if c.we and c.word == W["CTRL"] and c.wdata & 1 == 0]
     lat_dis = zero_after(dis[0], range(6), "disable")
     assert lat_dis <= bound
+    if funcov.active():   # the three causes whose zero torque was just checked
+        funcov.sample_top(["watchdog", "clip", "disable"])
+        funcov.flush()
     # interrupt period
     periods = set(np.diff(irq_rises).tolist())
     assert periods <= {CLK_HZ // TICK_HZ, 2 * CLK_HZ // TICK_HZ} and CLK_HZ // TICK_HZ in periods, \

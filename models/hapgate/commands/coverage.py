@@ -33,7 +33,8 @@ import tomllib
 from ..base import covdat
 from ..base.atomic import write_bytes as write_text
 from ..base.paths import BUILD, REPORTS, ROOT, RTL, TB, ensure
-from ..runners import covbuild
+from ..flows.boards import BOARDS
+from ..runners import covbuild, funcov
 
 OUT = REPORTS / "coverage"
 DAT = BUILD / "coverage" / "dat"
@@ -41,18 +42,26 @@ EXCLUSIONS = TB / "coverage" / "exclusions.toml"
 DOC = ROOT / "docs" / "coverage.md"
 # test groups: the block test folders (cocotb tests and native harness tests alike)
 GROUPS = {"commutation": ["tb/commutation"], "dac_sched": ["tb/dac_sched"],
-          "interp": ["tb/interp"], "bus": ["tb/bus"], "top": ["tb/top"]}
+          "interp": ["tb/interp"], "bus": ["tb/bus"], "top": ["tb/top"],
+          "boards": ["tb/boards"], "device": ["tb/device", "tb/cosim"]}
 # what a coverage run leaves out: Icarus (no coverage), netlist and gate-level simulations
 # (their sources are Yosys output, not rtl/)
 DESELECT = "not icarus and not netlist and not gatelevel"
 CATEGORIES = ("UNR", "NON_RTL", "UNSUPPORTED", "EXTERNAL", "LOW_RISK")
 METRICS = ("line", "branch", "toggle")
 # the configurations reported: every parameter set the selected tests build, merged (cocotb
-# and native harness runs); the blocks' default parameter set alone (cocotb runs only)
+# and native harness runs); the blocks' default parameter set alone (cocotb runs only); each
+# board top (cocotb runs of the board top; runners/covbuild.config_of)
 CONFIGS = {"suite": "every parameter set the selected tests build, merged (cocotb tests and "
                     "native harnesses)",
-           "default": "each block's default parameter set, the design the spec describes "
-                      "(cocotb tests only)"}
+           "paper": "each block's default parameter set, the design the paper and the spec "
+                    "describe (cocotb tests only)",
+           **{name: f"the {name} board top with the parameters flows/boards.py gives it "
+                    f"(cocotb tests of the board top)" for name in BOARDS}}
+# functional coverage group (runners/funcov.py) -> the RTL modules whose row shows it
+FUNC_MODULES = {"interp": ("enc_interp", "enc_interp3"), "commutation": ("commutator",),
+                "dac_sched": ("dac_sched",), "bus": ("hg_bus", "hg_regfile", "emif_slave"),
+                "top": ("hapgate_top",)}
 
 
 class BadInput(ValueError):
@@ -201,14 +210,18 @@ def table(rs: Sequence[Row]) -> str:
         f"{_fmt(r.tally('toggle'))} | {r.excluded} |\n" for r in rs)
 
 
-def summary(rs: Sequence[Row]) -> dict:
+def summary(rs: Sequence[Row], fg: Sequence[FuncGroup] = ()) -> dict:
+    """Per module: line, branch, port-toggle and functional percentages (None: nothing to
+    count), and the number of excluded items. A module's functional_pct is its group's
+    (FUNC_MODULES), merged over the whole run."""
     def pct(t: covdat.Tally) -> float | None:
         return None if t.pct is None else round(t.pct, 2)
+    func = {m: round(g.pct, 2) for g in fg if g.total for m in FUNC_MODULES.get(g.name, ())}
     return {r.module: {"line_pct": pct(r.tally("line")),
-                                "branch_pct": pct(r.tally("branch")),
-                                "toggle_pct": pct(r.tally("toggle")),
-                                "functional_pct": None, "excluded": r.excluded}
-                     for r in rs}
+                       "branch_pct": pct(r.tally("branch")),
+                       "toggle_pct": pct(r.tally("toggle")),
+                       "functional_pct": func.get(r.module), "excluded": r.excluded}
+            for r in rs}
 
 
 def lcov_info(rs: Sequence[Row]) -> str:
@@ -264,7 +277,58 @@ def write_html(info: Path, rs: Sequence[Row], out: Path) -> str:
 def config_files(dat: Path = DAT) -> dict[str, list[Path]]:
     """The coverage files of each configuration (see CONFIGS and runners/covbuild.run_dir)."""
     return {"suite": sorted(dat.rglob("sim-*")),
-            "default": sorted((dat / "default").glob("sim-*"))}
+            **{c: sorted((dat / c).glob("sim-*")) for c in CONFIGS if c != "suite"}}
+
+
+@dataclass(frozen=True)
+class FuncGroup:
+    name: str
+    covered: int
+    total: int
+    uncovered: tuple[str, ...]      # "<cover item>: <bin>" of every bin with no hit
+
+    @property
+    def pct(self) -> float:
+        return 100.0 * self.covered / self.total if self.total else 0.0
+
+
+def functional(dat: Path = DAT) -> list[FuncGroup]:
+    """Merge the processes' functional coverage databases (cocotb-coverage YAML) and count each
+    group's bins: the leaf cover items (points and crosses), every bin once. A group nobody
+    sampled still counts its bins (every database declares every group)."""
+    files = sorted((dat / "func").glob("*.yml"))
+    if not files:
+        return [FuncGroup(g, 0, 0, ()) for g in funcov.GROUPS]
+    import yaml
+    from cocotb_coverage.coverage import merge_coverage
+    for f in files:
+        try:
+            ok = isinstance(yaml.safe_load(f.read_text()), dict)
+        except yaml.YAMLError:
+            ok = False
+        if not ok:
+            raise BadInput(f"{f}: not a cocotb-coverage YAML database")
+    merged = ensure(OUT) / "functional.yml"
+    merge_coverage(lambda _msg: None, str(merged), *map(str, files))
+    db = yaml.safe_load(merged.read_text())
+    out = []
+    for g in funcov.GROUPS:
+        cov = tot = 0
+        missing: list[str] = []
+        for name, item in sorted(db.items()):
+            if not name.startswith(g + ".") or "bins:_hits" not in item:
+                continue
+            hits = item["bins:_hits"]
+            tot += len(hits)
+            cov += sum(1 for h in hits.values() if h > 0)
+            missing += [f"{name}: {b}" for b, h in hits.items() if h == 0]
+        out.append(FuncGroup(g, cov, tot, tuple(missing)))
+    return out
+
+
+def functional_table(fg: Sequence[FuncGroup]) -> str:
+    return ("| group | functional bins |\n|---|---|\n"
+            + "".join(f"| {g.name} | {g.covered}/{g.total} ({g.pct:.1f} %) |\n" for g in fg))
 
 
 def report(files: dict[str, list[Path]], ran: str, seconds: float | None = None
@@ -272,6 +336,7 @@ def report(files: dict[str, list[Path]], ran: str, seconds: float | None = None
     exclusions = load_exclusions()
     ensure(OUT)
     out: dict[str, list[Row]] = {}
+    fg = functional()
     doc = [DOC_HEAD, f"From the tests in {ran}.\n"]
     for cfg, fs in files.items():
         if not fs:
@@ -282,15 +347,26 @@ def report(files: dict[str, list[Path]], ran: str, seconds: float | None = None
         doc.append(f"\n## Configuration `{cfg}`\n\n{CONFIGS[cfg]}; {len(fs)} coverage "
                    f"files.\n\n{tab}")
         print(f"configuration {cfg} ({len(fs)} files): {CONFIGS[cfg]}\n{tab}")
+    ftab = functional_table(fg)
+    write_text(OUT / "table-functional.md", ftab)
+    doc.append(f"\n## Functional coverage\n\nCover points and crosses (runners/funcov.py), "
+               f"merged over the whole run.\n\n{ftab}")
+    print(f"functional coverage:\n{ftab}")
     write_text(OUT / "summary.json", json.dumps(
-        {cfg: summary(rs) for cfg, rs in out.items()}, indent=2) + "\n")
+        {**{cfg: summary(rs, fg) for cfg, rs in out.items()},
+         "functional": {g.name: {"covered": g.covered, "total": g.total,
+                                 "pct": round(g.pct, 2)} for g in fg}}, indent=2) + "\n")
     rs = out["suite"]
+    btab = block_table(rs, fg)
+    write_text(OUT / "table-blocks.md", btab)
+    write_readme_table(btab)
     info = OUT / "coverage.info"
     write_text(info, lcov_info(rs))
     how = write_html(info, rs, OUT / "html")
     uncovered = "".join(
         f"- `{r.module}` {m}: " + ", ".join(lab for lab, _, c in r.items[m] if c == 0) + "\n"
         for r in rs for m in METRICS if any(c == 0 for *_, c in r.items[m]))
+    uncovered += "".join(f"- functional {b}\n" for g in fg for b in g.uncovered)
     write_text(OUT / "uncovered.md", uncovered)
     doc.append("\nThe items not covered (configuration `suite`) are listed in "
                "`build/reports/coverage/uncovered.md` after a run.\n")
@@ -298,6 +374,51 @@ def report(files: dict[str, list[Path]], ran: str, seconds: float | None = None
     print(f"report: {OUT} (lcov and html of `suite`: {how}, {OUT / 'html' / 'index.html'})"
           + (f"; {seconds:.0f} s" if seconds is not None else ""))
     return out
+
+
+README = ROOT / "README.md"
+README_BEGIN = "<!-- coverage table: generated by `make coverage`; do not edit by hand -->"
+README_END = "<!-- end of the coverage table -->"
+# a block = a folder of rtl/ (its modules' items summed); its functional group (runners/funcov)
+BLOCK_FUNC = {"interp": "interp", "commutation": "commutation", "dac_sched": "dac_sched",
+              "bus": "bus", "top": "top"}
+
+
+def block_table(rs: Sequence[Row], fg: Sequence[FuncGroup]) -> str:
+    """One row per rtl/ folder: its modules' lines, branches and port toggles summed, and its
+    functional group's bins (the README's table)."""
+    by: dict[str, list[Row]] = {}
+    for r in rs:
+        by.setdefault(Path(r.file).resolve().relative_to(RTL.resolve()).parts[0], []).append(r)
+    func = {g.name: g for g in fg}
+
+    def tally(rows: list[Row], m: str) -> covdat.Tally:
+        ts = [r.tally(m) for r in rows]
+        return covdat.Tally(sum(t.covered for t in ts), sum(t.total for t in ts))
+
+    def pct(t: covdat.Tally) -> str:
+        return "—" if t.total == 0 else f"{t.pct:.1f} %"
+
+    out = ["| block | lines | branches | port toggles | functional bins | excluded |",
+           "|---|---|---|---|---|---|"]
+    for blk in sorted(by):
+        g = func.get(BLOCK_FUNC.get(blk, ""))
+        fpct = "—" if g is None or not g.total else f"{g.pct:.1f} % of {g.total}"
+        rows = by[blk]
+        out.append(f"| `rtl/{blk}/` | {pct(tally(rows, 'line'))} | "
+                   f"{pct(tally(rows, 'branch'))} | {pct(tally(rows, 'toggle'))} | {fpct} | "
+                   f"{sum(r.excluded for r in rows)} |")
+    return "\n".join(out) + "\n"
+
+
+def write_readme_table(tab: str, readme: Path = README) -> None:
+    """Replace the table between the README's markers (refused, naming the file, without them)."""
+    text = readme.read_text()
+    i, j = text.find(README_BEGIN), text.find(README_END)
+    if i < 0 or j < i:
+        raise BadInput(f"{readme}: no coverage table markers ({README_BEGIN!r} ... "
+                       f"{README_END!r})")
+    write_text(readme, text[:i + len(README_BEGIN)] + "\n" + tab + text[j:])
 
 
 DOC_HEAD = """# Coverage

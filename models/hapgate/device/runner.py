@@ -25,7 +25,7 @@ import numpy as np
 from ..base.paths import BUILD, ROOT, ensure
 from ..golden import configs, kinematics
 from ..golden.top import SOURCES, TopConfig
-from ..runners import cosim, native
+from ..runners import cosim, funcov, native
 from . import model
 from .harness import (
     ENERGY_MIN_J,
@@ -358,6 +358,12 @@ def run(scene: Any, progress: Any = None, out_dir: Path | None = None, view: Any
     if raw.trace is not None:
         raw.built.append(f"waveform trace {raw.trace}")
     m, per, evs = metrics(scene, raw)
+    if funcov.active():   # coverage runs: the faults applied, the zero-torque paths measured
+        funcov.sample_device([(f.kind, int(f.axis) if f.kind == "dropout" else "all")
+                              for f in scene.faults])
+        if str(scene.run.fidelity) == "rtl":
+            funcov.sample_top(["loss" if e.get("kind") == "dropout" else "watchdog"
+                               for e in evs if math.isfinite(e["reaction_us"])])
     arrays = arrays_of(scene, raw)
     sim_s = float(raw.summary["sim_s"])
     return RunResult(scene=scene, sim_s=sim_s, wall_s=raw.wall_s,

@@ -16,6 +16,7 @@ from cocotb.triggers import FallingEdge, First, RisingEdge, Timer
 
 from ..golden.commutation import CommutationConfig, Frames, encode
 from ..golden.dacsched import Load, pack, period_ps
+from . import funcov
 
 
 def now_ps() -> int:
@@ -149,4 +150,8 @@ class Bench:
                 await Timer(int(change_at[i]) * self.p - self.p // 2, unit="ps")
                 self.drive(frames, i + 1)
         await Timer(self.cfg.frame_ns * 1000, unit="ps")  # the last frame's loads
+        if funcov.active():   # (the simulator process: write its database now)
+            funcov.sample_dac([ld.addr for ld in self.dac.loads], self.cfg.clk_hz)
+            funcov.sample_commutation(frames.mode, frames.torque, frames.limit)
+            funcov.flush()
         return latches

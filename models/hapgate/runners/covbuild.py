@@ -39,14 +39,21 @@ def active() -> Path | None:
     return Path(d) if d else None
 
 
-def run_dir(default_params: bool) -> Path | None:
-    """Where a cocotb run's files go: <dir>/default for the block's default parameter set (the
-    design the spec describes), <dir>/other for any other; None outside a coverage run.
+def config_of(default_params: bool, top: str) -> str:
+    """The configuration a cocotb run's coverage counts in: a board top's board name, `paper`
+    for a block's default parameter set (the design the paper and the spec describe), `other`."""
+    from ..flows.boards import BOARDS
+    board = [name for name, b in BOARDS.items() if b.top == top]
+    return board[0] if board else "paper" if default_params else "other"
+
+
+def run_dir(default_params: bool, top: str) -> Path | None:
+    """Where a cocotb run's files go: <dir>/<config_of(...)>; None outside a coverage run.
     (Native harness runs write to <dir> itself: they count in the merged `suite` table only.)"""
     d = active()
     if d is None:
         return None
-    sub = d / ("default" if default_params else "other")
+    sub = d / config_of(default_params, top)
     sub.mkdir(parents=True, exist_ok=True)
     return sub
 

@@ -29,7 +29,7 @@ from ..base.tables import write_tables
 from ..flows.flow import param_text
 from ..golden import enccal, interp
 from ..golden.interp import InterpConfig
-from . import covbuild
+from . import covbuild, funcov
 
 HARNESS = TB / "native" / "interp" / "interp_harness.cpp"
 SOURCES = [RTL / "interp" / "enc_calib.v", RTL / "interp" / "ratio_div.v",
@@ -242,6 +242,12 @@ def run_interp(a: np.ndarray, b: np.ndarray, index: np.ndarray | None = None,
     if data.size != n:
         raise RuntimeError(f"native harness wrote {data.size} of {n} samples")
     outputs = [{c: data[f"{c}{ax}"].astype(np.int64) for c in cols} for ax in range(axes)]
+    if funcov.active() and "pos" in cols and "faults" in cols:
+        idx = None if index is None else _as_2d(index, n, axes, "u1")
+        for ax in range(axes):
+            funcov.sample_interp(outputs[ax]["pos"], outputs[ax]["faults"],
+                                 None if idx is None else idx[:, ax],
+                                 cfg.counts_per_line // 4, cfg.counts_per_rev, 1_000_000)
     return NativeRun(outputs=outputs, seconds=float(stats.get("seconds", wall)),
                      clocks=int(stats.get("clocks", 0)), stats=stats)
 

@@ -25,7 +25,7 @@ import numpy as np
 from ..base.cbuild import BuildError
 from ..base.paths import BUILD, RTL, TB, ensure
 from ..golden import commutation as cm
-from . import native
+from . import funcov, native
 
 HARNESS = TB / "native" / "commutation" / "commutation_harness.cpp"
 SOURCES = [RTL / "commutation" / "sine_lut.v", RTL / "dac_sched" / "dac_sched.v",
@@ -114,6 +114,7 @@ def pack_frames(frames: cm.Frames, cfg: cm.CommutationConfig) -> np.ndarray:
     f = (np.asarray(frames.fault, dtype=np.int64) != 0).astype(np.int64)
     rec["fault"] = f[:, 0] | f[:, 1] << 1 | f[:, 2] << 2
     rec["limit"] = np.asarray(frames.limit, dtype=np.int64) & 0xFFFF
+    funcov.sample_commutation(frames.mode, frames.torque, rec["limit"])   # coverage runs only
     return rec
 
 
@@ -147,6 +148,7 @@ def run_commutation(frames: cm.Frames, cfg: cm.CommutationConfig = cm.Commutatio
     if data.size != n + 1:
         raise RuntimeError(f"commutation harness wrote {data.size} of {n + 1} frames")
     words = data["word"].astype(np.int64)
+    funcov.sample_dac(np.flatnonzero((data["at"][1:] > 0).any(axis=0)).tolist(), cfg.clk_hz)
     violations = int(stats.get("violations", 0))
     if out.stderr.strip():
         violations = max(violations, 1)

@@ -1,0 +1,742 @@
+/* SPDX-License-Identifier: Apache-2.0 */
+/* Bring-up state machines against the host HAL and a small simulated plant: per axis a rigid
+ * joint (inertia, viscous and Coulomb friction, a constant load), a three-phase motor wound at
+ * an electrical offset from the index behind an amplifier that may have a and b swapped, an
+ * encoder that may count against the joint, the index at a known angle, an optional hand
+ * (a stiff grip, or a scripted move), and the FPGA's part: commutation (SINE / ALIGN as
+ * models/hapgate/golden/commutation.py describes it: angle code k stands for k + 1/2), the
+ * torque clamp, the enables, HOME_ARM and the index latch, the snapshot. Every expected value
+ * is computed here from the plant's parameters. */
+#include <stdlib.h>
+#include "hal_sim.h"
+#include "hg_bringup.h"
+#include "hg_fpga_regs.h"
+#include "hg_test.h"
+
+#define CPR 1048576.0
+#define SUB 20 /* plant substeps per servo tick (50 us at 1 kHz) */
+
+typedef struct {
+    /* truth */
+    double J, b, c, g;    /* kg m^2, N m s/rad, N m, N m (constant load: J q'' = tau - g - ...) */
+    double kt, amp, dac;  /* N m/A, A/V, V */
+    int pp;               /* the motor's pole pairs */
+    double off_deg;       /* electrical angle at the index: e = pp (q - q_index) + off      */
+    int swapped;          /* amplifier a and b exchanged                                    */
+    int enc_dir;          /* counts = enc_dir * (q - q_pu) * CPR / 2 pi + count0            */
+    double q_index, q_pu; /* rad */
+    int32_t count0;
+    double k_grip, b_grip, q_grip; /* a hand holding the joint (k_grip > 0)              */
+    double hand_t0, hand_T, hand_dq, hand_q0; /* scripted hand move (hand_T > 0)         */
+    /* state */
+    double q, v, tau;
+    int armed, homed, fault;
+    int32_t home, idx_pos;
+} sim_ax_t;
+
+typedef struct {
+    sim_ax_t ax[3];
+    double t, dt;
+    int fpga_pp;      /* the FPGA's POLE_PAIRS */
+    int corrected;    /* commutation angle runs as s * u (what a phase-order fix would do) */
+    int stale;        /* do not advance SEQ on the next snapshot */
+    uint32_t noise;   /* LCG state for +-1 count encoder noise (0: none) */
+} sim_t;
+
+static hg_servo_t S;
+static hg_bringup_t B;
+static sim_t SIM;
+
+static double wrap180(double x)
+{
+    x = fmod(x + 180.0, 360.0);
+    return (x < 0.0 ? x + 360.0 : x) - 180.0;
+}
+
+static int32_t sim_count(const sim_ax_t *a, double q)
+{
+    return a->count0 + (int32_t)lround((double)a->enc_dir * (q - a->q_pu) * CPR / (2.0 * PI_D));
+}
+
+/* The commutator's angle (electrical cycles) for a count: ALIGN ignores the position. */
+static double comm_angle(const sim_t *m, int32_t pos_homed, uint32_t mode, uint32_t offset, int s)
+{
+    double u_codes;
+    if (mode == HG_MODE_ALIGN) {
+        u_codes = (double)offset;
+    } else {
+        const uint32_t u = ((uint32_t)pos_homed * (uint32_t)m->fpga_pp) & 0xFFFFFu;
+        const double uc = (double)u / 1024.0;
+        u_codes = (s < 0 ? 1024.0 - uc : uc) + (double)offset;
+    }
+    return (floor(u_codes) + 0.5) / 1024.0;
+}
+
+/* Motor torque (N m) at joint angle q for torque command t (code) at commutation angle c. */
+static double motor_tau(const sim_ax_t *a, double q, double t, double c_cycles)
+{
+    const double I = t / 32767.0 * a->dac * a->amp;
+    const double th = 2.0 * PI_D * c_cycles;
+    double ia = I * sin(th), ib = I * sin(th - 2.0 * PI_D / 3.0);
+    if (a->swapped) {
+        const double x = ia;
+        ia = ib;
+        ib = x;
+    }
+    const double ic = -(ia + ib);
+    const double e = (double)a->pp * (q - a->q_index) + DEG_D(a->off_deg);
+    return a->kt * 2.0 / 3.0 *
+           (ia * sin(e) + ib * sin(e - 2.0 * PI_D / 3.0) + ic * sin(e - 4.0 * PI_D / 3.0));
+}
+
+static int32_t pos_homed(const sim_ax_t *a, int32_t pos)
+{
+    return a->homed ? (int32_t)((uint32_t)pos - (uint32_t)a->home) : pos;
+}
+
+static void sim_snapshot(void)
+{
+    int32_t pos[3], vel[3];
+    uint32_t st = 0;
+    for (unsigned i = 0; i < 3; i++) {
+        sim_ax_t *a = &SIM.ax[i];
+        int32_t n = 0;
+        if (SIM.noise) {
+            SIM.noise = SIM.noise * 1664525u + 1013904223u;
+            n = (int32_t)(SIM.noise >> 30) - 1; /* -1, 0, +1, +2 -> clamp */
+            n = n > 1 ? 1 : n;
+        }
+        pos[i] = sim_count(a, a->q) + n;
+        vel[i] = (int32_t)lround((double)a->enc_dir * a->v * CPR / (2.0 * PI_D));
+        hal_sim_regs[HG_REG_AXIS(i, HG_AX_POS_HOMED)] = (uint32_t)pos_homed(a, pos[i]);
+        hal_sim_regs[HG_REG_AXIS(i, HG_AX_IDX_POS)] = (uint32_t)a->idx_pos;
+        st |= a->homed ? HG_STAT_HOMED(i) : 0u;
+        st |= a->fault ? HG_STAT_FAULT(i) : 0u;
+    }
+    hal_sim_regs[HG_REG_STATUS] = st;
+    hal_sim_snapshot(pos, vel);
+    if (SIM.stale) {
+        hal_sim_regs[HG_REG_SEQ]--;
+        SIM.stale = 0;
+    }
+}
+
+/* One servo tick of plant time under the registers the firmware wrote, then a snapshot and
+ * the ISR. */
+static void sim_tick(void)
+{
+    const uint32_t ctrl = hal_sim_regs[HG_REG_CTRL];
+    for (unsigned i = 0; i < 3; i++)
+        if (ctrl & HG_CTRL_HOME_ARM_AXIS(i))
+            SIM.ax[i].armed = 1;
+    hal_sim_regs[HG_REG_CTRL] = ctrl & ~HG_CTRL_HOME_ARM;
+    const double h = SIM.dt / SUB;
+    for (unsigned i = 0; i < 3; i++) {
+        sim_ax_t *a = &SIM.ax[i];
+        const uint32_t mode = hal_sim_regs[HG_REG_AXIS(i, HG_AX_MODE)];
+        const uint32_t off = hal_sim_regs[HG_REG_AXIS(i, HG_AX_OFFSET)] & 1023u;
+        const double lim = fmin((double)hal_sim_regs[HG_REG_AXIS(i, HG_AX_TQ_LIMIT)], 32768.0);
+        double t = fmax(-lim, fmin(lim, (double)hal_sim_torque(i)));
+        const bool on = (ctrl & HG_CTRL_GLOBAL_EN) && (ctrl & HG_CTRL_AXIS_EN(i));
+        if (!on || mode == HG_MODE_OFF || a->fault)
+            t = 0.0;
+        for (int k = 0; k < SUB; k++) {
+            const double t_now = SIM.t + h * (k + 1);
+            const double q0 = a->q;
+            const int s = SIM.corrected ? (a->swapped ? -a->enc_dir : a->enc_dir) : 1;
+            const int32_t ph = pos_homed(a, sim_count(a, a->q));
+            a->tau = t == 0.0 ? 0.0 : motor_tau(a, a->q, t, comm_angle(&SIM, ph, mode, off, s));
+            if (a->hand_T > 0.0 && t_now >= a->hand_t0) {
+                const double x = fmin(1.0, (t_now - a->hand_t0) / a->hand_T);
+                const double qn = a->hand_q0 + a->hand_dq * 0.5 * (1.0 - cos(PI_D * x));
+                a->v = (qn - a->q) / h;
+                a->q = qn;
+            } else {
+                const double grip =
+                    a->k_grip > 0.0 ? a->k_grip * (a->q - a->q_grip) + a->b_grip * a->v : 0.0;
+                const double f = a->tau - a->b * a->v - a->g - grip; /* all but Coulomb */
+                if (a->v == 0.0 && fabs(f) <= a->c) {
+                    /* stuck */
+                } else {
+                    const double dir = a->v != 0.0 ? a->v : f; /* moving, or breaking away */
+                    const double sg = dir > 0.0 ? 1.0 : -1.0;
+                    const double v1 = a->v + (f - a->c * sg) / a->J * h;
+                    a->v = (a->v != 0.0 && v1 * a->v < 0.0) ? 0.0 : v1;
+                }
+                a->q += a->v * h;
+            }
+            const bool crossed = (q0 - a->q_index) * (a->q - a->q_index) < 0.0
+                              || (a->q == a->q_index && q0 != a->q);
+            if (crossed) {
+                a->idx_pos = sim_count(a, a->q_index);
+                if (a->armed) {
+                    a->home = a->idx_pos;
+                    a->homed = 1;
+                    a->armed = 0;
+                }
+            }
+        }
+    }
+    SIM.t += SIM.dt;
+    sim_snapshot();
+    hg_bringup_isr();
+}
+
+static void sim_axis_default(sim_ax_t *a, double q0)
+{
+    *a = (sim_ax_t){ 0 };
+    a->J = 5e-5;
+    a->b = 2e-4;
+    a->c = 2e-3;
+    a->g = 0.0;
+    a->kt = 0.06;
+    a->amp = 0.8;
+    a->dac = 10.0;
+    a->pp = 2;
+    a->enc_dir = 1;
+    a->q_index = q0 + 0.3;
+    a->q_pu = q0;
+    a->q = q0;
+}
+
+/* Reset the HAL, the plant (all axes at rest in the reference pose q0), the servo and
+ * bring-up. Tests change SIM.ax[] before calling setup_fw(). */
+static void setup_sim(void)
+{
+    static const double q0[3] = { 0.1, 0.5, 0.9 };
+    hal_sim_reset();
+    SIM = (sim_t){ 0 };
+    SIM.dt = 1e-3;
+    SIM.fpga_pp = 2;
+    for (unsigned i = 0; i < 3; i++)
+        sim_axis_default(&SIM.ax[i], q0[i]);
+}
+
+static void setup_fw(const hg_bringup_cfg_t *bc, const hg_calib_t *known)
+{
+    hg_servo_cfg_t cfg;
+    hg_servo_default_cfg(&cfg);
+    CHECK(hg_servo_init(&S, &cfg) == HG_ERR_NONE);
+    for (unsigned i = 0; i < 3; i++) {
+        SIM.ax[i].q = SIM.ax[i].q_pu;
+        SIM.ax[i].v = 0.0;
+    }
+    sim_snapshot();
+    hg_bringup_cfg_t c;
+    if (bc) {
+        c = *bc;
+    } else {
+        hg_bringup_default_cfg(&c);
+    }
+    for (unsigned i = 0; i < 3; i++)
+        c.q_ref[i] = (float)SIM.ax[i].q_pu;
+    hg_bringup_init(&B, &S, &c, known);
+    hg_servo_isr_ctx = &S;
+    hg_bringup_isr_ctx = &B;
+}
+
+/* Run the started step to its end (bounded by its own time limit + 1 s). */
+static void run_step(void)
+{
+    const uint32_t max = B.tick_limit + 1000u;
+    for (uint32_t k = 0; k < max && hg_bringup_active(&B); k++)
+        sim_tick();
+    CHECK(!hg_bringup_active(&B));
+}
+
+static int start(uint8_t step, uint8_t axis)
+{
+    return hg_bringup_start(&B, step, axis, NULL, 1);
+}
+
+/* The OFFSET (degrees) with which a positive code gives full +q torque on axis a, from the
+ * plant's truth, the FPGA's home at joint angle q_home (before homing: the power-up pose, where
+ * POS_HOMED = 0). The winding gives kt I cos(c - e), e = pp (q - q_index) + off; with a and b
+ * swapped, -kt I cos(c + e - 120 deg). The commutation angle c = s pp enc_dir (q - q_home) + OFF
+ * follows the rotor with s enc_dir = +1 (matched) or -1 (swapped); base = pp (q_home - q_index):
+ *   matched: c - e = OFF - off - base,          full +q torque at OFF = off + base
+ *   swapped: c + e - 120 = OFF + off + base - 120, at 180 deg: OFF = 300 - off - base */
+static double truth_offset_deg(const sim_ax_t *a, double q_home)
+{
+    const double base = (double)a->pp * (q_home - a->q_index) * 180.0 / PI_D;
+    return wrap180(a->swapped ? 300.0 - a->off_deg - base : a->off_deg + base);
+}
+
+/* Smallest delivered/commanded torque over a revolution with OFFSET reg and positive code:
+ * 1 for a perfect commutation (the miscommutation metric). */
+static double torque_ratio(unsigned i, uint32_t reg)
+{
+    sim_ax_t *a = &SIM.ax[i];
+    const int s = SIM.corrected ? (a->swapped ? -a->enc_dir : a->enc_dir) : 1;
+    double worst = 2.0;
+    for (int k = 0; k < 720; k++) {
+        const double q = a->q_pu + 2.0 * PI_D * k / 720.0;
+        const int32_t ph = pos_homed(a, sim_count(a, q));
+        const double tq = motor_tau(a, q, 10000.0, comm_angle(&SIM, ph, HG_MODE_TORQUE, reg, s));
+        const double r = tq / (a->kt * 10000.0 / 32767.0 * a->dac * a->amp);
+        worst = r < worst ? r : worst;
+    }
+    return worst;
+}
+
+static void check_zero_torque_now(void)
+{
+    for (unsigned i = 0; i < 3; i++)
+        CHECK(hal_sim_torque(i) == 0);
+    CHECK((hal_sim_regs[HG_REG_CTRL] & HG_CTRL_GLOBAL_EN) == 0);
+}
+
+static void hand_move(unsigned i, double t0, double dq);
+
+/* ---------------------------------------------------------------- ALIGN */
+
+void test_bringup_align_offsets(void)
+{
+    static const double offs[] = { 0.0, 37.5, -90.0, 179.7, -179.7, 123.4 };
+    for (unsigned k = 0; k < sizeof offs / sizeof offs[0]; k++) {
+        setup_sim();
+        const unsigned ax = k % 3;
+        SIM.ax[ax].off_deg = offs[k];
+        setup_fw(NULL, NULL);
+        CHECK(start(HG_BU_STEP_ALIGN, (uint8_t)ax) == HG_BU_OK);
+        run_step();
+        CHECK(B.err == HG_BU_OK);
+        const hg_bu_axis_t *r = &B.res[ax];
+        CHECK(r->scan_sign == 1);
+        CHECK(B.calib.axis[ax].flags & HG_CAL_ALIGNED);
+        CHECK(B.calib.axis[ax].phases_swapped == 0);
+        /* not homed: the raw-count frame, whose "home" is the power-up pose */
+        const double want = truth_offset_deg(&SIM.ax[ax], SIM.ax[ax].q_pu);
+        CHECK_NEAR(wrap180((double)r->offset_raw * 360.0 / 1024.0 - want), 0.0, 1.0);
+        const double reg = (double)hg_bringup_offset_deg(B.calib.axis[ax].comm_offset);
+        CHECK_NEAR(wrap180(reg - want), 0.0, 1.0);
+        CHECK(torque_ratio(ax, B.calib.axis[ax].comm_offset) >= 0.999);
+        CHECK_NEAR(r->counts_per_elec, CPR / SIM.ax[ax].pp, 0.002 * CPR / SIM.ax[ax].pp);
+        CHECK(r->chk[HG_BU_CHK_ALIGN_MOVE].done && r->chk[HG_BU_CHK_ALIGN_MOVE].pass);
+        /* two cycles forward, less the friction lag at the ends (a few degrees) */
+        CHECK_NEAR(r->move_elec_deg, 720.0, 10.0);
+        /* device time: 2 s lock + 2 x 2 cycles at 0.5 cycle/s + the walk back to the reference
+         * pose (at most half a cycle, pi/2 rad, at 0.5 rad/s) */
+        CHECK(r->duration_s[HG_BU_STEP_ALIGN] >= 10.0f);
+        CHECK(r->duration_s[HG_BU_STEP_ALIGN] <= 10.0f + (float)(PI_D / 2.0 / 0.5) + 0.5f);
+        CHECK_NEAR(SIM.ax[ax].q, SIM.ax[ax].q_pu, 2.0 * PI_D / 2.0 / 64.0);
+        check_zero_torque_now();
+        CHECK(hal_sim_regs[HG_REG_AXIS(ax, HG_AX_MODE)] == HG_MODE_TORQUE);
+    }
+}
+
+/* Swapped phases alone: the scan's sign is -1; with the configured encoder direction the
+ * calibration names the swap, and the offset commutates once the commutation angle runs as
+ * s * u (what the firmware's phase-order correction must do). */
+void test_bringup_align_swapped(void)
+{
+    setup_sim();
+    SIM.ax[1].swapped = 1;
+    SIM.ax[1].off_deg = -61.0;
+    setup_fw(NULL, NULL);
+    CHECK(start(HG_BU_STEP_ALIGN, 1) == HG_BU_OK);
+    run_step();
+    CHECK(B.err == HG_BU_OK);
+    CHECK(B.res[1].scan_sign == -1);
+    CHECK(B.calib.axis[1].phases_swapped == 1);
+    CHECK(B.calib.axis[1].enc_dir == 1);
+    SIM.corrected = 1;
+    CHECK(torque_ratio(1, B.calib.axis[1].comm_offset) >= 0.999);
+    SIM.corrected = 0; /* without the correction no offset works */
+    CHECK(torque_ratio(1, B.calib.axis[1].comm_offset) < 0.0);
+    /* IDENT needs a commutation the FPGA can do as it is */
+    CHECK(start(HG_BU_STEP_IDENT, 1) == HG_BU_ERR_NOT_READY);
+}
+
+void test_bringup_align_pole_pairs(void)
+{
+    setup_sim();
+    SIM.ax[2].pp = 3; /* the FPGA and the configuration say 2 */
+    setup_fw(NULL, NULL);
+    CHECK(start(HG_BU_STEP_ALIGN, 2) == HG_BU_OK);
+    run_step();
+    CHECK(B.err == HG_BU_ERR_POLE_PAIRS);
+    const hg_bu_axis_t *r = &B.res[2];
+    CHECK_NEAR(r->counts_per_elec, CPR / 3.0, 0.005 * CPR / 3.0);  /* measured */
+    CHECK(r->counts_per_elec_cfg == (float)(CPR / 2.0));            /* configured */
+    CHECK_NEAR(r->pole_pairs_meas, 3.0, 0.02);
+    const hg_bu_check_info_t c = hg_bringup_check(&B, 2, HG_BU_CHK_ALIGN_CPE);
+    CHECK(c.done && !c.pass && c.limit == 2.0f);
+    CHECK_NEAR(c.value, 100.0 / 3.0, 0.5);
+    CHECK_NEAR(B.err_value, 100.0 / 3.0, 0.5);
+    CHECK(!(B.calib.axis[2].flags & HG_CAL_ALIGNED));
+    check_zero_torque_now();
+}
+
+/* A hand gripping the joint (20 N m/rad): the rotor swings by 2 align_tau / k_grip at most. */
+void test_bringup_align_held(void)
+{
+    setup_sim();
+    SIM.ax[0].k_grip = 20.0;
+    SIM.ax[0].b_grip = 0.05;
+    SIM.ax[0].q_grip = SIM.ax[0].q_pu;
+    setup_fw(NULL, NULL);
+    CHECK(start(HG_BU_STEP_ALIGN, 0) == HG_BU_OK);
+    run_step();
+    CHECK(B.err == HG_BU_ERR_NO_MOVE);
+    const hg_bu_check_info_t c = hg_bringup_check(&B, 0, HG_BU_CHK_ALIGN_MOVE);
+    const double swing = 2.0 * 0.1 / 20.0 * SIM.ax[0].pp * 180.0 / PI_D; /* elec deg */
+    CHECK(c.done && !c.pass && c.ge && c.limit == 3.6f);
+    CHECK(c.value < c.limit);
+    CHECK_NEAR(c.value, swing, 0.25 * swing);
+    CHECK(B.err_value == c.value && B.err_limit == c.limit);
+    check_zero_torque_now();
+}
+
+void test_bringup_align_bounds(void)
+{
+    setup_sim();
+    hg_bringup_cfg_t c;
+    hg_bringup_default_cfg(&c);
+    c.travel_max = 1.0f; /* 2.5 cycles at 2 pole pairs need 7.85 rad */
+    setup_fw(&c, NULL);
+    CHECK(start(HG_BU_STEP_ALIGN, 0) == HG_BU_ERR_CONFIG);
+    CHECK_NEAR(B.err_value, 2.5 / 2.0 * 2.0 * PI_D, 1e-4);
+    CHECK(B.err_limit == 1.0f);
+    CHECK(!hg_bringup_active(&B));
+    /* a partial scan that fits the linkage's walls still finds the offset */
+    c.align_cycles = 0.5f;
+    c.travel_max = 3.2f; /* (0.5 + 0.5) cycles at 2 pole pairs: pi rad */
+    setup_sim();
+    SIM.ax[0].off_deg = 150.0;
+    setup_fw(&c, NULL);
+    CHECK(start(HG_BU_STEP_ALIGN, 0) == HG_BU_OK);
+    run_step();
+    CHECK(B.err == HG_BU_OK);
+    CHECK_NEAR(wrap180((double)B.res[0].offset_raw * 360.0 / 1024.0
+                       - truth_offset_deg(&SIM.ax[0], SIM.ax[0].q_pu)), 0.0, 1.0);
+    /* busy / bad arguments */
+    CHECK(start(HG_BU_STEP_ALIGN, 3) == HG_BU_ERR_ARG);
+    CHECK(start(HG_BU_STEP_ALIGN, 0) == HG_BU_OK);
+    CHECK(start(HG_BU_STEP_ALIGN, 1) == HG_BU_ERR_BUSY);
+    hg_bringup_abort(&B, HG_BU_ERR_ABORT);
+    CHECK(hg_servo_enable(&S, true) == 0);
+    CHECK(start(HG_BU_STEP_ALIGN, 0) == HG_BU_ERR_BUSY);
+}
+
+/* ---------------------------------------------------------------- faults and aborts */
+
+static void run_ticks(unsigned n)
+{
+    for (unsigned k = 0; k < n && hg_bringup_active(&B); k++)
+        sim_tick();
+}
+
+void test_bringup_fault_mid_scan(void)
+{
+    /* FPGA fault bit on another axis in the middle of the forward ramp */
+    setup_sim();
+    setup_fw(NULL, NULL);
+    CHECK(start(HG_BU_STEP_ALIGN, 1) == HG_BU_OK);
+    run_ticks(3000);
+    CHECK(B.state == HG_BU_ALIGN_FWD && hal_sim_torque(1) != 0);
+    SIM.ax[2].fault = 1;
+    sim_tick();
+    CHECK(B.err == HG_BU_ERR_FAULT && B.err_value == 2.0f);
+    check_zero_torque_now();
+    sim_tick(); /* the plant saw zero torque over the tick after the fault */
+    CHECK(SIM.ax[1].tau == 0.0);
+
+    /* abort from the background: zero torque before the call returns */
+    setup_sim();
+    setup_fw(NULL, NULL);
+    CHECK(start(HG_BU_STEP_ALIGN, 0) == HG_BU_OK);
+    run_ticks(2500);
+    CHECK(hal_sim_torque(0) != 0);
+    hg_bringup_abort(&B, HG_BU_ERR_ABORT);
+    check_zero_torque_now();
+    CHECK(B.err == HG_BU_ERR_ABORT && !hg_bringup_active(&B));
+    CHECK(hal_sim_irq_depth == 0);
+
+    /* link loss */
+    setup_sim();
+    setup_fw(NULL, NULL);
+    CHECK(start(HG_BU_STEP_ALIGN, 0) == HG_BU_OK);
+    run_ticks(1500);
+    hg_bringup_abort(&B, HG_BU_ERR_LINK);
+    check_zero_torque_now();
+    CHECK(B.err == HG_BU_ERR_LINK);
+    sim_tick();
+    CHECK(SIM.ax[0].tau == 0.0);
+    CHECK(S.err == HG_ERR_NONE); /* the servo took the tick back without a stale error */
+
+    /* a stale snapshot */
+    setup_sim();
+    setup_fw(NULL, NULL);
+    CHECK(start(HG_BU_STEP_ALIGN, 0) == HG_BU_OK);
+    run_ticks(1500);
+    SIM.stale = 1;
+    sim_tick();
+    CHECK(B.err == HG_BU_ERR_STALE);
+    check_zero_torque_now();
+
+    /* speed bound: a hand flicks the joint during the scan */
+    setup_sim();
+    setup_fw(NULL, NULL);
+    CHECK(start(HG_BU_STEP_ALIGN, 0) == HG_BU_OK);
+    run_ticks(1500);
+    SIM.ax[0].hand_q0 = SIM.ax[0].q;
+    SIM.ax[0].hand_t0 = SIM.t;
+    SIM.ax[0].hand_T = 0.05;
+    SIM.ax[0].hand_dq = 1.0; /* peak pi/2 / 0.05 = 31 rad/s */
+    run_ticks(100);
+    CHECK(B.err == HG_BU_ERR_SPEED);
+    CHECK(B.err_value > 10.0f && B.err_limit == 10.0f);
+    check_zero_torque_now();
+
+    /* travel bound: a hand pushes the joint slowly (2.6 rad/s at most) beyond travel_max */
+    setup_sim();
+    hg_bringup_cfg_t c;
+    hg_bringup_default_cfg(&c);
+    c.align_cycles = 0.25f;
+    c.travel_max = 2.4f; /* the plan: (0.25 + 0.5) cycles at 2 pole pairs = 2.36 rad */
+    setup_fw(&c, NULL);
+    CHECK(start(HG_BU_STEP_ALIGN, 2) == HG_BU_OK);
+    run_ticks(500);
+    SIM.ax[2].hand_q0 = SIM.ax[2].q;
+    SIM.ax[2].hand_t0 = SIM.t;
+    SIM.ax[2].hand_T = 1.5;
+    SIM.ax[2].hand_dq = 2.5;
+    run_ticks(2000);
+    CHECK(B.err == HG_BU_ERR_TRAVEL);
+    CHECK(B.err_value > 2.4f && B.err_value < 2.41f && B.err_limit == 2.4f);
+    check_zero_torque_now();
+}
+
+/* ---------------------------------------------------------------- HOME */
+
+/* ALIGN, then HOME; returns the joint angle HOME started from. */
+static double align_and_home(unsigned ax)
+{
+    CHECK(start(HG_BU_STEP_ALIGN, (uint8_t)ax) == HG_BU_OK);
+    run_step();
+    CHECK(B.err == HG_BU_OK);
+    const double q_start = SIM.ax[ax].q;
+    CHECK(start(HG_BU_STEP_HOME, (uint8_t)ax) == HG_BU_OK);
+    run_step();
+    return q_start;
+}
+
+void test_bringup_home(void)
+{
+    setup_sim();
+    SIM.ax[1].off_deg = 77.0;
+    SIM.ax[1].q_index = SIM.ax[1].q_pu - 0.45; /* below the start: found on the second leg */
+    setup_fw(NULL, NULL);
+    CHECK(start(HG_BU_STEP_HOME, 1) == HG_BU_ERR_NOT_READY); /* needs the alignment */
+    const double q_h = align_and_home(1);
+    CHECK(B.err == HG_BU_OK);
+    const hg_bu_axis_t *r = &B.res[1];
+    const sim_ax_t *a = &SIM.ax[1];
+    CHECK(B.calib.axis[1].flags & HG_CAL_HOMED);
+    CHECK(r->home_count == a->idx_pos && a->homed);
+    /* path: up 1.2 rad from where ALIGN left the joint, then down to the index (the rotor lags
+     * its target by a degree or so) */
+    CHECK(q_h > a->q_index);
+    CHECK_NEAR(r->home_travel, 1.2 + 1.2 + (q_h - a->q_index), 0.03);
+    CHECK_NEAR(r->chk[HG_BU_CHK_HOME_TRAVEL].value, (2.4 + q_h - a->q_index) * 180.0 / PI_D, 2.0);
+    /* at rest in the reference pose (within 1/64 electrical cycle) */
+    CHECK_NEAR(a->q, a->q_pu, 2.0 * PI_D / 2.0 / 64.0);
+    CHECK(fabs(a->v) < 0.1);
+    /* index frame now: the plant's offset itself */
+    const double reg = (double)hg_bringup_offset_deg(B.calib.axis[1].comm_offset);
+    CHECK_NEAR(wrap180(reg - truth_offset_deg(a, a->q_index)), 0.0, 1.0);
+    CHECK_NEAR(wrap180(reg - 77.0), 0.0, 1.0);
+    CHECK(torque_ratio(1, B.calib.axis[1].comm_offset) >= 0.999);
+    /* index_to_zero: q = 0 lies -q_pu from the reference pose; offset = index + index_to_zero */
+    const int32_t zero = sim_count(a, 0.0);
+    CHECK_NEAR(B.calib.axis[1].index_to_zero, zero - a->idx_pos, 2);
+    CHECK_NEAR(r->enc_offset, zero, 2);
+    check_zero_torque_now();
+}
+
+void test_bringup_home_no_index(void)
+{
+    setup_sim();
+    SIM.ax[0].q_index = SIM.ax[0].q_pu + 2.0; /* beyond the 1.2 rad range */
+    setup_fw(NULL, NULL);
+    const double q_h = align_and_home(0);
+    CHECK(q_h + 1.2 < SIM.ax[0].q_index);
+    CHECK(B.err == HG_BU_ERR_NO_INDEX);
+    CHECK_NEAR(B.err_value, 3.0 * 1.2, 0.01); /* the travel covered, beside the range */
+    CHECK_NEAR(B.err_limit, 3.0 * 1.2, 1e-5);
+    const hg_bu_check_info_t c = hg_bringup_check(&B, 0, HG_BU_CHK_HOME_TRAVEL);
+    CHECK(c.done && !c.pass);
+    CHECK(!(B.calib.axis[0].flags & HG_CAL_HOMED));
+    CHECK(!SIM.ax[0].homed);
+    check_zero_torque_now();
+}
+
+/* The paper's restart: calibrated once; a later power-up in the reference pose commutates and
+ * knows its angles without an index search (the counter starts anywhere). */
+void test_bringup_restart(void)
+{
+    setup_sim();
+    SIM.ax[2].off_deg = -33.0;
+    setup_fw(NULL, NULL);
+    align_and_home(2);
+    CHECK(B.err == HG_BU_OK);
+    const hg_calib_t stored = B.calib;
+
+    setup_sim();
+    SIM.ax[2].off_deg = -33.0;
+    SIM.ax[2].count0 = 123457; /* a counter that does not start at 0 */
+    setup_fw(NULL, &stored);
+    CHECK(start(HG_BU_STEP_RESTART, 2) == HG_BU_OK);
+    CHECK(!hg_bringup_active(&B) && B.res[2].home_virtual);
+    const sim_ax_t *a = &SIM.ax[2];
+    CHECK(!a->homed);
+    CHECK(torque_ratio(2, B.calib.axis[2].comm_offset) >= 0.999);
+    CHECK_NEAR(B.res[2].enc_offset, sim_count(a, 0.0), 2);
+    /* a guided move confirms the stored direction and leaves the restart's figures alone */
+    const uint32_t off = B.calib.axis[2].comm_offset;
+    const int32_t itz = B.calib.axis[2].index_to_zero;
+    const int8_t expect[3] = { 0, 0, 1 };
+    CHECK(hg_bringup_start(&B, HG_BU_STEP_GUIDED, 2, expect, 0) == HG_BU_OK);
+    hand_move(2, 0.2, 0.2);
+    run_step();
+    CHECK(B.err == HG_BU_OK && !B.res[2].guided_reversed);
+    CHECK(B.calib.axis[2].comm_offset == off && B.calib.axis[2].index_to_zero == itz);
+    CHECK(B.calib.axis[2].enc_dir == 1 && (B.calib.axis[2].flags & HG_CAL_DIR_SEEN));
+    /* a restart needs a stored calibration */
+    setup_sim();
+    setup_fw(NULL, NULL);
+    CHECK(start(HG_BU_STEP_RESTART, 2) == HG_BU_ERR_NOT_READY);
+}
+
+/* ---------------------------------------------------------------- GUIDED */
+
+static void hand_move(unsigned i, double t0, double dq)
+{
+    SIM.ax[i].hand_q0 = SIM.ax[i].q;
+    SIM.ax[i].hand_t0 = SIM.t + t0;
+    SIM.ax[i].hand_T = 1.0;
+    SIM.ax[i].hand_dq = dq;
+}
+
+/* A reversed encoder with swapped phases (the scan's sign is +1: it cannot tell), and a
+ * reversed encoder alone (sign -1: read as swapped phases until the guided move). */
+void test_bringup_guided_reversed(void)
+{
+    setup_sim();
+    SIM.ax[0].enc_dir = -1;
+    SIM.ax[0].swapped = 1;
+    SIM.ax[0].off_deg = 20.0;
+    SIM.ax[1].enc_dir = -1;
+    SIM.ax[1].off_deg = -100.0;
+    setup_fw(NULL, NULL);
+    align_and_home(0);
+    CHECK(B.err == HG_BU_OK);
+    CHECK(B.res[0].scan_sign == 1 && B.calib.axis[0].phases_swapped == 0);
+    CHECK(torque_ratio(0, B.calib.axis[0].comm_offset) < 0.0); /* pushes -q: not yet right */
+    align_and_home(1);
+    CHECK(B.err == HG_BU_OK);
+    CHECK(B.res[1].scan_sign == -1 && B.calib.axis[1].phases_swapped == 1);
+
+    /* the operator moves the handle: joints 0 and 1 both go +q (expect +1) */
+    const int8_t expect[3] = { 1, 1, 0 };
+    CHECK(hg_bringup_start(&B, HG_BU_STEP_GUIDED, 0, expect, 0) == HG_BU_OK);
+    hand_move(0, 0.5, 0.3);
+    hand_move(1, 0.8, 0.3);
+    run_step();
+    CHECK(B.err == HG_BU_OK);
+    for (unsigned i = 0; i < 2; i++) {
+        CHECK(B.res[i].guided_reversed && !B.res[i].refused);
+        CHECK(B.calib.axis[i].enc_dir == -1);
+        CHECK(B.calib.axis[i].flags & HG_CAL_DIR_SEEN);
+        CHECK(B.calib.axis[i].flags & HG_CAL_ALIGNED);
+        const hg_bu_check_info_t c = hg_bringup_check(&B, (uint8_t)i, HG_BU_CHK_GUIDED_MOVE);
+        CHECK(c.done && c.pass);
+    }
+    CHECK(B.calib.axis[0].phases_swapped == 1); /* the truth: swapped */
+    CHECK(B.calib.axis[1].phases_swapped == 0); /* the truth: not swapped */
+    /* axis 0 now commutates on the FPGA as it is, pushing +q; offset from the plant's truth */
+    CHECK(torque_ratio(0, B.calib.axis[0].comm_offset) >= 0.999);
+    CHECK_NEAR(wrap180((double)hg_bringup_offset_deg(B.calib.axis[0].comm_offset)
+                       - truth_offset_deg(&SIM.ax[0], SIM.ax[0].q_index)), 0.0, 1.0);
+    /* axis 1 with the commutation angle running as s * u */
+    SIM.corrected = 1;
+    CHECK(torque_ratio(1, B.calib.axis[1].comm_offset) >= 0.999);
+    /* index_to_zero with the corrected direction */
+    CHECK_NEAR(B.res[0].enc_offset, sim_count(&SIM.ax[0], 0.0), 2);
+    CHECK(B.res[0].guided_wait_s > 0.5f && B.res[0].guided_wait_s < 1.5f);
+}
+
+void test_bringup_guided_timeout(void)
+{
+    setup_sim();
+    hg_bringup_cfg_t c;
+    hg_bringup_default_cfg(&c);
+    c.guided_timeout_s = 2.0f;
+    setup_fw(&c, NULL);
+    align_and_home(2);
+    CHECK(B.err == HG_BU_OK);
+    const int8_t expect[3] = { 0, 0, -1 };
+    CHECK(hg_bringup_start(&B, HG_BU_STEP_GUIDED, 0, expect, 0) == HG_BU_OK);
+    hand_move(2, 0.5, -0.02); /* a nudge, below the 0.1 rad that counts */
+    run_step();
+    CHECK(B.err == HG_BU_ERR_GUIDED_TIMEOUT);
+    CHECK_NEAR(B.err_value, 2.0, 0.0011); /* waited, beside the limit */
+    CHECK(B.err_limit == 2.0f);
+    const hg_bu_check_info_t w = hg_bringup_check(&B, 2, HG_BU_CHK_GUIDED_WAIT);
+    CHECK(w.done && !w.pass && w.limit == 2.0f);
+    const hg_bu_check_info_t m = hg_bringup_check(&B, 2, HG_BU_CHK_GUIDED_MOVE);
+    CHECK(m.done && !m.pass);
+    CHECK_NEAR(m.value, 0.02 * 180.0 / PI_D, 0.01);
+    CHECK(B.res[2].refused);
+    CHECK(!(B.calib.axis[2].flags & (HG_CAL_HOMED | HG_CAL_ALIGNED | HG_CAL_DIR_SEEN)));
+    check_zero_torque_now();
+}
+
+/* ---------------------------------------------------------------- IDENT */
+
+static void ident_case(uint32_t seed, double J, double b, double c, double g)
+{
+    setup_sim();
+    sim_ax_t *a = &SIM.ax[1];
+    a->J = J;
+    a->b = b;
+    a->c = c;
+    a->g = g;
+    a->off_deg = 45.0;
+    SIM.noise = seed;
+    setup_fw(NULL, NULL);
+    align_and_home(1);
+    CHECK(B.err == HG_BU_OK);
+    CHECK(hg_bringup_start(&B, HG_BU_STEP_IDENT, 1, NULL, seed) == HG_BU_OK);
+    run_step();
+    CHECK(B.err == HG_BU_OK);
+    const hg_bu_axis_t *r = &B.res[1];
+    CHECK_NEAR(r->inertia, J, 0.05 * J);
+    CHECK_NEAR(r->b_visc, b, 0.05 * b);
+    CHECK_NEAR(r->tau_coulomb, c, 0.05 * c);
+    CHECK_NEAR(r->tau_gravity, g, 0.05 * fabs(g));
+    CHECK_NEAR(r->kt_amp, a->kt * a->amp, 1e-6);
+    const hg_bu_check_info_t x = hg_bringup_check(&B, 1, HG_BU_CHK_IDENT_TRAVEL);
+    CHECK(x.done && x.pass);
+    CHECK(r->chk[HG_BU_CHK_IDENT_RESID].pass);
+    check_zero_torque_now();
+}
+
+void test_bringup_ident(void)
+{
+    ident_case(1, 5e-5, 2e-4, 2e-3, 5e-3);
+    ident_case(7, 3e-5, 4e-4, 1e-3, -3e-3);
+
+    /* a fault in the middle of the excitation: zero torque on that tick */
+    setup_sim();
+    setup_fw(NULL, NULL);
+    align_and_home(0);
+    CHECK(hg_bringup_start(&B, HG_BU_STEP_IDENT, 0, NULL, 3) == HG_BU_OK);
+    run_ticks(3000);
+    CHECK(B.state == HG_BU_IDENT_RUN && hal_sim_torque(0) != 0);
+    SIM.ax[0].fault = 1;
+    sim_tick();
+    CHECK(B.err == HG_BU_ERR_FAULT);
+    check_zero_torque_now();
+}
