@@ -17,7 +17,6 @@ from cocotb.utils import get_sim_time
 from hapgate.flows import regmap
 from hapgate.golden import commutation as cm
 from hapgate.golden import emif
-from hapgate.golden import top as topm
 from hapgate.golden.regmodel import WDOG_KEY
 from hapgate.runners import cocotb_emif, tbutil
 from hapgate.runners.cocotb_dac import DacModel
@@ -25,7 +24,8 @@ from hapgate.runners.cocotb_dac import DacModel
 P = tbutil.params()
 CLK_HZ = int(P["CLK_HZ"])  # type: ignore[arg-type]
 PERIOD_PS = 10**12 // CLK_HZ
-CFG = topm.TopConfig(clk_hz=CLK_HZ)
+CFG = tbutil.config().top()   # the paper's, at the test's clock
+assert CFG.clk_hz == CLK_HZ
 RM = regmap.load(CLK_HZ)
 W = {r.name: r.word for r in RM.registers}
 

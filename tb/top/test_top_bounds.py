@@ -15,13 +15,13 @@ from __future__ import annotations
 from pathlib import Path
 
 from hapgate.flows import blocks
-from hapgate.golden import top
+from hapgate.golden import configs
 from hapgate.runners import sim
 
 HERE = Path(__file__).parent
 
 
 def test_top_torque_limit_bounds() -> None:
-    cfg = top.TopConfig(clk_hz=50_000_000)
+    cfg = configs.get("paper").replace(clk_hz=50_000_000)
     sim.run_cocotb(blocks.get("hapgate_top"), "verilator", "cocotb_top_bounds", HERE,
-                   params=cfg.rtl_params(), testcase="torque_limit_bounds")
+                   config=cfg, testcase="torque_limit_bounds")

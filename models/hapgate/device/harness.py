@@ -163,11 +163,11 @@ def plant_config(scene: Any, q0: np.ndarray) -> str:
 
 
 def _observer(scene: Any) -> bool:
-    return getattr(scene.run, "velocity", "fir") == "observer"
+    return scene.run.gateware().velocity == "observer"
 
 
 def _coarse(scene: Any) -> bool:
-    return getattr(scene.run, "position", "interpolated") == "quadrature"
+    return scene.run.gateware().angle == "quadrature"
 
 
 def hold_values(scene: Any, q0: np.ndarray) -> dict[str, list[int]]:

@@ -24,7 +24,7 @@ from typing import Any
 import numpy as np
 
 from ..base import cache
-from ..golden import calib, encsig, kinematics
+from ..golden import calib, configs, encsig, kinematics
 
 
 class SceneError(ValueError):
@@ -78,6 +78,37 @@ class RunCfg:
     name: str | None = None          # output folder name (resolved on load: the file's stem)
     position: str = "interpolated"   # "quadrature": the interpolator's fine angle zeroed (COARSE)
     velocity: str = "fir"            # "observer": VEL reports the tracking observer (VEL_OBS)
+    config: str = "paper"            # the gateware's named configuration (golden.configs)
+
+    def gateware(self) -> configs.Config:
+        """The gateware's configuration: run.config, with position = "quadrature" and
+        velocity = "observer" applied to it (a sweep point), on the configuration's clock (the
+        run's clock is chosen when building)."""
+        c = configs.get(self.config)
+        if self.position == "quadrature":
+            c = c.replace(angle="quadrature")
+        if self.velocity == "observer":
+            c = c.replace(velocity="observer")
+        return c
+
+
+# what the virtual device builds of a configuration: the paper's, but for these keys (and the
+# clock, which the run chooses)
+DEVICE_KEYS = {"angle": ("arcsine", "quadrature"), "velocity": ("fir", "observer")}
+
+
+def device_refusal(c: configs.Config) -> str:
+    """Why the virtual device cannot build configuration `c` ("" if it can)."""
+    paper = configs.get("paper")
+    other = [k for k in configs.KEYS if k != "clk_hz" and k not in DEVICE_KEYS
+             and getattr(c, k) != getattr(paper, k)]
+    other += [f"{k} = {getattr(c, k)!r}" for k, ok in DEVICE_KEYS.items()
+              if getattr(c, k) not in ok]
+    if not other:
+        return ""
+    return (f"configuration {c.name!r} sets {', '.join(other)}: the virtual device builds the "
+            f"paper's configuration with angle {' or '.join(DEVICE_KEYS['angle'])} and velocity "
+            f"{' or '.join(DEVICE_KEYS['velocity'])} (models/hapgate/configs.toml)")
 
 
 @dataclass(frozen=True)
@@ -489,6 +520,13 @@ class _Validator:
                                    "with . or -): it names the output folder")
             return x
 
+        def gateware(x: object, k: str) -> str:
+            name_ = self.str_(x, k, tuple(configs.names()))
+            why = device_refusal(configs.get(name_))
+            if why:
+                raise self.fail(k, why)
+            return name_
+
         kw = self.fields_of(d, "run", {
             "duration_s": lambda x, k: self.num(x, k, lambda s: 0 < s <= 600, "0 < s <= 600"),
             "fidelity": lambda x, k: self.str_(x, k, FIDELITIES),
@@ -501,7 +539,8 @@ class _Validator:
                                                "qd_max, 100 rad/s)"),
             "name": name,
             "position": lambda x, k: self.str_(x, k, ("interpolated", "quadrature")),
-            "velocity": lambda x, k: self.str_(x, k, ("fir", "observer"))})
+            "velocity": lambda x, k: self.str_(x, k, ("fir", "observer")),
+            "config": gateware})
         for a, w in enumerate(kw.get("qd0_deg_s", ())):   # type: ignore[arg-type]
             if w != 0 and a not in kw.get("axes", RunCfg.axes):   # type: ignore[operator]
                 raise self.fail(f"run.qd0_deg_s[{a}]", f"axis {a} is not simulated (its joint "
