@@ -60,6 +60,38 @@ REGRESS: dict[str, str] = {
         "10^7 samples for divergence; tier 1 keeps the calibration's bit-exact and truth tests",
     r"^tb/device/test_soak\.py::test_soak_1e7":
         "a 10^7-sample soak; tier 1 keeps the shorter no-slip runs",
+    r"^tb/boards/test_board_tops\.py::test_board_top_bit_exact\[ecp5-evn-":
+        "the ECP5 board wrapper (PLL off in simulation); tier 1 keeps the ecp5 configuration "
+        "bit-exact in tb/top and the HX8K board top, whose ADC mux is board logic",
+    r"^tb/device/test_stage_clocks\.py::test_stage_clocks_equal_the_clk_build_on_random_"
+    r"stimulus\[6000000-7\]":
+        "a second clock and axis mask of the stage-clock equivalence; tier 1 keeps 24 MHz",
+    r"^tb/interp/test_enc_interp\.py::test_other_lut_density":
+        "arcsine densities other than the paper's 7 (the bench sweeps them); tier 1 keeps 7",
+    r"^tb/commutation/test_commutator\.py::test_commutator_rtl\[(c50_ob|c16_tc)-":
+        "DAC codings no board ships (offset binary, 16 bits); tier 1 keeps the shipped 14-bit "
+        "two's complement (c12m5_serial here, 12 and 48 MHz in the native tests)",
+    r"^tb/dac_sched/test_dac_sched\.py::test_schedule_timing_rtl\[(c25_fast|c50|c12m5)-":
+        "DAC timing at clocks no board ships; tier 1 keeps 48 MHz (the paper's) and 12 MHz "
+        "(the HX8K's): every shipped clock",
+    r"^tb/commutation/test_commutator_native\.py::test_random_frames_bit_exact\[2000000\]":
+        "2 MHz, a clock no board ships; tier 1 keeps 12 and 48 MHz",
+    r"^tb/commutation/test_commutator_native\.py::test_(harness_checks_fail_on_a_wrong_"
+    r"schedule|short_frame_parameters)":
+        "the harness's own checks against a wrong schedule, and frame settings no board "
+        "ships; tier 1 runs the checks on every shipped clock",
+    r"^tb/formal/test_formal\.py::test_broken_copy_fails":
+        "the broken copies each proof must reject (also `make formal`); tier 1 keeps every "
+        "proof passing",
+    r"^tb/device/test_sweep\.py::test_device_zwidth_at_b0_brackets_the_bound\[1000\]":
+        "the Z-width bracket at the 1 kHz servo (a Dask sweep of device runs); tier 1 keeps "
+        "10 kHz",
+    r"^tb/test_native_pgo\.py::test_a_failed_training_run":
+        "a profile-guided build's failure path (two device builds); tier 2 beside the PGO build",
+    r"^tb/replay/test_streaming\.py::test_interp_output_does_not_depend_on_the_chunk"
+    r"\[rtl-ratio-harm\]":
+        "its own ratio+harmonic harness build; tier 1 keeps the chunking test on the other "
+        "RTL builds and on every model",
 }
 
 
