@@ -375,21 +375,9 @@ async def homed_truth(dut) -> None:
     rng = np.random.default_rng(1000 + seed)
     n = N_SAMPLES
     x, a, b, idx = truth_stimulus(seed, n + 50)
-    cocotb.start_soon(Clock(dut.clk, PERIOD_PS, unit="ps").start())
-    master = cocotb_emif.EmifMaster(dut)
-    dac = DacModel(dut, CFG.comm)
-    dut.adc_a.value = 0
-    dut.adc_b.value = 0
-    dut.enc_index.value = 0
-    dut.rst.value = 1
-    dac.start()
-    await ClockCycles(dut.clk, 4)
-    ref = int(get_sim_time(unit="ps"))
-    dac.reset_ps = ref
-    dut.rst.value = 0
+    master, dac, t = await tbutil.start_top_dac(dut, PERIOD_PS, CFG.comm)
+    ref = dac.reset_ps
     cocotb.start_soon(drive_adc(dut, a, b, idx))
-    t = emif.Timing(setup=PERIOD_PS, strobe=emif.MIN_STROBE_CLOCKS * PERIOD_PS, hold=0,
-                    idle=emif.MIN_RECOVERY_CLOCKS * PERIOD_PS)
     torque = [int(v) for v in rng.integers(8000, 32768, 3) * rng.choice([-1, 1], 3)]
     offset = [int(v) for v in rng.integers(0, 1024, 3)]
     await master.write(W["WDOG_TIMEOUT"], 1_000_000, t)

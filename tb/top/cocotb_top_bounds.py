@@ -11,15 +11,11 @@ from fractions import Fraction
 
 import cocotb
 import numpy as np
-from cocotb.clock import Clock
 from cocotb.triggers import ClockCycles
-from cocotb.utils import get_sim_time
 from hapgate.flows import regmap
 from hapgate.golden import commutation as cm
-from hapgate.golden import emif
 from hapgate.golden.regmodel import WDOG_KEY
-from hapgate.runners import cocotb_emif, tbutil
-from hapgate.runners.cocotb_dac import DacModel
+from hapgate.runners import tbutil
 
 P = tbutil.params()
 CLK_HZ = int(P["CLK_HZ"])  # type: ignore[arg-type]
@@ -61,20 +57,8 @@ def steps() -> list[tuple[int, int, int]]:
 
 @cocotb.test()
 async def torque_limit_bounds(dut) -> None:
-    cocotb.start_soon(Clock(dut.clk, PERIOD_PS, unit="ps").start())
-    master = cocotb_emif.EmifMaster(dut)
-    dac = DacModel(dut, CFG.comm)
-    dut.adc_a.value = 0x464646          # 70 on every axis: a healthy standstill, no fault
-    dut.adc_b.value = 0x464646
-    dut.enc_index.value = 0
-    dut.rst.value = 1
-    dac.start()
-    await ClockCycles(dut.clk, 4)
-    ref = int(get_sim_time(unit="ps"))
-    dac.reset_ps = ref
-    dut.rst.value = 0
-    t = emif.Timing(setup=PERIOD_PS, strobe=emif.MIN_STROBE_CLOCKS * PERIOD_PS, hold=0,
-                    idle=emif.MIN_RECOVERY_CLOCKS * PERIOD_PS)
+    # 70 on every axis: a healthy standstill, no fault
+    master, dac, t = await tbutil.start_top_dac(dut, PERIOD_PS, CFG.comm, adc_word=0x464646)
     await master.write(W["WDOG_TIMEOUT"], 1_000_000, t)
     await master.write(W["WDOG"], WDOG_KEY, t)
     for i in range(3):

@@ -13,6 +13,7 @@ from cocotb.utils import get_sim_time
 
 from ..golden import configs, emif
 from . import cocotb_emif
+from .cocotb_dac import DacModel
 
 
 def config() -> configs.Config:
@@ -99,6 +100,27 @@ class TopBus:
     async def rd(self, name: str) -> int:
         return await self.master.read(self.words[name], emif.random_timing(self.rng,
                                                                            self.period_ps))
+
+
+async def start_top_dac(dut, period_ps: int, comm, adc_word: int = 0
+                        ) -> tuple[cocotb_emif.EmifMaster, DacModel, emif.Timing]:
+    """The whole FPGA top out of reset with the DAC model recording from the reset edge: clock
+    started, every axis's ADC inputs at `adc_word` (one byte per axis), index low, reset for 4
+    clocks. Returns the bus master, the DAC model (comm: the top's CommutationConfig) and the
+    fastest EMIF timing the bus allows."""
+    cocotb.start_soon(Clock(dut.clk, period_ps, unit="ps").start())
+    master = cocotb_emif.EmifMaster(dut)
+    dac = DacModel(dut, comm)
+    dut.adc_a.value = adc_word
+    dut.adc_b.value = adc_word
+    dut.enc_index.value = 0
+    dut.rst.value = 1
+    dac.start()
+    await ClockCycles(dut.clk, 4)
+    dac.reset_ps = int(get_sim_time(unit="ps"))
+    dut.rst.value = 0
+    return master, dac, emif.Timing(setup=period_ps, strobe=emif.MIN_STROBE_CLOCKS * period_ps,
+                                    hold=0, idle=emif.MIN_RECOVERY_CLOCKS * period_ps)
 
 
 async def drive_top_adc(dut, a, b) -> None:
