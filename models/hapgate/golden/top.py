@@ -116,7 +116,8 @@ def blocks() -> list[Block]:
             "interp/enc_interp.v",
             "interp/sample_strobe.v", "interp/enc_interp3.v",
             "commutation/sine_lut.v", "dac_sched/dac_sched.v", "commutation/commutator.v",
-            "bus/emif_slave.v", "bus/hg_regfile.v", "bus/hg_bus.v", "top/hapgate_top.v")
+            "bus/emif_slave.v", "bus/hg_regfile.v", "bus/hg_bus.v", "capture/hg_capture.v",
+            "top/hapgate_top.v")
     return [Block(name="hapgate_top", top="hapgate_top", sources=srcs,
                   params=lambda: TopConfig().rtl_params(),
                   doc="the FPGA: 3 interpolators, commutation, DAC scheduler, bus, registers"),
