@@ -3,7 +3,10 @@ over the DSP bus: the ADC words the interpolators take are recorded (all axes at
 with decimation, one axis at once, a stop mid-capture) and read back through CAP_ADDR /
 CAP_DATA; every bus read of ID and the CAP_* registers against the register model with the
 capture model (`hapgate.golden.regmodel`, `hapgate.golden.capture`), and every entry read back
-against the ADC stream driven (independent of both models)."""
+against the ADC stream driven (independent of both models). Axis 0 carries an encoder signal
+with 3 % 2nd harmonic (`hapgate.golden.encsig`): its capture, read over the bus, goes through
+the signal-quality analysis (`hapgate.golden.encquality`), which must find the harmonic and
+fail only that band."""
 
 from __future__ import annotations
 
@@ -13,7 +16,8 @@ import cocotb
 import numpy as np
 from cocotb.triggers import ClockCycles, RisingEdge
 from hapgate.flows import regmap
-from hapgate.golden.capture import CapCtrl, CaptureModel, limit
+from hapgate.golden import encquality, encsig
+from hapgate.golden.capture import CapCtrl, CaptureModel, limit, unpack
 from hapgate.golden.regmodel import RegModel
 from hapgate.runners import tbutil
 
@@ -33,6 +37,8 @@ async def capture_over_bus(dut) -> None:
     a = g.integers(-100, 100, (N, 3))      # inside the interpolator's range: no clipping fault
     b = g.integers(-100, 100, (N, 3))
     idx = np.zeros((N, 3), np.int64)
+    spec = encsig.SignalSpec(amplitude=127 / 1.2, h2=0.03, noise_lsb=0.3, seed=2)
+    a[:, 0], b[:, 0] = encsig.adc_codes(encsig.constant(60.0, N, start=0.3), spec)  # 16 lines
     idx[400:404, 1] = 1
     idx[900:902, 2] = 1
     bus = await tbutil.TopBus(dut, PERIOD_PS, W, rng).start()
@@ -68,6 +74,7 @@ async def capture_over_bus(dut) -> None:
     assert await bus.rd("ID") == RM.by_name()["ID"].reset
     await capture("all_index_decim", CapCtrl(True, sel=3, trig=1, trig_axis=3, decim=1))
     await capture("axis1_now", CapCtrl(True, sel=1))
+    await capture("axis0_quality", CapCtrl(True, sel=0))
     await capture("axis2_stopped", CapCtrl(True, sel=2, decim=2), stop_after=100 * CLK_HZ
                   // 1_000_000)
     await bus.rd("CAP_CTRL")
@@ -95,5 +102,10 @@ async def capture_over_bus(dut) -> None:
     first = int(np.searchsorted(np.array(strobes), arms[1], side="right"))   # the next sample
     assert got["axis1_now"] == w[first:first + limit(DL2, 1), 1].tolist()
     assert 0 < len(got["axis2_stopped"]) < limit(DL2, 2)
+    q = encquality.analyse(*unpack(np.array(got["axis0_quality"]), 0))
+    failed = {c.name for c in encquality.checks(q) if c.result == "FAIL"}
+    # tolerance as tb/capture/test_encquality.py: 0.3 LSB on a coefficient of a 106-code signal
+    assert abs(q.h2_pct - 3.0) <= 100 * 0.3 / spec.amplitude and failed == {"h2_pct"}, (q, failed)
     dut._log.info(f"capture over the bus: {len(bus.master.log)} accesses as the model; entries "
-                  f"{ {k: len(v) for k, v in got.items()} } as the ADC stream")
+                  f"{ {k: len(v) for k, v in got.items()} } as the ADC stream; axis 0: "
+                  f"h2 {q.h2_pct:.2f} % (built 3 %), {q.cycles:.1f} lines, failed {failed}")

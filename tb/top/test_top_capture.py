@@ -1,6 +1,7 @@
 """The capture buffer through the whole FPGA (hapgate_top CAPTURE = 1, a 256-entry buffer to keep
 it short): armed, polled and read back over the DSP bus; every read against the register model
-with the capture model, every entry against the ADC stream (Verilator, 50 MHz)."""
+with the capture model, every entry against the ADC stream, and a captured encoder signal with
+3 % 2nd harmonic through the signal-quality analysis (Verilator, 50 MHz)."""
 
 from __future__ import annotations
 
