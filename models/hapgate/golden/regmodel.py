@@ -136,6 +136,8 @@ class RegModel:
         self.snap_at = self.cfg_err_at = NEVER
         self.done = edge
         self.reset_edge = edge
+        if self.capture is not None:
+            self.capture.reset(edge, edge)
 
     def _field(self, reg: str, name: str) -> int:
         f = self.regs[reg].field(name)
