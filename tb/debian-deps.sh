@@ -11,6 +11,11 @@ PACKAGES=(
     chromium-driver
     # make coverage: genhtml (lcov) makes the HTML report from build/reports/coverage/coverage.info
     lcov
+    # tb/fw/test_cross.py (make -C dsp-fw cross): the firmware's freestanding Cortex-M4F build
+    # with the Debian cross compiler and arm-none-eabi-size
+    gcc-arm-none-eabi
+    # the same build: libm for the Cortex-M4F (hard float) comes with newlib's multilibs
+    libnewlib-arm-none-eabi
     # (more packages: one line each, with the tests that need them above it)
 )
 

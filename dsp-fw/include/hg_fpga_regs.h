@@ -92,6 +92,10 @@
 #define HG_MODE_ALIGN        2u
 #define HG_MODE_OFF          3u
 #define HG_MODE_TORQUE       HG_MODE_SINE   /* the firmware's name for sinusoidal torque */
+/* The commutator's POLE_PAIRS (rtl/top/hapgate_top.v, default 2): a build parameter the
+ * register map does not expose; a calibration with other pole pairs is refused. */
+#define HG_FPGA_POLE_PAIRS   2u
+#define HG_OFFSET_CODES      1024u          /* OFFSET: 1/1024 electrical cycle */
 
 #define HG_TORQUE_FS         32767
 

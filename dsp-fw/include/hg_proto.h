@@ -24,12 +24,20 @@ enum {
     HG_MSG_INFO = 0x08,      /* v2: identity, rates and limits                          */
     HG_MSG_STREAM = 0x09,    /* v2: push STATE_PUSH every N servo ticks (0 = stop)      */
     HG_MSG_FORCE = 0x0A,     /* v2: PC force with TTL, counter and the state it answers */
+    HG_MSG_SET_CALIB = 0x0B, /* v2: one axis's calibration (hg_calib.h); only while disabled */
+    HG_MSG_GET_CALIB = 0x0C, /* v2: read one axis's calibration                            */
     HG_MSG_STATE_PUSH = 0x8A, /* v2, device -> PC only: the compact streamed state       */
     HG_MSG_REPLY = 0x80,     /* reply bit                                          */
     HG_MSG_NAK = 0xFF,       /* reply refusing a good frame: data = type, reason   */
 };
 
-enum { HG_NAK_RANGE = 1, HG_NAK_ERROR_LATCHED = 2, HG_NAK_REPLAY = 3 };
+enum {
+    HG_NAK_RANGE = 1,
+    HG_NAK_ERROR_LATCHED = 2,
+    HG_NAK_REPLAY = 3,
+    HG_NAK_UNCALIBRATED = 4, /* ENABLE or a force while an axis is not homed and aligned     */
+    HG_NAK_ENABLED = 5,      /* SET_CALIB while the forces are enabled                       */
+};
 
 /* Reply data lengths (HG_FORCE_LEN: the FORCE request) */
 #define HG_PING_LEN 8u
@@ -40,11 +48,13 @@ enum { HG_NAK_RANGE = 1, HG_NAK_ERROR_LATCHED = 2, HG_NAK_REPLAY = 3 };
 #define HG_STREAM_ACK_LEN 2u
 #define HG_PUSH_LEN 54u
 #define HG_FORCE_LEN 20u
+#define HG_CALIB_LEN 11u       /* SET_CALIB request = GET_CALIB reply */
 /* Request data lengths */
 #define HG_SET_FORCE_LEN 12u
 #define HG_SET_SCENE_LEN 37u
 #define HG_ENABLE_LEN 1u
 #define HG_STREAM_LEN 2u
+#define HG_GET_CALIB_LEN 1u
 #define HG_STREAM_MAX_PERIOD 1000u  /* ticks */
 #define HG_LINK_TIMEOUT_MS 250u     /* default link-silence timeout */
 

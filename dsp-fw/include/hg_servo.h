@@ -8,6 +8,7 @@
 #include <stdbool.h>
 #include <stdint.h>
 #include "hg_axis.h"
+#include "hg_calib.h"
 #include "hg_gravity.h"
 #include "hg_kin.h"
 #include "hg_scene.h"
@@ -44,7 +45,18 @@ typedef struct {
     hg_real qd_max;            /* rad/s fastest physically possible joint speed        */
     uint32_t pc_force_timeout; /* ticks a PC force stays valid without a new one       */
     uint32_t max_missed;       /* ticks the ISR may miss before HG_ERR_OVERRUN         */
+    hg_calib_t cal;            /* the calibration it carries (hg_calib.h); hg_servo_init  */
+                               /* sets enc[i].dir, enc[i].index_to_zero, motor[i].comm_offset */
+                               /* from it. Default: homed and aligned, the values above      */
 } hg_servo_cfg_t;
+
+/* hg_servo_enable / hg_servo_set_force / hg_servo_set_calib refusals (0 = accepted). */
+enum {
+    HG_SERVO_E_RANGE = -1,   /* a value out of range (set_force, set_calib), or (enable) an  */
+                             /* error is latched                                            */
+    HG_SERVO_E_UNCAL = -2,   /* an axis lacks HG_CAL_HOMED | HG_CAL_ALIGNED                  */
+    HG_SERVO_E_ENABLED = -3, /* set_calib while the forces are enabled                      */
+};
 
 typedef struct {
     hg_servo_cfg_t cfg;
@@ -86,5 +98,21 @@ int hg_servo_enable(hg_servo_t *s, bool on);      /* refused while an error is l
 void hg_servo_clear_error(hg_servo_t *s);         /* also disables; re-enable explicitly */
 int hg_servo_set_scene(hg_servo_t *s, const hg_scene_t *sc);
 int hg_servo_set_force(hg_servo_t *s, const hg_real f[3]);
+
+/* Torque gating (issue 26): an axis is calibrated when its calibration has HG_CAL_HOMED and
+ * HG_CAL_ALIGNED. Unless all three are, ENABLE and every force are refused (HG_SERVO_E_UNCAL)
+ * and an uncalibrated axis's torque code is always 0. */
+bool hg_servo_axis_calibrated(const hg_servo_t *s, unsigned axis);
+bool hg_servo_calibrated(const hg_servo_t *s);
+/* Check one axis's calibration (enc_dir +-1, phases_swapped 0/1, flags within HG_CAL_*,
+ * comm_offset < 1024; an aligned axis's pole_pairs must be the FPGA's HG_FPGA_POLE_PAIRS). */
+bool hg_calib_axis_ok(const hg_axis_calib_t *c);
+/* Replace one axis's calibration (while disabled): applied at once to the encoder direction,
+ * index_to_zero (re-homed on IDX_POS if the FPGA has homed the axis), OFFSET and MODE. */
+int hg_servo_set_calib(hg_servo_t *s, unsigned axis, const hg_axis_calib_t *c);
+/* The field's direction against the count: -1 when exactly one of enc_dir = -1 and
+ * phases_swapped holds. The FPGA's sine mode turns the field with the count (+1 only), so
+ * such an axis is commutated by the firmware: MODE = ALIGN, OFFSET written every tick. */
+int hg_calib_comm_dir(const hg_axis_calib_t *c);
 
 #endif /* HG_SERVO_H */

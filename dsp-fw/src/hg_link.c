@@ -90,14 +90,22 @@ static void pend_force(hg_link_t *l, uint32_t ttl, uint16_t ctr, uint16_t lat)
     l->pend_lat = lat;
 }
 
+/* A servo refusal as the NAK reason. */
+static int servo_nak(int rc)
+{
+    return rc == HG_SERVO_E_UNCAL ? HG_NAK_UNCALIBRATED
+         : rc == HG_SERVO_E_ENABLED ? HG_NAK_ENABLED : HG_NAK_RANGE;
+}
+
 static int h_set_force(hg_link_t *l, const uint8_t *req, uint8_t *out, size_t *n)
 {
     hg_real f[3];
     (void)out;
     (void)n;
     get_vec(req, f);
-    if (hg_servo_set_force(l->servo, f))
-        return HG_NAK_RANGE;
+    const int rc = hg_servo_set_force(l->servo, f);
+    if (rc)
+        return servo_nak(rc);
     pend_force(l, l->servo->cfg.pc_force_timeout, l->force_ctr, 0);
     return 0;
 }
@@ -122,8 +130,9 @@ static int h_enable(hg_link_t *l, const uint8_t *req, uint8_t *out, size_t *n)
     (void)n;
     if (req[0] > 1)
         return HG_NAK_RANGE;
-    if (hg_servo_enable(l->servo, req[0] == 1))
-        return HG_NAK_ERROR_LATCHED;
+    const int rc = hg_servo_enable(l->servo, req[0] == 1);
+    if (rc)
+        return rc == HG_SERVO_E_UNCAL ? HG_NAK_UNCALIBRATED : HG_NAK_ERROR_LATCHED;
     l->armed = req[0] == 1 && l->cfg.timeout_ms > 0; /* from now on silence disables */
     return 0;
 }
@@ -190,6 +199,8 @@ static int h_force(hg_link_t *l, const uint8_t *req, uint8_t *out, size_t *n)
     get_vec(req, f);
     const uint32_t ttl = ms_to_ticks(s, hg_get_u16(req + 12));
     const uint16_t ctr = (uint16_t)hg_get_u16(req + 14);
+    if (!hg_servo_calibrated(s))
+        return HG_NAK_UNCALIBRATED; /* before the counter: a refused force consumes nothing */
     if (ttl == 0 || ttl > s->cfg.pc_force_timeout)
         return HG_NAK_RANGE;
     if (l->have_force && (uint16_t)(ctr - l->force_ctr) - 1u >= 0x7FFFu) {
@@ -206,6 +217,45 @@ static int h_force(hg_link_t *l, const uint8_t *req, uint8_t *out, size_t *n)
     l->force_ctr = ctr;
     pend_force(l, ttl, ctr, (uint16_t)(lat > 0xFFFFu ? 0xFFFFu : lat));
     return NO_REPLY;
+}
+
+/* u8 axis, u8 flags, i8 enc_dir, u8 phases_swapped, u8 pole_pairs, i32 index_to_zero,
+ * u16 comm_offset (the FPGA's OFFSET units): SET_CALIB's request and GET_CALIB's reply. */
+static void put_calib(uint8_t *d, uint8_t axis, const hg_axis_calib_t *c)
+{
+    d[0] = axis;
+    d[1] = c->flags;
+    d[2] = (uint8_t)c->enc_dir;
+    d[3] = c->phases_swapped;
+    d[4] = c->pole_pairs;
+    hg_put_u32(d + 5, (uint32_t)c->index_to_zero);
+    hg_put_u16(d + 9, c->comm_offset);
+}
+
+static int h_set_calib(hg_link_t *l, const uint8_t *req, uint8_t *out, size_t *n)
+{
+    hg_axis_calib_t c;
+    (void)out;
+    (void)n;
+    c.flags = req[1];
+    c.enc_dir = (int8_t)(req[2] >= 0x80u ? (int)req[2] - 256 : (int)req[2]);
+    c.phases_swapped = req[3];
+    c.pole_pairs = req[4];
+    c.index_to_zero = (int32_t)hg_get_u32(req + 5);
+    c.comm_offset = hg_get_u16(req + 9);
+    const int rc = hg_servo_set_calib(l->servo, req[0], &c);
+    return rc ? servo_nak(rc) : 0;
+}
+
+static int h_get_calib(hg_link_t *l, const uint8_t *req, uint8_t *out, size_t *n)
+{
+    if (req[0] >= 3u)
+        return HG_NAK_RANGE;
+    const uint32_t t = hg_hal_irq_save();
+    put_calib(out, req[0], &l->servo->cfg.cal.axis[req[0]]);
+    hg_hal_irq_restore(t);
+    *n = HG_CALIB_LEN;
+    return 0;
 }
 
 static int h_clear_error(hg_link_t *l, const uint8_t *req, uint8_t *out, size_t *n)
@@ -229,6 +279,8 @@ static const struct {
     { HG_MSG_ENABLE, HG_ENABLE_LEN, 1, h_enable },        { HG_MSG_GET_STATS, 0, 1, h_get_stats },
     { HG_MSG_CLEAR_ERROR, 0, 1, h_clear_error }, { HG_MSG_INFO, 0, 2, h_info },
     { HG_MSG_STREAM, HG_STREAM_LEN, 2, h_stream },        { HG_MSG_FORCE, HG_FORCE_LEN, 2, h_force },
+    { HG_MSG_SET_CALIB, HG_CALIB_LEN, 2, h_set_calib },
+    { HG_MSG_GET_CALIB, HG_GET_CALIB_LEN, 2, h_get_calib },
 };
 
 void hg_link_init(hg_link_t *l, hg_servo_t *servo)

@@ -35,6 +35,11 @@ void hg_servo_default_cfg(hg_servo_cfg_t *cfg)
         cfg->motor[i] = motor;
     }
     cfg->walls = walls;
+    for (unsigned i = 0; i < HG_NAXES; i++) {
+        const hg_axis_calib_t cal = { HG_CAL_HOMED | HG_CAL_ALIGNED, 1, 0, HG_FPGA_POLE_PAIRS, 0,
+                                      0 };
+        cfg->cal.axis[i] = cal;
+    }
     cfg->f_max = HG_C(10.0);         /* N, the paper's peak endpoint force  */
     cfg->fi_max = HG_C(2.0);
     cfg->qd_max = HG_C(100.0);       /* rad/s: 10 m/s at the 0.1 m reach   */
@@ -52,9 +57,74 @@ static bool cfg_ok(const hg_servo_cfg_t *c)
         const hg_motor_t *m = &c->motor[i];
         ok = ok && c->enc[i].counts_per_rev > 0 && (c->enc[i].dir == 1 || c->enc[i].dir == -1)
           && (m->dir == 1 || m->dir == -1) && m->kt > HG_C(0.0) && m->amp_gain > HG_C(0.0)
-          && m->dac_fs > HG_C(0.0) && m->tau_max >= HG_C(0.0) && isfinite(m->tau_max);
+          && m->dac_fs > HG_C(0.0) && m->tau_max >= HG_C(0.0) && isfinite(m->tau_max)
+          && hg_calib_axis_ok(&c->cal.axis[i]);
     }
     return ok;
+}
+
+bool hg_calib_axis_ok(const hg_axis_calib_t *c)
+{
+    return (c->flags & ~(uint32_t)(HG_CAL_HOMED | HG_CAL_ALIGNED | HG_CAL_DIR_SEEN)) == 0
+        && (c->enc_dir == 1 || c->enc_dir == -1) && c->phases_swapped <= 1
+        && c->comm_offset < HG_OFFSET_CODES
+        && (!(c->flags & HG_CAL_ALIGNED) || c->pole_pairs == HG_FPGA_POLE_PAIRS);
+}
+
+int hg_calib_comm_dir(const hg_axis_calib_t *c)
+{
+    return (c->enc_dir == -1) != (c->phases_swapped != 0) ? -1 : 1;
+}
+
+bool hg_servo_axis_calibrated(const hg_servo_t *s, unsigned axis)
+{
+    const unsigned need = HG_CAL_HOMED | HG_CAL_ALIGNED;
+    return (s->cfg.cal.axis[axis].flags & need) == need;
+}
+
+bool hg_servo_calibrated(const hg_servo_t *s)
+{
+    for (unsigned i = 0; i < HG_NAXES; i++)
+        if (!hg_servo_axis_calibrated(s, i))
+            return false;
+    return true;
+}
+
+/* The firmware-commutated axis (hg_calib_comm_dir = -1, aligned): MODE = ALIGN. */
+static bool fw_commutated(const hg_servo_t *s, unsigned axis)
+{
+    const hg_axis_calib_t *c = &s->cfg.cal.axis[axis];
+    return (c->flags & HG_CAL_ALIGNED) && hg_calib_comm_dir(c) < 0;
+}
+
+/* The calibration onto the working fields and OFFSET of one axis (write_mode: its MODE). */
+static void apply_calib(hg_servo_t *s, uint32_t i)
+{
+    const hg_axis_calib_t *c = &s->cfg.cal.axis[i];
+    s->cfg.enc[i].dir = c->enc_dir;
+    s->cfg.enc[i].index_to_zero = c->index_to_zero;
+    s->cfg.motor[i].comm_offset = c->comm_offset;
+    fpga_write32(HG_REG_AXIS(i, HG_AX_OFFSET), c->comm_offset);
+}
+
+static void write_mode(const hg_servo_t *s, uint32_t i)
+{
+    fpga_write32(HG_REG_AXIS(i, HG_AX_MODE), fw_commutated(s, i) ? HG_MODE_ALIGN : HG_MODE_TORQUE);
+}
+
+/* The field angle of a firmware-commutated axis (OFFSET in ALIGN mode), as the FPGA's sine mode
+ * would form it with the count reversed: the position from the home (the IDX_POS that
+ * hg_enc_home took), predicted half a tick ahead, times the pole pairs, negated, its top 10 of
+ * 20 bits, plus the calibration's offset. (Negating before the floor keeps the ROM's mid-bin
+ * convention unbiased.) */
+static uint32_t fw_field_code(const hg_servo_t *s, uint32_t i, int32_t pos, int32_t vel)
+{
+    const hg_enc_cal_t *e = &s->cfg.enc[i];
+    const uint32_t home = (uint32_t)e->offset - (uint32_t)e->index_to_zero;
+    const int32_t ahead = vel / (int32_t)(2u * s->cfg.rate_hz);
+    const uint32_t x = 0u - ((uint32_t)pos - home + (uint32_t)ahead);
+    const uint32_t u = (x * s->cfg.cal.axis[i].pole_pairs) & 0xFFFFFu;
+    return (s->cfg.cal.axis[i].comm_offset + (u >> 10)) & (HG_OFFSET_CODES - 1u);
 }
 
 static void latch(hg_servo_t *s, uint8_t err, uint8_t axis)
@@ -102,9 +172,9 @@ uint8_t hg_servo_init(hg_servo_t *s, const hg_servo_cfg_t *cfg)
         const hg_real cpr = hg_enc_counts_per_rad(&cfg->enc[i]);
         s->max_vel[i] = (int32_t)(cfg->qd_max * cpr);
         s->max_step[i] = (int32_t)(cfg->qd_max * cpr / (hg_real)cfg->rate_hz) + 1;
-        fpga_write32(HG_REG_AXIS(i, HG_AX_OFFSET), cfg->motor[i].comm_offset);
-        fpga_write32(HG_REG_AXIS(i, HG_AX_TQ_LIMIT), hg_motor_code_limit(&cfg->motor[i]));
-        fpga_write32(HG_REG_AXIS(i, HG_AX_MODE), HG_MODE_TORQUE);
+        apply_calib(s, i);
+        fpga_write32(HG_REG_AXIS(i, HG_AX_TQ_LIMIT), hg_motor_code_limit(&s->cfg.motor[i]));
+        write_mode(s, i);
     }
     fpga_write32(HG_REG_CTRL, HG_CTRL_FAULT_CLR);
     fpga_write32(HG_REG_WDOG, HG_WDOG_KEY);
@@ -213,8 +283,10 @@ void hg_servo_step(hg_servo_t *s)
     const bool drive = s->enabled && s->err == HG_ERR_NONE;
     uint32_t ctrl = 0;
     for (uint32_t i = 0; i < HG_NAXES; i++) {
-        if (!drive)
+        if (!drive || !hg_servo_axis_calibrated(s, i))
             s->code[i] = 0;
+        if (fw_commutated(s, i))
+            fpga_write32(HG_REG_AXIS(i, HG_AX_OFFSET), fw_field_code(s, i, pos[i], vel[i]));
         fpga_write32(HG_REG_AXIS(i, HG_AX_TORQUE), (uint32_t)(uint16_t)s->code[i]);
         ctrl |= HG_CTRL_AXIS_EN(i);
     }
@@ -237,7 +309,9 @@ int hg_servo_enable(hg_servo_t *s, bool on)
     int rc = 0;
     const uint32_t t = hg_hal_irq_save();
     if (on && s->err != HG_ERR_NONE) {
-        rc = -1;
+        rc = HG_SERVO_E_RANGE;
+    } else if (on && !hg_servo_calibrated(s)) {
+        rc = HG_SERVO_E_UNCAL;
     } else {
         if (on && !s->enabled)
             s->scene_st = (hg_scene_state_t){ { 0 } };
@@ -276,12 +350,34 @@ int hg_servo_set_scene(hg_servo_t *s, const hg_scene_t *sc)
 int hg_servo_set_force(hg_servo_t *s, const hg_real f[3])
 {
     const hg_real m2 = f[0] * f[0] + f[1] * f[1] + f[2] * f[2];
+    if (!hg_servo_calibrated(s))
+        return HG_SERVO_E_UNCAL;
     if (!(m2 <= s->cfg.f_max * s->cfg.f_max)) /* also rejects NaN and Inf */
-        return -1;
+        return HG_SERVO_E_RANGE;
     const uint32_t t = hg_hal_irq_save();
     for (unsigned i = 0; i < 3; i++)
         s->f_pc[i] = f[i];
     s->f_pc_age = 0;
     hg_hal_irq_restore(t);
     return 0;
+}
+
+int hg_servo_set_calib(hg_servo_t *s, unsigned axis, const hg_axis_calib_t *c)
+{
+    if (axis >= HG_NAXES || !hg_calib_axis_ok(c))
+        return HG_SERVO_E_RANGE;
+    int rc = 0;
+    const uint32_t t = hg_hal_irq_save();
+    if (s->enabled) {
+        rc = HG_SERVO_E_ENABLED;
+    } else {
+        s->cfg.cal.axis[axis] = *c;
+        apply_calib(s, axis);
+        write_mode(s, axis);
+        if ((c->flags & HG_CAL_HOMED) && (s->status & HG_STAT_HOMED(axis)))
+            hg_enc_home(&s->cfg.enc[axis],
+                        (int32_t)fpga_read32(HG_REG_AXIS(axis, HG_AX_IDX_POS)));
+    }
+    hg_hal_irq_restore(t);
+    return rc;
 }

@@ -28,10 +28,10 @@ static uint32_t rnd(void) /* xorshift64* */
 /* request data length per type and version, from the protocol table; -1 = unknown type */
 static int ref_len(uint8_t version, uint8_t type)
 {
-    static const int len[11] = { -1, 0, 0, 12, 37, 1, 0, 0, 0, 2, 20 };
+    static const int len[13] = { -1, 0, 0, 12, 37, 1, 0, 0, 0, 2, 20, 11, 1 };
     if (version == 1 && type >= 8)
         return -1; /* the version-2 messages do not exist in version 1 */
-    return type < 11 ? len[type] : -1;
+    return type < 13 ? len[type] : -1;
 }
 
 static int ref_classify(const uint8_t *e, size_t n, uint8_t *seq, uint8_t *type)
@@ -69,9 +69,9 @@ static int ref_classify(const uint8_t *e, size_t n, uint8_t *seq, uint8_t *type)
  * knows. Returns the encoded length (delimiter not included). */
 static size_t make_chunk(uint8_t *out, int *want)
 {
-    static const uint8_t types[] = { 1, 2, 3, 4, 5, 6, 7, 8, 9, 10 };
+    static const uint8_t types[] = { 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12 };
     uint8_t raw[HG_LINK_MAX_RAW + 8];
-    const uint8_t type = types[rnd() % 10];
+    const uint8_t type = types[rnd() % 12];
     const uint8_t ver = type >= 8 ? 2 : (uint8_t)(1 + rnd() % 2);
     size_t n = 3 + (size_t)ref_len(ver, type);
     raw[0] = ver;
@@ -88,6 +88,15 @@ static size_t make_chunk(uint8_t *out, int *want)
         raw[3] = (uint8_t)(rnd() % 6);
     if (type == 5)
         raw[3] = (uint8_t)(rnd() % 3);
+    if (type == 11 || type == 12) /* calibration: axis mostly in range, valid fields often */
+        raw[3] = (uint8_t)(rnd() % 4);
+    if (type == 11 && rnd() % 2) {
+        raw[4] = (uint8_t)(rnd() % 4 ? 3 : rnd() % 8); /* mostly homed and aligned */
+        raw[5] = rnd() % 2 ? 1 : 0xFF;
+        raw[6] = (uint8_t)(rnd() % 2);
+        raw[7] = 2;
+        raw[13] = (uint8_t)(rnd() % 4);
+    }
     if (type == 9) /* stream period: mostly in range */
         raw[4] = (uint8_t)(rnd() % 5);
     if (type == 10 && rnd() % 2) { /* FORCE: a valid TTL and a newer counter half the time */
@@ -106,7 +115,7 @@ static size_t make_chunk(uint8_t *out, int *want)
             raw[0] = (uint8_t)(3 + rnd() % 253); /* versions 3..255; 0 comes with garbage */
             *want = VERSION;
         } else if (w == 1) {
-            raw[1] = (uint8_t)(11 + rnd() % 245);
+            raw[1] = (uint8_t)(13 + rnd() % 243);
             *want = TYPE;
         } else {
             size_t nn;

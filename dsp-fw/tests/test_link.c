@@ -390,3 +390,117 @@ void test_link_v2_timeout(void)
     }
     CHECK(L.st.timeouts == 1 && !S.enabled);
 }
+
+/* Boundary (issue 29): the link-silence timeout at its default, HG_LINK_TIMEOUT_MS. The spec
+ * (dsp-fw/README.md, "Safety over the link": "no good frame for timeout_ms (default 250 ms,
+ * counted in servo ticks) disables the servo"; hg_link.h: "link silence beyond this disables
+ * forces") with the numbers written here: 250 ms, i.e. 250 ticks at 1 kHz and 1000 at 4 kHz.
+ * Silence of exactly the timeout keeps the servo enabled, one tick more disables it. */
+static void bounds_timeout_at(uint32_t rate_hz, uint32_t want_ticks)
+{
+    uint8_t raw[HG_LINK_MAX_RAW], tx[HG_LINK_MAX_FRAME], on = 1;
+    size_t rn = 0;
+    hg_servo_cfg_t cfg;
+    hg_servo_default_cfg(&cfg);
+    cfg.rate_hz = rate_hz;
+    fx_servo(&S, &cfg);
+    hg_link_init(&L, &S);
+    CHECK(L.cfg.timeout_ms == 250u);                 /* the default is the spec's */
+    CHECK(HG_LINK_TIMEOUT_MS == 250u);
+    tick();
+    CHECK(request2(HG_MSG_ENABLE, &on, 1, raw, &rn) == 1 && S.enabled && L.armed);
+    for (uint32_t k = 1; k <= want_ticks; k++) {     /* the last tick before the timeout */
+        tick();
+        (void)hg_link_poll(&L, true, tx);
+        if (!S.enabled) {
+            CHECK(k > want_ticks);                   /* disabled early: fails here */
+            return;
+        }
+    }
+    CHECK(S.enabled && L.armed && L.st.timeouts == 0);
+    tick();                                          /* the first tick past it */
+    (void)hg_link_poll(&L, true, tx);
+    CHECK(!S.enabled && !L.armed && L.st.timeouts == 1);
+    for (int k = 0; k < 3; k++) {                    /* and it stays off */
+        tick();
+        (void)hg_link_poll(&L, true, tx);
+        CHECK(!S.enabled && L.st.timeouts == 1);
+    }
+}
+
+void test_bounds_link_timeout(void)
+{
+    bounds_timeout_at(1000, 250);
+    bounds_timeout_at(4000, 1000);
+}
+
+/* Ticks a PC force is rendered for: from the first tick after it arrives, while F[1] shows. */
+static uint32_t bounds_live_ticks(float fy, uint32_t max_ticks)
+{
+    uint32_t live = 0;
+    for (uint32_t k = 0; k < max_ticks; k++) {
+        tick();
+        if (S.f[1] != fy)
+            break;
+        live++;
+    }
+    return live;
+}
+
+/* Boundary (issue 29): the PC force TTL. The spec (dsp-fw/README.md: FORCE "NAK 1 if TTL = 0 or
+ * > the longest TTL"; "A FORCE lasts exactly its TTL (converted to whole ticks, rounded up; at
+ * most pc_force_timeout ticks), then the scene force is zero from the next tick on"; "A
+ * version-1 SET_FORCE lasts pc_force_timeout ticks"; pc_force_timeout default 100 ticks): at
+ * 1 kHz the longest TTL is 100 ms; at 1.5 kHz 1 ms is 1.5 ticks -> 2, 66 ms 99 ticks, 67 ms
+ * 100.5 -> 101 ticks, past the 100-tick limit. */
+static void bounds_ttl_at(uint32_t rate_hz, const uint32_t ttl_ms[], const uint32_t ticks[],
+                          size_t n)
+{
+    uint8_t raw[HG_LINK_MAX_RAW], f[HG_FORCE_LEN], sc[37] = { 0 }, on = 1;
+    size_t rn = 0;
+    hg_servo_cfg_t cfg;
+    hg_servo_default_cfg(&cfg);
+    cfg.rate_hz = rate_hz;
+    CHECK(cfg.pc_force_timeout == 100u);
+    fx_servo(&S, &cfg);
+    hg_link_init(&L, &S);
+    tick();
+    sc[0] = HG_SCENE_PC_FORCE;
+    CHECK(request2(HG_MSG_SET_SCENE, sc, 37, raw, &rn) == 1 && raw[1] == 0x84);
+    CHECK(request2(HG_MSG_ENABLE, &on, 1, raw, &rn) == 1 && S.enabled);
+    for (size_t i = 0; i < n; i++) {
+        const float fy = 1.0f + (float)i;
+        force_req(f, 0.0f, fy, 0.0f, ttl_ms[i], (uint32_t)(i + 1), S.seq);
+        const int r = request2(HG_MSG_FORCE, f, HG_FORCE_LEN, raw, &rn);
+        if (ticks[i] == 0) {                         /* refused, nothing rendered */
+            CHECK(r == 1 && raw[1] == HG_MSG_NAK && raw[4] == HG_NAK_RANGE);
+            tick();
+            CHECK(S.f[1] == 0.0f);
+            continue;
+        }
+        CHECK(r == 0);
+        CHECK(bounds_live_ticks(fy, 200) == ticks[i]);
+        CHECK(S.f[1] == 0.0f);                       /* zero from the next tick on */
+    }
+}
+
+void test_bounds_force_ttl(void)
+{
+    /* 1 kHz: 0 refused, 1 ms 1 tick, 99, 100 (the longest) last exactly that, 101 refused */
+    const uint32_t ms1[] = { 0, 1, 99, 100, 101 }, t1[] = { 0, 1, 99, 100, 0 };
+    bounds_ttl_at(1000, ms1, t1, 5);
+    /* 1.5 kHz: rounded up to whole ticks */
+    const uint32_t ms2[] = { 1, 2, 3, 66, 67 }, t2[] = { 2, 3, 5, 99, 0 };
+    bounds_ttl_at(1500, ms2, t2, 5);
+    /* version 1: SET_FORCE lasts pc_force_timeout = 100 ticks, zero on the 101st */
+    uint8_t raw[HG_LINK_MAX_RAW], d[12];
+    setup();
+    tick();
+    const hg_scene_t sc = { HG_SCENE_PC_FORCE, { 0 }, { 0 }, 0, 0, 0 };
+    CHECK(hg_servo_set_scene(&S, &sc) == 0 && hg_servo_enable(&S, true) == 0);
+    put_f32(d, 0.0f);
+    put_f32(d + 4, 2.5f);
+    put_f32(d + 8, 0.0f);
+    CHECK(request(HG_MSG_SET_FORCE, d, 12, 0x83, raw) == 0);
+    CHECK(bounds_live_ticks(2.5f, 200) == 100);
+}

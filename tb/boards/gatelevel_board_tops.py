@@ -18,7 +18,7 @@ import pytest
 from hapgate.base.block import Block
 from hapgate.flows import boards
 from hapgate.runners import sim
-from test_board_tops import CASES, HERE, TOP_TESTS, env, harness_block, harness_params
+from test_board_tops import CASES, HERE, TOP_TESTS, config, env, harness_block, harness_params
 
 GL_SAMPLES = 600   # a short run: the netlists are 10-20k cells
 
@@ -42,7 +42,8 @@ def run_netlist(board: str) -> None:
     args = {"icarus": [f"-D{define}", "-DNO_ICE40_DEFAULT_ASSIGNMENTS"],
             "verilator": [f"-D{define}", "--output-split", "0", "-MAKEFLAGS",
                           "OPT_FAST=-O0 OPT_SLOW=-O0 OPT_GLOBAL=-O0"]}[simulator]
-    sim.run_cocotb(gl, simulator, "cocotb_top", TOP_TESTS, params=hp, testcase="firmware_like_run",
+    sim.run_cocotb(gl, simulator, "cocotb_top", TOP_TESTS, params=hp, config=config(board),
+                   testcase="firmware_like_run",
                    extra_sources=[HERE / "board_harness.v", HERE / "board_gl_harness.v"],
                    build_args=args, extra_env=env(board, GL_SAMPLES, prefix="u_rtl."))
 

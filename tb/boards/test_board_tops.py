@@ -16,7 +16,7 @@ from pathlib import Path
 import pytest
 from hapgate.base.block import Block
 from hapgate.flows import boards
-from hapgate.golden.top import TopConfig
+from hapgate.golden import configs
 from hapgate.runners import sim
 
 HERE = Path(__file__).parent
@@ -24,8 +24,8 @@ TOP_TESTS = HERE.parent / "top"
 CLK_HZ = 16_000_000
 SAMPLES = {"verilator": 4000, "icarus": 1500}   # 1 MSPS: microseconds of simulated time
 RESET_SYNC_CLOCKS = 4                           # both board tops: 4-stage reset release
-# board name -> (harness BOARD, extra parameters, ADC lead in samples)
-CASES = {"ice40-hx8k": (0, {"SERIAL_MUL": 1}, 1), "ecp5-evn": (1, {"USE_PLL": 0}, 0)}
+# board name -> (harness BOARD, ADC lead in samples)
+CASES = {"ice40-hx8k": (0, 1), "ecp5-evn": (1, 0)}
 
 
 def harness_block(board: str) -> Block:
@@ -35,15 +35,21 @@ def harness_block(board: str) -> Block:
                  params=lambda: {}, doc=f"{board} board top in the simulation harness")
 
 
+def config(board: str) -> configs.Config:
+    """The board's named configuration at the simulated clock."""
+    return configs.get(boards.BOARDS[board].config).replace(clk_hz=CLK_HZ)
+
+
 def harness_params(board: str) -> dict[str, object]:
-    sel, extra, _ = CASES[board]
-    p = TopConfig(clk_hz=CLK_HZ).rtl_params()
-    return {"BOARD": sel, "CLK_HZ": CLK_HZ, **extra, "ASIN_FILE": p["ASIN_FILE"],
-            "SINE_FILE": p["SINE_FILE"]}
+    """The board top's simulation parameters (flows/boards.py, from its configuration) that
+    the harness passes on."""
+    takes = boards.module_params(HERE / "board_harness.v")
+    p = boards.board_params(boards.BOARDS[board], sim=True, clk_hz=CLK_HZ)
+    return {"BOARD": CASES[board][0], **{k: v for k, v in p.items() if k in takes}}
 
 
 def env(board: str, samples: int, prefix: str = "") -> dict[str, str]:
-    sel, _, lead = CASES[board]
+    sel, lead = CASES[board]
     scope = prefix + ("g_hx8k" if sel == 0 else "g_ecp5") + ".u_board.u_top.u_bus"
     return {"HG_SAMPLES": str(samples), "HG_RESET_CYCLES": "24",
             "HG_RESET_DELAY": str(RESET_SYNC_CLOCKS), "HG_ADC_LEAD": str(lead),
@@ -57,7 +63,8 @@ def test_board_top_bit_exact(simulator: str, board: str) -> None:
     # model (the power-up truth check homed_truth runs on the core in tb/top/test_top.py)
     sim.run_cocotb(harness_block(board), simulator, "cocotb_top", TOP_TESTS,
                    testcase="firmware_like_run",
-                   params=harness_params(board), extra_sources=[HERE / "board_harness.v"],
+                   params=harness_params(board), config=config(board),
+                   extra_sources=[HERE / "board_harness.v"],
                    extra_env=env(board, SAMPLES[simulator]))
 
 

@@ -12,10 +12,10 @@ from functools import cache
 
 import numpy as np
 import pytest
-from hapgate.golden.top import TopConfig
+from hapgate.golden import configs
 from hapgate.runners import cosim
 
-CFG = TopConfig()
+CFG = configs.get("paper").top()
 FRAME = CFG.comm.frame_clocks
 BOUND = FRAME + CFG.comm.wr_cycles + 1   # rtl/top/README.md: zero torque within FRAME + WR + 1
 MISSED, OVERRUN = 1 << 1, 5              # IRQ.MISSED; dsp-fw/README.md error code

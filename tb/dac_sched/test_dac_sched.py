@@ -16,7 +16,7 @@ import pytest
 from hapgate.base.block import Block
 from hapgate.flows import blocks, boards, flow
 from hapgate.golden import commutation as cm
-from hapgate.golden import top
+from hapgate.golden import configs
 from hapgate.golden.dacsched import Load, check_schedule, period_ps, spec_tolerance_ps
 from hapgate.runners import sim
 
@@ -50,7 +50,8 @@ def test_strobe_high_from_power_up(simulator: str) -> None:
                    params=cfg.rtl_params(), testcase="power_up")
     if simulator == "icarus":
         sim.run_cocotb(blocks.get("hapgate_top"), "icarus", "cocotb_dac_sched", HERE,
-                       params=top.TopConfig(clk_hz=50_000_000).rtl_params(), testcase="power_up")
+                       params=configs.get("paper").replace(clk_hz=50_000_000).rtl_params(),
+                       testcase="power_up")
 
 
 def test_strobe_high_from_power_up_ice40_netlist() -> None:

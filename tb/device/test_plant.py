@@ -186,3 +186,48 @@ def test_bad_configuration_is_refused():
         Plant("q0 = 1 2\n")
     with pytest.raises(PlantError, match="bad number"):
         Plant("dt_s = nan\n")
+
+
+def test_bringup_errors_in_the_windings_and_the_encoder():
+    """comm_offset_deg c: the windings' zero c after the index, so a drive aimed at
+    2 (q - q_index) + c delivers kt I; swapped phases: channel a feeds winding 1, b winding 0,
+    so a drive must aim at -te - 60 deg (te the true electrical angle) and one aimed at te
+    delivers kt I cos(2 te + 60 deg); encoder_dir -1: the A and B codes swapped at the ADC."""
+    q = Q0.copy()
+    c_deg = np.array([40.0, -120.0, 200.0])
+    te = 2 * q + np.deg2rad(c_deg)
+    amp = 4000
+    full = KT * amp / DAC_FS * I_FS
+    tol = KT * I_FS * 1.5 / DAC_FS          # the codes' rounding (as above)
+
+    def drive(th: np.ndarray) -> list[int]:
+        out = []
+        for m in range(3):
+            out += [int(round(amp * np.sin(th[m]))),
+                    int(round(amp * np.sin(th[m] - 2 * np.pi / 3)))]
+        return out
+
+    base = dict(hand_kind=2, q0=q, q_index=np.zeros(3), comm_offset_deg=c_deg)
+    p = Plant(config(**base))
+    p.hold(True)
+    _settle_currents(p, drive(te))
+    np.testing.assert_allclose(p.read()["tau"], full, atol=tol)
+    np.testing.assert_allclose(p.read()["theta_e"], te, atol=1e-12)
+    sw = Plant(config(**base, phases_swapped=[1, 1, 1]))
+    sw.hold(True)
+    _settle_currents(sw, drive(-te - np.pi / 3))
+    np.testing.assert_allclose(sw.read()["tau"], full, atol=tol)
+    _settle_currents(sw, drive(te))
+    np.testing.assert_allclose(sw.read()["tau"], full * np.cos(2 * te + np.pi / 3), atol=tol)
+    # the encoder: axis 1 reversed, the others as before (channel A offset: A and B differ)
+    lines = np.linspace(-3.0, 3.0, 977)
+    ref = Plant(config(hand_kind=2, q0=q, enc_offset_a=[5, 5, 5]))
+    rev = Plant(config(hand_kind=2, q0=q, encoder_dir=[1, -1, 1], enc_offset_a=[5, 5, 5]))
+    for axis in range(3):
+        a0, b0 = ref.encode(axis, lines)
+        a1, b1 = rev.encode(axis, lines)
+        assert not np.array_equal(a0, b0)
+        assert (np.array_equal(a1, b0) and np.array_equal(b1, a0)) if axis == 1 else \
+            (np.array_equal(a1, a0) and np.array_equal(b1, b0))
+    with pytest.raises(PlantError, match="encoder_dir"):
+        Plant(config(encoder_dir=[1, 0, 1]))

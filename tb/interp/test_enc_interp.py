@@ -11,7 +11,7 @@ from pathlib import Path
 
 import pytest
 from hapgate.flows import blocks
-from hapgate.golden import encsig, interp
+from hapgate.golden import configs, encsig, interp
 from hapgate.runners import sim
 
 HERE = Path(__file__).parent
@@ -50,10 +50,11 @@ def test_fit_options_bit_exact() -> None:
     both table reads are used either way round) and HOLD_C = 1 (no stage-D copies: samples with
     idle clocks between them, as the board's strobe has) are bit-exact against the same model."""
     cfg = interp.InterpConfig()
+    fit = configs.FITS[configs.get("hx8k").fit]     # the board's fit, as one axis takes it
     _run("icarus", cfg, ["square_table", "gaps_latency_and_pulses"],
-         extra={"SQ_RAM": 1, "HOLD_C": 1})
+         extra={k: fit[k] for k in ("SQ_RAM", "HOLD_C")})
     cfg = interp.InterpConfig(invert=True)
-    _run("icarus", cfg, "scenario_bit_exact", "dropout_controls", extra={"SQ_RAM": 1})
+    _run("icarus", cfg, "scenario_bit_exact", "dropout_controls", extra={"SQ_RAM": fit["SQ_RAM"]})
 
 
 @pytest.mark.parametrize("simulator", sim.simulators())

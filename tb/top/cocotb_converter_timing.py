@@ -28,7 +28,6 @@ from cocotb.types import LogicArray
 from hapgate.flows import regmap
 from hapgate.golden import converters as cv
 from hapgate.golden import emif
-from hapgate.golden import top as topm
 from hapgate.golden.dacsched import period_ps
 from hapgate.golden.regmodel import WDOG_KEY
 from hapgate.runners import cocotb_emif, tbutil
@@ -40,7 +39,8 @@ DAC = cv.DAC_PARTS[os.environ.get("HG_DAC_PART", "dac7625")]
 ADC = cv.HI1175
 IO = cv.IoBudget()
 LEAD = int(P.get("ADC_CAPTURE_LEAD", 0))  # type: ignore[arg-type]
-CFG = topm.TopConfig(clk_hz=CLK_HZ, dac_twr_ns=DAC.t_wr_ns)
+CFG = tbutil.config().top()   # the paper's at this clock, with the DAC part's t_WR
+assert CFG.clk_hz == CLK_HZ and CFG.dac_twr_ns == DAC.t_wr_ns
 PERIOD = period_ps(CFG.comm)
 W = {r.name: r.word for r in regmap.load(CLK_HZ).registers}
 FRAMES = 5                      # commutation frames watched with torque on every channel

@@ -28,9 +28,9 @@ from cocotb.clock import Clock
 from cocotb.triggers import ClockCycles, RisingEdge, Timer
 from cocotb.utils import get_sim_time
 from hapgate.flows import regmap
-from hapgate.golden import commutation, emif, encsig, interp
+from hapgate.golden import commutation, emif, encsig, interp, velobs
 from hapgate.golden import top as topm
-from hapgate.golden.commutation import SINE, SIX_STEP, CommutationConfig
+from hapgate.golden.commutation import SINE, SIX_STEP
 from hapgate.golden.regmodel import WDOG_KEY, AxisInputs, RegModel
 from hapgate.runners import cocotb_emif, funcov, tbutil
 from hapgate.runners.cocotb_dac import DacModel
@@ -38,8 +38,8 @@ from hapgate.runners.cocotb_dac import DacModel
 P = tbutil.params()
 CLK_HZ = int(P["CLK_HZ"])  # type: ignore[arg-type]
 PERIOD_PS = 10**12 // CLK_HZ
-CFG = topm.TopConfig(clk_hz=CLK_HZ, comm=CommutationConfig(
-    serial_mul=bool(P.get("SERIAL_MUL", 0))))
+CFG = tbutil.config().top()   # the named configuration (or sweep point) the DUT was built with
+assert CFG.clk_hz == CLK_HZ, (CFG.clk_hz, CLK_HZ)
 # A board top under tb/boards/board_harness.v: its reset synchroniser releases the core
 # RESET_DELAY clocks after rst (held RESET_CYCLES clocks: past a power-on reset), an ADC adapter
 # that reads the converters in the period before the core's capture needs sample k + ADC_LEAD
@@ -72,7 +72,7 @@ def stimulus(n: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     # the fault becomes visible just after a frame start: the worst case for the commutator
     # alone (motor 1's loads of that frame are still to come; only the output stage can zero
     # them within one frame)
-    while ((s + 1) * CFG.div + topm.LATENCY) % CFG.comm.frame_clocks > CFG.comm.skew_clocks:
+    while ((s + 1) * CFG.div + CFG.interp.latency) % CFG.comm.frame_clocks > CFG.comm.skew_clocks:
         s += 1
     a[s:s + 3, 1] = 127                                      # ADC clipping: axis 1 fault
     return a, b, idx
@@ -223,16 +223,20 @@ async def firmware_like_run(dut) -> None:
                        clear_at=topm.pulse_samples(clr, CFG),
                        arm_at=topm.pulse_samples(arm[i], CFG)) for i in range(3)]
 
+    # VEL: the window FIR, or the tracking observer where it is selected from reset (its reset
+    # bandwidth and type: VEL_CTRL's reset value, the observer model's defaults)
+    vels = [velobs.run_interp(x) if CFG.vel_obs_sel else x.vel for x in axes]
+
     def inputs(edge: int) -> list[AxisInputs]:
-        s = (edge - topm.LATENCY - 1) // CFG.div - 1
+        s = (edge - CFG.interp.latency - 1) // CFG.div - 1
         if s < 0:
             return [AxisInputs() for _ in range(3)]
-        return [AxisInputs(pos=int(x.pos[s]), pos_homed=int(x.pos_homed[s]), vel=int(x.vel[s]),
+        return [AxisInputs(pos=int(x.pos[s]), pos_homed=int(x.pos_homed[s]), vel=int(v[s]),
                            index_pos=int(x.index_pos[s]), index_count=int(x.index_count[s]),
                            overspeed_count=int(x.overspeed_count[s]), homed=int(x.homed[s]),
-                           faults=int(x.faults[s])) for x in axes]
+                           faults=int(x.faults[s])) for x, v in zip(axes, vels)]
 
-    changes = [k * CFG.div + topm.LATENCY + 1 for k in range(1, a.shape[0] + 1)]
+    changes = [k * CFG.div + CFG.interp.latency + 1 for k in range(1, a.shape[0] + 1)]
     model = RegModel(RM, inputs=inputs, input_edges=changes)
     timeline = topm.Timeline()
     errors: list[str] = []
@@ -299,8 +303,8 @@ async def firmware_like_run(dut) -> None:
     # the axis-1 fault: visible from the edge after its sample's results
     s_fault = int(np.argmax(axes[1].faults != 0))
     s_clear = int(np.argmax((np.arange(axes[1].faults.size) > s_fault) & (axes[1].faults == 0)))
-    e_fault = (s_fault + 1) * CFG.div + topm.LATENCY
-    e_clear = (s_clear + 1) * CFG.div + topm.LATENCY
+    e_fault = (s_fault + 1) * CFG.div + CFG.interp.latency
+    e_clear = (s_clear + 1) * CFG.div + CFG.interp.latency
     during = ((got_e - CFG.comm.wr_cycles - 1) > e_fault) & (got_e - 3 <= e_clear) & \
         ((got_a == 2) | (got_a == 3))
     assert np.all(got_w[during] == zero), "motor 1 not at zero torque during its fault"
@@ -419,7 +423,7 @@ async def homed_truth(dut) -> None:
     # homed only after the index edge (truth) has reached the registers: from the edge of the
     # first index rise + the interpolator latency + one frame
     rise = [int(np.argmax(idx[1:, i] > idx[:-1, i])) + 1 for i in range(3)]
-    homed_from = np.array([(r + 2) * CFG.div + topm.LATENCY + CFG.comm.frame_clocks
+    homed_from = np.array([(r + 2) * CFG.div + CFG.interp.latency + CFG.comm.frame_clocks
                            for r in rise])
     check = (frame * CFG.comm.frame_clocks > np.maximum(homed_from[mot], armed_edge + 1)) & \
         (frame >= 1)
@@ -435,10 +439,12 @@ async def homed_truth(dut) -> None:
     want = 8191 * tq / 32767 * np.sin(theta - (ch % 2) * 2 * np.pi / 3)
     # budget, in electrical angle: 1/2 ROM code (a code stands for the middle of its bin), the
     # 1/3 code by which b falls short of 120deg, the interpolator (ideal signals: < 1 count of
-    # 1024 per line = 2/1024 of a code), and the shaft motion over one sample + LATENCY + 1 clocks
-    # before the latch; plus 1/2 LSB of rounding and 1/2 LSB of the ROM's own rounding
+    # 1024 per line = 2/1024 of a code; plain quadrature's 256-count steps fall on the
+    # commutation's 512-count codes, so they add nothing), and the shaft motion over one sample
+    # + the interpolator's latency + 1 clocks before the latch; plus 1/2 LSB of rounding and 1/2
+    # LSB of the ROM's own rounding
     v_counts_s = TRUTH_REV_S * counts
-    motion = v_counts_s * (1.0 / CFG.sample_hz + (topm.LATENCY + 1) / CLK_HZ)
+    motion = v_counts_s * (1.0 / CFG.sample_hz + (CFG.interp.latency + 1) / CLK_HZ)
     codes_per_count = POLE_PAIRS * 1024 / counts
     ang = 2 * np.pi / 1024 * (0.5 + np.where(ch % 2, 1 / 3, 0) + 2 / 1024
                               + motion * codes_per_count)
@@ -447,7 +453,8 @@ async def homed_truth(dut) -> None:
     worst = int(np.argmax(np.where(check, err / budget, 0)))
     dut._log.info(
         f"homed truth, seed {seed}: power-up lines {x[0].round(1).tolist()}, "
-        f"{int(check.sum())} loads checked, max |err| {err[check].max():.1f} LSB, worst "
+        f"{int(check.sum())} loads checked, max |err| {err[check].max():.1f} LSB, RMS "
+        f"{np.sqrt(np.mean(err[check] ** 2)):.2f} LSB, worst "
         f"err/budget {err[worst] / budget[worst]:.3f} (channel {ch[worst]}, frame {frame[worst]})")
     assert np.all(err[check] <= budget[check]), (
         f"load {worst} (channel {ch[worst]}, frame {frame[worst]}): code {code[worst]}, "

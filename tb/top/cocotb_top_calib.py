@@ -19,15 +19,13 @@ from cocotb.triggers import ClockCycles, Timer
 from cocotb.utils import get_sim_time
 from hapgate.flows import regmap
 from hapgate.golden import enccal, encsig, interp
-from hapgate.golden import top as topm
 from hapgate.runners import tbutil
 
 P = tbutil.params()
 CLK_HZ = int(P["CLK_HZ"])  # type: ignore[arg-type]
 PERIOD_PS = 10**12 // CLK_HZ
-CFG = topm.TopConfig(clk_hz=CLK_HZ, interp=interp.InterpConfig(
-    cal=True, cal_lines_log2=int(P["CAL_LINES_LOG2"]),  # type: ignore[arg-type]
-    ratio=int(P.get("ANGLE", 0)) == 1, harm=int(P.get("HARM", 0)) == 1))  # type: ignore[arg-type]
+CFG = tbutil.config().top()   # a sweep point of `hires` (CAL = 1)
+assert CFG.clk_hz == CLK_HZ and CFG.interp.cal
 RM = regmap.load(CLK_HZ)
 W = {r.name: r.word for r in RM.registers}
 N_MOVE = int(os.environ.get("HG_SAMPLES", "2000"))

@@ -38,17 +38,15 @@ from cocotb.triggers import ClockCycles, ReadOnly, RisingEdge, Timer
 from cocotb.utils import get_sim_time
 from hapgate.flows import regmap
 from hapgate.golden import angle, encsig, interp
-from hapgate.golden import top as topm
 from hapgate.golden.regmodel import RegModel
 from hapgate.runners import tbutil
 
 P = tbutil.params()
 CLK_HZ = int(P["CLK_HZ"])  # type: ignore[arg-type]
 PERIOD_PS = 10**12 // CLK_HZ
-HARM_LOG2 = int(P.get("HARM_LOG2", angle.HARM_LOG2))  # type: ignore[arg-type]
-CFG = topm.TopConfig(clk_hz=CLK_HZ, interp=interp.InterpConfig(  # (CAL = 1 builds: disabled)
-    ratio=True, harm=True, harm_log2=HARM_LOG2, cal=int(P.get("CAL", 0)) == 1,  # type: ignore[arg-type]
-    cal_lines_log2=int(P.get("CAL_LINES_LOG2", 3))))  # type: ignore[arg-type]
+CFG = tbutil.config().top()   # a sweep point of `hires` (with CAL = 1: disabled here)
+HARM_LOG2 = CFG.interp.harm_log2
+assert CFG.clk_hz == CLK_HZ and CFG.interp.harm
 RM = regmap.load(CLK_HZ)
 W = {r.name: r.word for r in RM.registers}
 N_LEARN = int(os.environ.get("HG_LEARN", "3000"))    # samples fitted with the correction off

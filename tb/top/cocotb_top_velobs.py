@@ -16,13 +16,13 @@ from cocotb.triggers import ClockCycles, Timer
 from cocotb.utils import get_sim_time
 from hapgate.flows import regmap
 from hapgate.golden import encsig, interp, velobs
-from hapgate.golden import top as topm
 from hapgate.runners import tbutil
 
 P = tbutil.params()
 CLK_HZ = int(P["CLK_HZ"])  # type: ignore[arg-type]
 PERIOD_PS = 10**12 // CLK_HZ
-CFG = topm.TopConfig(clk_hz=CLK_HZ, interp=interp.InterpConfig(vel_obs=True), vel_obs_sel=True)
+CFG = tbutil.config().top()   # a sweep point of `observer`
+assert CFG.clk_hz == CLK_HZ and CFG.interp.vel_obs and CFG.vel_obs_sel
 RM = regmap.load(CLK_HZ)
 W = {r.name: r.word for r in RM.registers}
 N = int(os.environ.get("HG_SAMPLES", "1200"))

@@ -14,8 +14,8 @@ from pathlib import Path
 
 import pytest
 from hapgate.flows import blocks, flow
+from hapgate.golden import configs
 from hapgate.golden import converters as cv
-from hapgate.golden import top
 from hapgate.runners import sim
 
 HERE = Path(__file__).parent
@@ -26,15 +26,15 @@ SHIPPED = [(12_000_000, 1), (24_000_000, 0), (48_000_000, 0)]   # (CLK_HZ, ADC_C
 @pytest.mark.parametrize("clk_hz,lead", SHIPPED)
 def test_converter_timing(clk_hz: int, lead: int, dac: str, tmp_path: Path) -> None:
     part = cv.DAC_PARTS[dac]
-    cfg = top.TopConfig(clk_hz=clk_hz, dac_twr_ns=part.t_wr_ns)
+    cfg = configs.get("paper").replace(clk_hz=clk_hz, dac_twr_ns=part.t_wr_ns)
     # the strobe is derived from the DAC's t_WR: DAC7625 1, 2, 3 clocks (83, 83, 62.5 ns);
     # AD7836 (100 ns) 2, 3, 5 clocks (167, 125, 104 ns)
     want = {"dac7625": {12: 1, 24: 2, 48: 3}, "ad7836": {12: 2, 24: 3, 48: 5}}[dac]
-    assert cfg.comm.wr_cycles == want[clk_hz // 1_000_000]
+    assert cfg.top().comm.wr_cycles == want[clk_hz // 1_000_000]
     assert not cv.adc_refusals(cv.adc_plan(clk_hz, lead=lead))
     rep = tmp_path / "report.json"
     sim.run_cocotb(blocks.get("hapgate_top"), "icarus", "cocotb_converter_timing", HERE,
-                   params={**cfg.rtl_params(), "ADC_CAPTURE_LEAD": lead},
+                   config=cfg, params={**cfg.rtl_params(), "ADC_CAPTURE_LEAD": lead},
                    testcase="converter_timing",
                    extra_env={"HG_DAC_PART": dac, "HG_CONV_REPORT": str(rep)})
     r = json.loads(rep.read_text())
@@ -70,9 +70,9 @@ def test_broken_adc_clock_fails(variant: str, tmp_path: Path) -> None:
     blk = dataclasses.replace(base, name=f"hapgate_top_broken_{variant}",
                               sources=(*base.sources[:-1], str(mutated)))
     rep = tmp_path / "report.json"
-    cfg = top.TopConfig(clk_hz=12_000_000)
+    cfg = configs.get("paper").replace(clk_hz=12_000_000)
     with pytest.raises(SystemExit):   # how the cocotb runner fails under pytest
-        sim.run_cocotb(blk, "icarus", "cocotb_converter_timing", HERE, params=cfg.rtl_params(),
+        sim.run_cocotb(blk, "icarus", "cocotb_converter_timing", HERE, config=cfg,
                        testcase="adc_timing", extra_env={"HG_CONV_REPORT": str(rep)},
                        quiet=True)
     r = json.loads(rep.read_text())
@@ -89,7 +89,7 @@ def test_adc_clock_refused_where_it_cannot_be_met(clk_mhz: int) -> None:
     assert bool(why) == (clk_mhz < 4), why
     base = blocks.get("hapgate_top")
     blk = dataclasses.replace(base, name=f"hapgate_top_adc_refusal_{clk_mhz}")
-    f = flow.lint_icarus(blk, top.TopConfig(clk_hz=clk).rtl_params())
+    f = flow.lint_icarus(blk, configs.get("paper").replace(clk_hz=clk).rtl_params())
     assert f.ok == (clk_mhz >= 4), f.detail
     if clk_mhz < 4:
         assert "hapgate_top_ADC_capture" in f.detail, f.detail

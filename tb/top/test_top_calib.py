@@ -8,19 +8,19 @@ from pathlib import Path
 
 import pytest
 from hapgate.flows import blocks
-from hapgate.golden import interp, top
+from hapgate.golden import configs
 from hapgate.runners import sim
 
 HERE = Path(__file__).parent
 SAMPLES = {"verilator": 2000, "icarus": 600}
 
 
-def config(simulator: str) -> top.TopConfig:
-    """Icarus: the paper's arcsine after the calibration. Verilator: the ratio stage and the
-    harmonic table too (the issue-13 chain), one build shared with tb/top/test_top_harm.py."""
-    hi = simulator == "verilator"
-    return top.TopConfig(clk_hz=50_000_000, interp=interp.InterpConfig(
-        cal=True, cal_lines_log2=0, ratio=hi, harm=hi))
+def config(simulator: str) -> configs.Config:
+    """`hires` with a calibration block of one line, at 50 MHz. Verilator: as it is (the ratio
+    stage and the harmonic table too: the issue-13 chain), one build shared with
+    tb/top/test_top_harm.py and test_top.py; Icarus: the paper's arcsine after the calibration."""
+    cfg = configs.get("hires").replace(clk_hz=50_000_000, cal_lines_log2=0)
+    return cfg if simulator == "verilator" else cfg.replace(angle="arcsine")
 
 
 @pytest.mark.parametrize("simulator", sim.simulators())
@@ -31,4 +31,4 @@ def test_top_calibration(simulator: str, monkeypatch: pytest.MonkeyPatch) -> Non
         # runner calls make itself, which reads variable assignments from MAKEFLAGS
         monkeypatch.setenv("MAKEFLAGS", "CFG_CXXFLAGS_PCH_I=-include")
     sim.run_cocotb(blocks.get("hapgate_top"), simulator, "cocotb_top_calib", HERE,
-                   params=cfg.rtl_params(), extra_env={"HG_SAMPLES": str(SAMPLES[simulator])})
+                   config=cfg, extra_env={"HG_SAMPLES": str(SAMPLES[simulator])})

@@ -8,13 +8,13 @@ from __future__ import annotations
 from pathlib import Path
 
 from hapgate.flows import blocks
-from hapgate.golden import top
+from hapgate.golden import configs
 from hapgate.runners import sim
 
 HERE = Path(__file__).parent
 
 
 def test_top_capture() -> None:
-    params = top.TopConfig(clk_hz=50_000_000).rtl_params() | {"CAPTURE": 1, "CAP_DEPTH_LOG2": 8}
+    params = configs.get("paper").replace(clk_hz=50_000_000).rtl_params() | {"CAP_DEPTH_LOG2": 8}
     sim.run_cocotb(blocks.get("hapgate_top"), "verilator", "cocotb_top_capture", HERE,
                    params=params, testcase="capture_over_bus")

@@ -14,7 +14,7 @@ from pathlib import Path
 import pytest
 from hapgate.base import tables
 from hapgate.flows import blocks, flow
-from hapgate.golden import interp, top
+from hapgate.golden import configs
 from hapgate.runners import sim
 
 HERE = Path(__file__).parent
@@ -22,11 +22,11 @@ RUN = {"verilator": {"HG_LEARN": "2000", "HG_ON": "3000"},
        "icarus": {"HG_LEARN": "1200", "HG_ON": "2200"}}
 
 
-def config(simulator: str) -> top.TopConfig:
+def config(simulator: str) -> configs.Config:
+    hires = configs.get("hires")
     if simulator == "verilator":   # = tb/top/test_top_calib.py's config("verilator")
-        return top.TopConfig(clk_hz=50_000_000, interp=interp.InterpConfig(
-            cal=True, cal_lines_log2=0, ratio=True, harm=True))
-    return top.TopConfig(clk_hz=8_000_000, interp=interp.InterpConfig(ratio=True, harm=True))
+        return hires.replace(clk_hz=50_000_000, cal_lines_log2=0)
+    return hires.replace(clk_hz=8_000_000, cal=False)
 
 
 @pytest.mark.parametrize("simulator", sim.simulators())
@@ -35,7 +35,7 @@ def test_top_harmonic_table(simulator: str, monkeypatch: pytest.MonkeyPatch) -> 
         # the precompiled-header flag (docs/design/TOOLCHAIN.md)
         monkeypatch.setenv("MAKEFLAGS", "CFG_CXXFLAGS_PCH_I=-include")
     sim.run_cocotb(blocks.get("hapgate_top"), simulator, "cocotb_top_harm", HERE,
-                   params=config(simulator).rtl_params(), extra_env=RUN[simulator])
+                   config=config(simulator), extra_env=RUN[simulator])
 
 
 @pytest.mark.parametrize("change, stop", [
@@ -46,8 +46,9 @@ def test_top_harmonic_table(simulator: str, monkeypatch: pytest.MonkeyPatch) -> 
 ])
 def test_refused_configurations(change: dict[str, int], stop: str) -> None:
     """Combinations that cannot work stop the elaboration with a message naming the parameter
-    (Icarus elaboration, no simulation), and TopConfig refuses them before any build."""
-    block = blocks.get("hapgate_top_harm")
+    (Icarus elaboration, no simulation); the registry refuses them before any build
+    (tb/test_configs.py)."""
+    block = blocks.get("hapgate_top_hires")
     good = flow.lint_icarus(block, block.params())
     assert good.ok, good.detail
     bad = flow.lint_icarus(block, block.params() | change)
@@ -55,14 +56,16 @@ def test_refused_configurations(change: dict[str, int], stop: str) -> None:
 
 
 def test_top_config_refusals() -> None:
-    with pytest.raises(ValueError, match="1024 counts per line"):
-        top.TopConfig(interp=interp.InterpConfig(ratio=True, lut_bits=9))
-    with pytest.raises(ValueError, match="clk_hz >= 2"):
-        top.TopConfig(clk_hz=1_000_000, interp=interp.InterpConfig(ratio=True, harm=True))
-    with pytest.raises(ValueError, match="needs the ratio stage"):
-        top.TopConfig(interp=interp.InterpConfig(harm=True))
-    p = top.TopConfig(interp=interp.InterpConfig(ratio=True, harm=True)).rtl_params()
+    hires = configs.get("hires")
+    with pytest.raises(configs.ConfigError, match="'hires': lut_bits: .*1024 counts per line"):
+        hires.replace(lut_bits=9)
+    with pytest.raises(configs.ConfigError, match="'hires': clk_hz: .*clk_hz >= 2"):
+        hires.replace(clk_hz=1_000_000)
+    # the harmonic table without the ratio stage cannot be written: no angle mode gives it
+    assert not [m for m, v in configs.ANGLES.items() if v["harm"] and not v["ratio"]]
+    p = hires.rtl_params()
     assert (p["ANGLE"], p["HARM"], p["HARM_LOG2"], p["RATIO_BITS"]) == (1, 1, 6, 10)
     assert Path(str(p["RATIO_FILE"])) in tables.write_tables(p)
     assert Path(str(p["RATIO_FILE"])).is_file()
-    assert not {"ANGLE", "HARM", "RATIO_FILE", "ANGLE_REG"} & set(top.TopConfig().rtl_params())
+    assert not {"ANGLE", "HARM", "RATIO_FILE", "ANGLE_REG"} & set(
+        configs.get("paper").rtl_params())

@@ -15,7 +15,7 @@ import pytest
 from hapgate.base.block import Block
 from hapgate.flows import blocks, flow
 from hapgate.flows.flow import param_text
-from hapgate.golden import top
+from hapgate.golden import configs
 from hapgate.runners import sim
 
 HERE = Path(__file__).parent
@@ -43,7 +43,7 @@ def run_netlist(target: str) -> None:
     if "icarus" not in sim.simulators():
         pytest.fail("the gate-level top runs on Icarus (apt-get install iverilog)")
     rtl = blocks.get("hapgate_top")
-    cfg = top.TopConfig(clk_hz=CLK_HZ)
+    cfg = configs.get("paper").replace(clk_hz=CLK_HZ)
     params = cfg.rtl_params()
     net = flow.netlist(rtl, params, target, flatten=False)
     gate = Block(name=f"hapgate_top_{target}_netlist_{net.parent.name[-10:]}", top=rtl.top,
@@ -52,6 +52,6 @@ def run_netlist(target: str) -> None:
     # the power-up-anywhere truth check, runs on the RTL in test_top.py)
     sim.run_cocotb(gate, "icarus", "cocotb_top", HERE, params={}, build_args=BUILD_ARGS,
                    testcase="firmware_like_run",
-                   extra_env={"HG_SAMPLES": str(SAMPLES),
+                   extra_env={"HG_SAMPLES": str(SAMPLES), "HG_CONFIG": cfg.to_json(),
                               "HG_PARAMS": json.dumps({k: param_text(v)
                                                        for k, v in params.items()})})

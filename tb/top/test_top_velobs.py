@@ -8,7 +8,7 @@ from __future__ import annotations
 from pathlib import Path
 
 from hapgate.flows import blocks
-from hapgate.golden import interp, top
+from hapgate.golden import configs
 from hapgate.runners import sim
 
 HERE = Path(__file__).parent
@@ -16,7 +16,6 @@ HERE = Path(__file__).parent
 
 def test_top_velocity_observer() -> None:
     simulator = "icarus" if "icarus" in sim.simulators() else "verilator"
-    cfg = top.TopConfig(clk_hz=8_000_000, interp=interp.InterpConfig(vel_obs=True),
-                        vel_obs_sel=True)
+    cfg = configs.get("observer").replace(clk_hz=8_000_000)
     sim.run_cocotb(blocks.get("hapgate_top"), simulator, "cocotb_top_velobs", HERE,
-                   params=cfg.rtl_params(), extra_env={"HG_SAMPLES": "700"})
+                   config=cfg, extra_env={"HG_SAMPLES": "700"})

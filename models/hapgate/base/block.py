@@ -19,6 +19,7 @@ class Block:
     params: Callable[[], Params]       # default parameter set (generates tables)
     doc: str
     lint_synth: tuple[str, ...] = ("generic", "ice40")  # Yosys checks run by `make lint`
+    synth_only: tuple[str, ...] = ()   # ... and those only `hapgate synth` runs (its table)
     # Yosys warnings waived for this block: (substring of the warning, the written reason)
     yosys_waivers: tuple[tuple[str, str], ...] = ()
 

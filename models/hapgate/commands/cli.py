@@ -7,10 +7,13 @@ import os
 import sys
 import time
 from concurrent.futures import ThreadPoolExecutor
+from pathlib import Path
 
 from ..base import toolenv
+from ..base.paths import ROOT
 from ..base.report import table
 from ..flows import blocks, boards, flow, fusesoc, stage
+from ..golden import configs
 from ..runners.sim import MissingSimulator, simulators
 from . import (
     bench,
@@ -58,7 +61,8 @@ def cmd_lint(args: argparse.Namespace) -> int:
                                (5, ("HG_SIM",))):
                 jobs.append((flow.lint_verilator, block, params | {"AXIS_MASK": mask}, defs))
         if not args.no_synth:
-            jobs += [(flow.synth, block, params, target) for target in block.lint_synth]
+            targets = block.lint_synth + (block.synth_only if args.table else ())
+            jobs += [(flow.synth, block, params, target) for target in targets]
     with ThreadPoolExecutor(max_workers=os.cpu_count() or 2) as pool:  # tools are processes
         findings = list(pool.map(lambda j: j[0](*j[1:]), jobs))
     for f in findings:
@@ -76,6 +80,7 @@ def cmd_lint(args: argparse.Namespace) -> int:
 
 def cmd_synth(args: argparse.Namespace) -> int:
     args.no_synth = False
+    args.table = True      # every named configuration's synthesis too
     return cmd_lint(args)
 
 
@@ -121,6 +126,44 @@ def cmd_fusesoc(args: argparse.Namespace) -> int:
     return fusesoc.run(args.args)
 
 
+def cmd_core(args: argparse.Namespace) -> int:
+    return fusesoc.write_core(check=args.check)
+
+
+CONFIGS_DOC = ROOT / "docs" / "configs.md"
+
+
+def configs_doc_text() -> str:
+    """docs/configs.md with its generated part (between the markers) made anew."""
+    text = CONFIGS_DOC.read_text()
+    a, b = text.index(configs.DOC_BEGIN), text.index(configs.DOC_END) + len(configs.DOC_END)
+    return text[:a] + configs.markdown().rstrip("\n") + text[b:]
+
+
+def cmd_configs(args: argparse.Namespace) -> int:
+    try:
+        reg = configs.load(Path(args.file)) if args.file else configs.registry()
+    except configs.ConfigError as exc:
+        print(f"error: {exc}", file=sys.stderr)
+        return 2
+    if args.write_docs or args.check_docs:
+        text = configs_doc_text()
+        if text == CONFIGS_DOC.read_text():
+            print("docs/configs.md: current")
+            return 0
+        if args.check_docs:
+            print("docs/configs.md: stale: run `hapgate configs --write-docs`", file=sys.stderr)
+            return 1
+        CONFIGS_DOC.write_text(text)
+        print("written docs/configs.md")
+        return 0
+    base = configs.defaults()
+    print(table(["configuration", "sets (the rest: defaults)", "what"],
+                [[n, ", ".join(f"{k}={v}" for k, v in c.values().items() if v != base[k])
+                  or "-", c.doc] for n, c in reg.items()]))
+    return 0
+
+
 def cmd_demo(args: argparse.Namespace) -> int:
     return demo.main(args)
 
@@ -148,7 +191,7 @@ def main(argv: list[str] | None = None) -> int:
         sp = sub.add_parser(name, help=hlp)
         sp.add_argument("block", nargs="*", help="blocks (default: all)")
         sp.add_argument("--no-synth", action="store_true", help="skip the Yosys checks")
-        sp.set_defaults(fn=fn)
+        sp.set_defaults(fn=fn, table=False)
     pp = sub.add_parser("pnr", help="synthesize and place-and-route the board tops (nextpnr); "
                         "up5k-interp: one interpolator axis alone on a UP5K, angle-stage variants")
     pp.add_argument("board", nargs="*", help="boards (default: all)")
@@ -161,6 +204,17 @@ def main(argv: list[str] | None = None) -> int:
     fp = sub.add_parser("fusesoc", help="fusesoc with the pinned tools (hapgate.core)")
     fp.add_argument("args", nargs=argparse.REMAINDER, help="fusesoc arguments")
     fp.set_defaults(fn=cmd_fusesoc)
+    cp = sub.add_parser("core", help="write hapgate.core from the named configurations, the "
+                        "blocks and the boards (--check: exit 1 if the committed one differs)")
+    cp.add_argument("--check", action="store_true", help="compare only")
+    cp.set_defaults(fn=cmd_core)
+    gp = sub.add_parser("configs", help="the named configurations (models/hapgate/configs.toml)"
+                        ": check and list them; --write-docs: docs/configs.md's tables")
+    gp.add_argument("--file", help="check this registry file instead")
+    gp.add_argument("--write-docs", action="store_true", help="regenerate docs/configs.md")
+    gp.add_argument("--check-docs", action="store_true",
+                    help="exit 1 if docs/configs.md is not the generated one")
+    gp.set_defaults(fn=cmd_configs)
     sub.add_parser("demo", help="the main job: run the design on RTL and models, compare"
                    ).set_defaults(fn=cmd_demo)
     rp = sub.add_parser("replay", help="run a capture CSV through the RTL or the model")

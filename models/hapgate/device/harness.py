@@ -96,9 +96,27 @@ def start_pose(scene: Any) -> np.ndarray:
     return np.deg2rad([4.0, 46.0, 43.0])
 
 
-def q_index(q0: np.ndarray) -> np.ndarray:
-    """The index (and the windings' zero) of each encoder: half-way along the homing sweep."""
+def q_index(q0: np.ndarray, scene: Any = None) -> np.ndarray:
+    """The index of each encoder: plant.index_q_deg, else half-way along the homing sweep."""
+    given = getattr(getattr(scene, "plant", None), "index_q_deg", None)
+    if given is not None:
+        return np.deg2rad(np.asarray(given, dtype=float))
     return q0 - np.deg2rad(SWEEP_DEG) / 2
+
+
+def _plant_bringup(scene: Any) -> tuple[tuple[float, ...], tuple[bool, ...], tuple[int, ...]]:
+    pl = scene.plant
+    return (tuple(getattr(pl, "comm_offset_elec_deg", (0.0,) * 3)),
+            tuple(getattr(pl, "phases_swapped", (False,) * 3)),
+            tuple(getattr(pl, "encoder_dir", (1,) * 3)))
+
+
+def calib_line(scene: Any) -> str:
+    """The firmware's calibration (scene.calib(), hg_axis_calib_t words per axis), for the run
+    configuration: `calib = flags dir swapped pole_pairs index_to_zero offset` x 3."""
+    if not hasattr(scene, "calib"):
+        return ""
+    return "calib = " + " ".join(str(w) for a in scene.calib() for w in a.words())
 
 
 def _enc(scene: Any, i: int) -> Any:
@@ -125,7 +143,10 @@ def plant_config(scene: Any, q0: np.ndarray) -> str:
         f"enc_phase_deg = {_vec([e.phase_deg for e in enc])}",
         f"enc_h2 = {_vec([e.h2 for e in enc])}", f"enc_h3 = {_vec([e.h3 for e in enc])}",
         f"enc_noise_lsb = {_vec(noise)}",
-        f"q_index = {_vec(q_index(q0))}", f"q0 = {_vec(q0 - np.deg2rad(SWEEP_DEG))}",
+        f"q_index = {_vec(q_index(q0, scene))}", f"q0 = {_vec(q0 - np.deg2rad(SWEEP_DEG))}",
+        f"comm_offset_deg = {_vec(_plant_bringup(scene)[0])}",
+        f"phases_swapped = {_vec([1.0 if b else 0.0 for b in _plant_bringup(scene)[1]])}",
+        f"encoder_dir = {_vec(_plant_bringup(scene)[2])}",
         f"free = {_vec([1.0 if i in built else 0.0 for i in range(3)])}",
         f"seed = {int(scene.run.seed)}",
         f"t0_s = {-(T_SWEEP0_S + T_SWEEP_S + T_SETTLE_S)!r}",
@@ -142,11 +163,11 @@ def plant_config(scene: Any, q0: np.ndarray) -> str:
 
 
 def _observer(scene: Any) -> bool:
-    return getattr(scene.run, "velocity", "fir") == "observer"
+    return scene.run.gateware().velocity == "observer"
 
 
 def _coarse(scene: Any) -> bool:
-    return getattr(scene.run, "position", "interpolated") == "quadrature"
+    return scene.run.gateware().angle == "quadrature"
 
 
 def hold_values(scene: Any, q0: np.ndarray) -> dict[str, list[int]]:
@@ -158,7 +179,8 @@ def hold_values(scene: Any, q0: np.ndarray) -> dict[str, list[int]]:
     g = np.arange(1, n + 1) * 1e-6                      # sample k is the grid point k + 1
     u = np.clip((g - T_SWEEP0_S) / T_SWEEP_S, 0.0, 1.0)
     s = 0.5 * (1 - np.cos(np.pi * u))
-    qi = q_index(q0)
+    qi = q_index(q0, scene)
+    enc_dir = _plant_bringup(scene)[2]
     for i in range(3):
         if i in built:
             continue
@@ -167,9 +189,11 @@ def hold_values(scene: Any, q0: np.ndarray) -> dict[str, list[int]]:
         lines = (q - qi[i]) / (2 * np.pi) * encsig.LINES
         spec = replace(e.spec(seed=0), noise_lsb=0.0)
         a, b = encsig.adc_codes(lines, spec)
+        if enc_dir[i] < 0:               # A and B swapped at the connector (the plant's too)
+            a, b = b, a
         o = interp.run(a, b, encsig.index_bit(lines), InterpConfig(coarse=_coarse(scene)),
                        arm_at=[0])
-        if not bool(o.homed[-1]):
+        if not bool(o.homed[-1]) and getattr(scene, "calibration", "truth") != "none":
             raise DeviceError(f"axis {i}: the homing sweep did not home the held axis")
         out["hold_pos_homed"][i] = int(o.pos_homed[-1])
         out["hold_index_pos"][i] = int(o.index_pos[-1])
@@ -186,7 +210,7 @@ def run_config(scene: Any, q0: np.ndarray) -> str:
              f"env_k = {float(getattr(env, 'k', 0.0) or 0.0)!r}",
              f"env_b = {float(getattr(env, 'b', 0.0) or 0.0)!r}",
              f"env_ki = {float(getattr(env, 'ki', 0.0) or 0.0)!r}",
-             f"q0 = {_vec(q0)}", f"q_index = {_vec(q_index(q0))}",
+             f"q0 = {_vec(q0)}", f"q_index = {_vec(q_index(q0, scene))}",
              f"qd0 = {_vec(np.deg2rad(getattr(scene.run, 'qd0_deg_s', None) or (0, 0, 0)))}",
              f"sweep_rad = {math.radians(SWEEP_DEG)!r}", f"t_sweep_s = {T_SWEEP_S!r}",
              f"t_settle_s = {T_SETTLE_S!r}",
@@ -196,6 +220,8 @@ def run_config(scene: Any, q0: np.ndarray) -> str:
     if timeout_ms is not None:
         ticks = int(round(timeout_ms * scene.run.servo_hz / 1000))
         lines.append(f"pc_force_timeout_ticks = {ticks}")
+    if calib_line(scene):
+        lines.append(calib_line(scene))
     for k, v in hold_values(scene, q0).items():
         lines.append(f"{k} = {' '.join(str(x) for x in v)}")
     for f in scene.faults:

@@ -21,11 +21,10 @@ import numpy as np
 from ..base import cache, cbuild
 from ..base.paths import BUILD, ensure
 from ..flows import regmap
-from ..golden import encsig, interp
+from ..golden import configs, encsig, interp
 from ..golden.commutation import CommutationConfig
 from ..golden.interp import InterpConfig
 from ..golden.sine import quarter_table
-from ..golden.top import TopConfig
 from ..runners import cosim
 from . import harness
 from .scene import SceneError
@@ -95,11 +94,13 @@ def supported(scene: Any) -> None:
     if "adc" in scene.run.record:
         raise _refuse(scene, "run.record", "\"adc\": the model computes the ADC words only "
                       "where it needs them; use fidelity \"rtl\"")
-    if harness._coarse(scene):
-        raise _refuse(scene, "run.position", "\"quadrature\" needs fidelity \"rtl\"")
+    if harness._coarse(scene):   # (run.position, or run.config's angle)
+        raise _refuse(scene, "run.position" if scene.run.position == "quadrature" else
+                      "run.config", "\"quadrature\" needs fidelity \"rtl\"")
     if harness._observer(scene):
-        raise _refuse(scene, "run.velocity", "\"observer\" needs fidelity \"rtl\" (the model "
-                      "reports the window FIR's velocity)")
+        raise _refuse(scene, "run.velocity" if scene.run.velocity == "observer" else
+                      "run.config", "\"observer\" needs fidelity \"rtl\" (the model reports "
+                      "the window FIR's velocity)")
     if harness.scripted_pc(scene):
         raise _refuse(scene, "pc" if getattr(scene, "pc", None) is not None else "fault",
                       "the scripted PC's link is simulated with the gateware only; use "
@@ -124,7 +125,7 @@ def run_config(scene: Any, q0: np.ndarray, clk_hz: int, mask: int, mech_us: int)
     comm = CommutationConfig(clk_hz=clk_hz)
     if comm.angle_bits != 10 or comm.dac_bits != 14 or comm.rom.fs != 8191:
         raise harness.DeviceError("the model harness has the shipped commutation configuration")
-    top = TopConfig(clk_hz=clk_hz)
+    top = configs.get("paper").replace(clk_hz=clk_hz).top()
     lines = [harness.run_config(scene, q0).rstrip("\n"),
              f"mech_us = {mech_us}", f"axis_mask = {mask}", f"clk_hz = {clk_hz}",
              # the DAC schedule at this clock (the t_WCS strobe lengthens the write above 20 MHz):

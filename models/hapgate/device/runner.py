@@ -23,9 +23,8 @@ from typing import Any
 import numpy as np
 
 from ..base.paths import BUILD, ROOT, ensure
-from ..golden import kinematics
-from ..golden.interp import InterpConfig
-from ..golden.top import TopConfig, blocks
+from ..golden import configs, kinematics
+from ..golden.top import SOURCES, TopConfig
 from ..runners import cosim, funcov, native
 from . import model
 from .harness import (
@@ -67,10 +66,11 @@ HARNESS = [HERE / "device_harness.cpp", HERE / "harness_common.cpp", HERE / "pla
 def _top(clk_hz: int, mask: int, coarse: bool = False,
          vel_obs: bool = False) -> tuple[TopConfig, list[Path], dict[str, Any]]:
     """The top's configuration, sources and parameters of a virtual-device build."""
-    cfg = TopConfig(clk_hz=clk_hz, interp=InterpConfig(coarse=coarse, vel_obs=vel_obs),
-                    vel_obs_sel=vel_obs)
-    srcs = [ROOT / "rtl" / s for s in blocks()[0].sources]
-    return cfg, srcs, cfg.rtl_params() | {"AXIS_MASK": mask}
+    point = configs.get("paper").replace(
+        clk_hz=clk_hz, angle="quadrature" if coarse else "arcsine",
+        velocity="observer" if vel_obs else "fir")
+    srcs = [ROOT / "rtl" / s for s in SOURCES]
+    return point.top(), srcs, point.rtl_params() | {"AXIS_MASK": mask}
 
 
 def build_gate_equiv(clk_hz: int, mask: int, gate: bool) -> Path:
@@ -78,7 +78,7 @@ def build_gate_equiv(clk_hz: int, mask: int, gate: bool) -> Path:
     top, with the stage clocks (gate) or with every register on clk (cached)."""
     _, srcs, params = _top(clk_hz, mask)
     return native.verilate_harness(
-        "gate_equiv", blocks()[0].top, srcs, params, [HERE / "gate_equiv.cpp"],
+        "gate_equiv", "hapgate_top", srcs, params, [HERE / "gate_equiv.cpp"],
         cflags=f"-std=c++17 -DCLK_HZ={clk_hz} -DHG_SIM_GATE={int(gate)} -I{FW / 'include'}",
         inputs=[HERE / "stage_clocks.h", *sorted((FW / "include").glob("*.h"))],
         vflags=["-DHG_SIM"] + (["-DHG_SIM_GATE"] if gate else []))
@@ -125,13 +125,12 @@ def build(clk_hz: int, mask: int = 7, trace: bool = False, test_limits: bool = F
     if pgo is None:
         pgo = pgo_enabled()
     cfg, srcs, params = _top(clk_hz, mask, coarse, vel_obs)
-    block = blocks()[0]
     fw_srcs = sorted((FW / "src").glob("*.c")) + sorted((FW / "include").glob("*.h"))
     vflags = (["-DHG_SIM"] + (["-DHG_SIM_GATE"] if gate else [])
               + (["--trace"] if trace else []))   # VCD: FST needs liblz4 headers
     defs = (f"HG_SCENE_K_MAX_TEST={K_MAX_TEST:.1f}",) if test_limits else ()
     return native.verilate_harness(
-        "device_harness", block.top, srcs, params, HARNESS,
+        "device_harness", "hapgate_top", srcs, params, HARNESS,
         cflags=(f"-std=c++17 -DCLK_HZ={clk_hz} -DAXIS_MASK={mask} -DHG_TRACE={int(trace)} "
                 f"-DHG_SIM_GATE={int(gate)} "
                 f"-DHG_LOAD_CLOCKS={cfg.comm.load_clocks + 1} "

@@ -24,7 +24,7 @@ from typing import Any
 import numpy as np
 
 from ..base import cache
-from ..golden import encsig, kinematics
+from ..golden import calib, configs, encsig, kinematics
 
 
 class SceneError(ValueError):
@@ -38,6 +38,7 @@ RECORDABLE = ("q", "p", "f_hand", "tau", "dac", "adc", "pos", "current")
 ENV_KINDS = ("none", "wall", "spring", "viscous", "pc")
 HAND_KINDS = ("none", "spring", "fixed")
 FAULT_KINDS = ("dropout", "hang", "watchdog", "link_garbage")
+BRINGUP_KEYS = ("comm_offset_elec_deg", "phases_swapped", "encoder_dir", "index_q_deg")
 FW_ERRORS = ("NONE", "NONFINITE", "AXIS_FAULT", "ENCODER", "STALE", "OVERRUN", "WATCHDOG",
              "FPGA_ID", "CONFIG")                     # dsp-fw/include/hg_servo.h, HG_ERR_*
 # Keys of [env] that apply to each kind (the others are refused).
@@ -77,6 +78,37 @@ class RunCfg:
     name: str | None = None          # output folder name (resolved on load: the file's stem)
     position: str = "interpolated"   # "quadrature": the interpolator's fine angle zeroed (COARSE)
     velocity: str = "fir"            # "observer": VEL reports the tracking observer (VEL_OBS)
+    config: str = "paper"            # the gateware's named configuration (golden.configs)
+
+    def gateware(self) -> configs.Config:
+        """The gateware's configuration: run.config, with position = "quadrature" and
+        velocity = "observer" applied to it (a sweep point), on the configuration's clock (the
+        run's clock is chosen when building)."""
+        c = configs.get(self.config)
+        if self.position == "quadrature":
+            c = c.replace(angle="quadrature")
+        if self.velocity == "observer":
+            c = c.replace(velocity="observer")
+        return c
+
+
+# what the virtual device builds of a configuration: the paper's, but for these keys (and the
+# clock, which the run chooses)
+DEVICE_KEYS = {"angle": ("arcsine", "quadrature"), "velocity": ("fir", "observer")}
+
+
+def device_refusal(c: configs.Config) -> str:
+    """Why the virtual device cannot build configuration `c` ("" if it can)."""
+    paper = configs.get("paper")
+    other = [k for k in configs.KEYS if k != "clk_hz" and k not in DEVICE_KEYS
+             and getattr(c, k) != getattr(paper, k)]
+    other += [f"{k} = {getattr(c, k)!r}" for k, ok in DEVICE_KEYS.items()
+              if getattr(c, k) not in ok]
+    if not other:
+        return ""
+    return (f"configuration {c.name!r} sets {', '.join(other)}: the virtual device builds the "
+            f"paper's configuration with angle {' or '.join(DEVICE_KEYS['angle'])} and velocity "
+            f"{' or '.join(DEVICE_KEYS['velocity'])} (models/hapgate/configs.toml)")
 
 
 @dataclass(frozen=True)
@@ -157,6 +189,10 @@ class FirmwareCfg:
     comm_offset_error_counts: tuple[int, int, int] = (0, 0, 0)   # 1/1024 electrical cycle
     pc_force_timeout_ms: float | None = None   # None: the firmware's default
     test_limits: bool = False        # simulation-only firmware build: k up to K_MAX_TEST
+    calibration: str | None = None   # "none" | "truth" | a calibration.toml path (relative to
+    #                                   the scene's folder); resolved on load: "none" when the
+    #                                   scene sets a bring-up key of [plant] (BRINGUP_KEYS),
+    #                                   else "truth"
 
 
 @dataclass(frozen=True)
@@ -175,6 +211,12 @@ class PlantCfg:
     gravity_k: tuple[float, ...] = ()      # empty: no gravity; else k1..k12 (hg_gravity.h order)
     gravity_q: tuple[float, float] = (0.0, 0.0)   # (Q_ab, Q_ac) of eq (2) (hg_gravity_t)
     dt_s: float = 1e-6                     # integrator step: 1e-6 / n, n = 1..16
+    # what bring-up must find (issue 26), per axis; the defaults are today's device
+    comm_offset_elec_deg: tuple[float, float, float] = (0.0, 0.0, 0.0)   # index -> winding
+    phases_swapped: tuple[bool, bool, bool] = (False, False, False)   # amplifier a, b swapped
+    encoder_dir: tuple[int, int, int] = (1, 1, 1)   # -1: encoder A and B swapped
+    index_q_deg: tuple[float, float, float] | None = None   # joint angle of the index, deg;
+    #                                   None: half-way along the homing sweep (q0 - 0.25 deg)
 
     @property
     def substeps(self) -> int:
@@ -224,6 +266,20 @@ class Scene:
     @property
     def q0_rad(self) -> np.ndarray:
         return np.deg2rad(np.asarray(self.run.q0_deg or DEFAULT_Q0_DEG, dtype=np.float64))
+
+    @property
+    def calibration(self) -> str:
+        """firmware.calibration, the default resolved: "none" when the scene sets a bring-up
+        key of [plant] (BRINGUP_KEYS), else "truth"."""
+        if self.firmware.calibration is not None:
+            return self.firmware.calibration
+        given = json.loads(self.raw).get("plant", {})
+        return "none" if any(k in given for k in BRINGUP_KEYS) else "truth"
+
+    def calib(self) -> tuple[calib.AxisCalib, ...]:
+        """The calibration the firmware starts with (three axes): calib.NONE, the plant's own
+        (calib.truth) or the file's (relative to the scene's folder; checked on load)."""
+        return _calib(self.calibration, self.plant, self.run, self.source)
 
     def signal_spec(self, axis: int) -> encsig.SignalSpec:
         """The encoder signal model of one axis, seeded from [run] seed and the axis."""
@@ -312,11 +368,43 @@ def from_dict(d: Mapping[str, Any], source: str = "<scene>") -> Scene:
     plant = v.plant(v.sub(top, "plant"))
     expect = v.expect(v.sub(top, "expect"))
     pc = v.pc(v.sub(top, "pc")) if "pc" in top else None
-    v.consistent(run, faults, expect, env, pc)
+    v.consistent(run, faults, expect, env, pc, plant)
     run = replace(run, q0_deg=v.q0(run, hand))
     raw = json.dumps(d, default=str)
-    return Scene(run, env, hand, encoders, faults, firmware, plant, expect, pc=pc,
-                 source=source, raw=raw)
+    out = Scene(run, env, hand, encoders, faults, firmware, plant, expect, pc=pc,
+                source=source, raw=raw)
+    v.calibration(out)
+    return out
+
+
+SWEEP_DEG = 0.5                  # the harness's homing sweep ends at q0 (harness.SWEEP_DEG)
+INDEX_MARGIN_DEG = 0.05          # an index this close to either end of it may not be crossed
+
+
+def _calib(mode: str, plant: PlantCfg, run: RunCfg, source: str
+           ) -> tuple[calib.AxisCalib, ...]:
+    if mode == "none":
+        return calib.NONE
+    if mode == "truth":   # the harness's index (harness.q_index), to the bit
+        qi = (np.deg2rad(np.asarray(plant.index_q_deg, dtype=np.float64))
+              if plant.index_q_deg is not None else
+              np.deg2rad(np.asarray(run.q0_deg or DEFAULT_Q0_DEG, dtype=np.float64))
+              - np.deg2rad(SWEEP_DEG) / 2)
+        return calib.truth(qi, plant.comm_offset_elec_deg, plant.phases_swapped,
+                           plant.encoder_dir, plant.pole_pairs)
+    path = Path(mode)
+    if not path.is_absolute() and source not in ("<scene>", ""):
+        path = Path(source).parent / path
+    return calib.load(path)
+
+
+def index_rad(scene: Scene) -> np.ndarray:
+    """The joint angle of each encoder's index [rad]: plant.index_q_deg, else half-way along
+    the homing sweep (today's device: the windings' zero lies there too, unless
+    comm_offset_elec_deg says otherwise)."""
+    if scene.plant.index_q_deg is not None:
+        return np.deg2rad(np.asarray(scene.plant.index_q_deg, dtype=np.float64))
+    return scene.q0_rad - np.deg2rad(SWEEP_DEG) / 2
 
 
 # ------------------------------------------------------------------------------- validation
@@ -432,6 +520,13 @@ class _Validator:
                                    "with . or -): it names the output folder")
             return x
 
+        def gateware(x: object, k: str) -> str:
+            name_ = self.str_(x, k, tuple(configs.names()))
+            why = device_refusal(configs.get(name_))
+            if why:
+                raise self.fail(k, why)
+            return name_
+
         kw = self.fields_of(d, "run", {
             "duration_s": lambda x, k: self.num(x, k, lambda s: 0 < s <= 600, "0 < s <= 600"),
             "fidelity": lambda x, k: self.str_(x, k, FIDELITIES),
@@ -444,7 +539,8 @@ class _Validator:
                                                "qd_max, 100 rad/s)"),
             "name": name,
             "position": lambda x, k: self.str_(x, k, ("interpolated", "quadrature")),
-            "velocity": lambda x, k: self.str_(x, k, ("fir", "observer"))})
+            "velocity": lambda x, k: self.str_(x, k, ("fir", "observer")),
+            "config": gateware})
         for a, w in enumerate(kw.get("qd0_deg_s", ())):   # type: ignore[arg-type]
             if w != 0 and a not in kw.get("axes", RunCfg.axes):   # type: ignore[operator]
                 raise self.fail(f"run.qd0_deg_s[{a}]", f"axis {a} is not simulated (its joint "
@@ -594,10 +690,41 @@ class _Validator:
                                    f"at {run.servo_hz} Hz")
             return ms
 
+        def calibration(x: object, k: str) -> str:
+            if not isinstance(x, str):
+                raise self.fail(k, f"must be a string, got {_tname(x)}")
+            if x in ("none", "truth"):
+                return x
+            if not x.endswith(".toml"):
+                raise self.fail(k, f"{x!r}: \"none\", \"truth\" or a path to a "
+                                   "calibration.toml")
+            return x
+
         kw = self.fields_of(d, "firmware", {
             "comm_offset_error_counts": comm, "pc_force_timeout_ms": timeout,
-            "test_limits": lambda x, k: self.bool_(x, k)})
+            "test_limits": lambda x, k: self.bool_(x, k), "calibration": calibration})
         return FirmwareCfg(**kw)  # type: ignore[arg-type]
+
+    def calibration(self, scene: Scene) -> None:
+        """Check the calibration the scene resolves to (a file: that it loads). A homed one
+        needs each index on the harness's homing sweep (its README, "Homing")."""
+        mode = scene.calibration
+        try:
+            scene.calib()
+        except calib.CalibError as exc:
+            raise self.fail("firmware.calibration", str(exc)) from None
+        plant = scene.plant
+        if mode != "none" and plant.index_q_deg is not None:
+            q0 = np.asarray(scene.run.q0_deg, dtype=np.float64)
+            for i in range(3):
+                qi = plant.index_q_deg[i]
+                lo, hi = q0[i] - SWEEP_DEG + INDEX_MARGIN_DEG, q0[i] - INDEX_MARGIN_DEG
+                if not lo <= qi <= hi:
+                    raise self.fail(f"plant.index_q_deg[{i}]",
+                                    f"{qi:g} deg: with a homed calibration ({mode!r}) the "
+                                    f"index must lie on the homing sweep, {lo:g}..{hi:g} deg "
+                                    "(q0 - 0.45 .. q0 - 0.05): use calibration = \"none\" "
+                                    "for an index elsewhere")
 
     def plant(self, d: dict[str, Any]) -> PlantCfg:
         def pos(hi: float, unit: str) -> Callable[[object, str], float]:
@@ -624,7 +751,19 @@ class _Validator:
                 raise self.fail(k, f"{s:g} s must be 1e-6 s / n for a whole n in 1..16")
             return 1e-6 / n
 
+        def swapped(x: object, k: str) -> tuple[bool, ...]:
+            return tuple(self.bool_(c, f"{k}[{i}]") for i, c in enumerate(self.list_(x, k, 3)))
+
+        def enc_dir(x: object, k: str) -> tuple[int, ...]:
+            return tuple(self.int_(c, f"{k}[{i}]", lambda v: v in (1, -1), "+1 or -1")
+                         for i, c in enumerate(self.list_(x, k, 3)))
+
         kw = self.fields_of(d, "plant", {
+            "comm_offset_elec_deg": lambda x, k: self.vec(x, k, 3, lambda v: abs(v) <= 360,
+                                                          "-360..360 deg electrical"),
+            "phases_swapped": swapped, "encoder_dir": enc_dir,
+            "index_q_deg": lambda x, k: self.vec(x, k, 3, lambda v: abs(v) <= 180,
+                                                 "|deg| <= 180"),
             "kt_nm_per_a": pos(1.0, " N m/A"), "r_ohm": pos(100.0, " ohm"),
             "j_rotor_kg_m2": pos(1e-2, " kg m^2"),
             "pole_pairs": lambda x, k: self.int_(x, k, lambda p: 1 <= p <= 8, "1..8"),
@@ -668,7 +807,8 @@ class _Validator:
         return PcCfg(**kw)  # type: ignore[arg-type]
 
     def consistent(self, run: RunCfg, faults: tuple[FaultCfg, ...], expect: ExpectCfg,
-                   env: EnvCfg | None = None, pc: PcCfg | None = None) -> None:
+                   env: EnvCfg | None = None, pc: PcCfg | None = None,
+                   plant: PlantCfg | None = None) -> None:
         """Rules across sections."""
         kind = env.kind if env is not None else "none"
         if pc is not None and kind != "pc":
@@ -679,6 +819,10 @@ class _Validator:
                                                     f"\"pc\", not {kind!r}")
         if run.trace and run.fidelity != "rtl":
             raise self.fail("run.trace", "a waveform needs the gateware (fidelity = \"rtl\")")
+        if plant is not None and run.fidelity == "model" and -1 in plant.encoder_dir:
+            raise self.fail("plant.encoder_dir", "a reversed encoder needs the gateware "
+                                                 "(fidelity = \"rtl\"): the model's quadrant "
+                                                 "count follows the forward angle")
         if expect.zero_torque_within_us is not None and not faults:
             raise self.fail("expect.zero_torque_within_us", "the scene injects no [[fault]] "
                                                             "to react to")

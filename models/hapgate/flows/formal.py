@@ -30,7 +30,7 @@ from ..base import toolenv
 from ..base.paths import BUILD, TB, ensure
 from ..base.report import table
 from ..base.tables import write_tables
-from ..golden import interp, top
+from ..golden import configs, interp
 
 FORMAL = TB / "formal"
 
@@ -40,7 +40,7 @@ def _interp_lut() -> dict[str, Path]:
 
 
 def _top_tables() -> dict[str, Path]:
-    p = top.TopConfig().rtl_params()
+    p = configs.get("paper").rtl_params()
     write_tables(p)
     return {"asin.hex": Path(p["ASIN_FILE"]), "sine.hex": Path(p["SINE_FILE"])}  # type: ignore[arg-type]
 

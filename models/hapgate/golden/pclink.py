@@ -14,11 +14,16 @@ VERSION2 = 2                 # the current one
 VERSIONS = (VERSION, VERSION2)
 PING, GET_STATE, SET_FORCE, SET_SCENE, ENABLE, GET_STATS, CLEAR_ERROR = range(1, 8)
 INFO, STREAM, FORCE = 8, 9, 10           # version 2
+SET_CALIB, GET_CALIB = 0x0B, 0x0C        # version 2 (issue 26)
 STATE_PUSH = 0x8A                        # version 2, device -> PC only
 REPLY, NAK = 0x80, 0xFF
-NAK_RANGE, NAK_ERROR_LATCHED, NAK_REPLAY = 1, 2, 3
+NAK_RANGE, NAK_ERROR_LATCHED, NAK_REPLAY, NAK_UNCALIBRATED, NAK_ENABLED = 1, 2, 3, 4, 5
 NAK_REASONS = {NAK_RANGE: "value out of range", NAK_ERROR_LATCHED: "an error is latched",
-               NAK_REPLAY: "force counter not newer (replay)"}
+               NAK_REPLAY: "force counter not newer (replay)",
+               NAK_UNCALIBRATED: "an axis is not calibrated (homed and aligned)",
+               NAK_ENABLED: "not while the forces are enabled"}
+CALIB_FMT = "<BBbBBiH"     # axis, flags, enc_dir, phases_swapped, pole_pairs, index_to_zero,
+#                            comm_offset (hg_axis_calib_t): SET_CALIB request, GET_CALIB reply
 SCENE_NONE, SCENE_WALL, SCENE_SPRING, SCENE_VISCOUS, SCENE_PC_FORCE = range(5)
 
 
@@ -96,6 +101,17 @@ def split(stream: bytes) -> list[Frame]:
 
 def set_force(fx: float, fy: float, fz: float) -> bytes:
     return struct.pack("<3f", fx, fy, fz)
+
+
+def set_calib(axis: int, words: tuple[int, int, int, int, int, int]) -> bytes:
+    """SET_CALIB's data: the axis and hapgate.golden.calib.AxisCalib.words()."""
+    return struct.pack(CALIB_FMT, axis, *words)
+
+
+def parse_calib(data: bytes) -> tuple[int, tuple[int, int, int, int, int, int]]:
+    """GET_CALIB's reply: (axis, words)."""
+    v = struct.unpack(CALIB_FMT, data)
+    return v[0], (v[1], v[2], v[3], v[4], v[5], v[6])
 
 
 def set_scene(kind: int, p0: tuple[float, float, float] = (0, 0, 0),

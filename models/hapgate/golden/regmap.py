@@ -89,8 +89,12 @@ def from_description(d: dict[str, Any]) -> RegMap:
 # ---------------------------------------------------------------------------- RTL blocks
 
 def bus_params(clk_hz: int = DEFAULT_CLK_HZ) -> Params:
+    """The bus block's parameters: the paper's configuration's, at clk_hz."""
+    from . import configs
+
     p = rdl_params(clk_hz)
-    return {"CLK_HZ": clk_hz, "SAMPLE_HZ": 1_000_000, "VEL_LOG2W": 8,
+    paper = configs.get("paper")
+    return {"CLK_HZ": clk_hz, "SAMPLE_HZ": paper.sample_hz, "VEL_LOG2W": paper.vel_log2w,
             "SKEW_CLOCKS": p["SKEW_CLOCKS"], "FRAME_CLOCKS": p["FRAME_CLOCKS"],
             "ADDR_BITS": BUS_ADDR_BITS}
 

@@ -32,7 +32,7 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from ..base.block import Block, Params
+from ..base.block import Params
 from . import commutation, interp
 from .commutation import CommutationConfig, Frames
 from .interp import InterpConfig
@@ -50,6 +50,9 @@ def dac_wr_clocks(clk_hz: int, twr_ns: int = DAC_TWR_NS) -> int:
 
 @dataclass(frozen=True)
 class TopConfig:
+    """The golden model's view of the whole FPGA. Made by hapgate.golden.configs (a named
+    configuration's `top()`), which checks the parameters once (`configs.problems`)."""
+
     clk_hz: int = 48_000_000
     sample_hz: int = 1_000_000
     interp: InterpConfig = field(default_factory=InterpConfig)
@@ -64,16 +67,6 @@ class TopConfig:
         wr = max(self.comm.wr_cycles, dac_wr_clocks(self.clk_hz, self.dac_twr_ns))
         if wr != self.comm.wr_cycles:  # as hapgate_top.v: never shorter than the DAC's t_WCS
             object.__setattr__(self, "comm", replace(self.comm, wr_cycles=wr))
-        i = self.interp
-        if i.harm and not i.ratio:
-            raise ValueError("TopConfig: the harmonic table (harm) needs the ratio stage (ratio)")
-        if i.ratio and i.lut_bits != 7:   # as hapgate_top.v
-            raise ValueError("TopConfig: the ratio stage in the top runs at 1024 counts per line "
-                             "(lut_bits = 7): the registers and the firmware count 2^20 per "
-                             f"revolution; got lut_bits = {i.lut_bits}")
-        if i.harm and self.clk_hz < 2 * self.sample_hz:
-            raise ValueError("TopConfig: the harmonic table's read-back (HARM_DATA) needs "
-                             f"clk_hz >= 2 * sample_hz; got {self.clk_hz}")
         if self.comm.count_bits != self.count_bits:
             raise ValueError("commutation count_bits must be lut_bits + 3 + lines_log2")
 
@@ -111,22 +104,13 @@ class TopConfig:
                 **({"VEL_OBS_SEL": 1} if self.vel_obs_sel else {})}
 
 
-def blocks() -> list[Block]:
-    srcs = ("interp/enc_calib.v", "interp/ratio_div.v", "interp/vel_observer.v",
-            "interp/enc_interp.v",
-            "interp/sample_strobe.v", "interp/enc_interp3.v",
-            "commutation/sine_lut.v", "dac_sched/dac_sched.v", "commutation/commutator.v",
-            "bus/emif_slave.v", "bus/hg_regfile.v", "bus/hg_bus.v", "capture/hg_capture.v",
-            "top/hapgate_top.v")
-    return [Block(name="hapgate_top", top="hapgate_top", sources=srcs,
-                  params=lambda: TopConfig().rtl_params(),
-                  doc="the FPGA: 3 interpolators, commutation, DAC scheduler, bus, registers"),
-            Block(name="hapgate_top_harm", top="hapgate_top", sources=srcs,
-                  params=lambda: TopConfig(interp=InterpConfig(ratio=True, harm=True)
-                                           ).rtl_params(),
-                  lint_synth=(),   # (the stages are synthesised in enc_interp_ratio)
-                  doc="the FPGA with the ratio angle stage and the harmonic table "
-                      "(ANGLE = 1, HARM = 1, HARM_* registers)")]
+# the whole FPGA's sources, relative to rtl/ (its blocks, one per named configuration:
+# hapgate.golden.configs.blocks)
+SOURCES = ("interp/enc_calib.v", "interp/ratio_div.v", "interp/vel_observer.v",
+           "interp/enc_interp.v", "interp/sample_strobe.v", "interp/enc_interp3.v",
+           "commutation/sine_lut.v", "dac_sched/dac_sched.v", "commutation/commutator.v",
+           "bus/emif_slave.v", "bus/hg_regfile.v", "bus/hg_bus.v", "capture/hg_capture.v",
+           "top/hapgate_top.v")
 
 
 # ---------------------------------------------------------------------------- register timeline

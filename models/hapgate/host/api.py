@@ -24,7 +24,7 @@ from typing import Any
 
 import numpy as np
 
-from ..golden import pclink
+from ..golden import calib, pclink
 
 DEFAULT_TTL_MS = 10          # a PC force outlives ten missed 1 kHz updates, no more
 PUSH_QUEUE = 4096
@@ -358,6 +358,25 @@ class Device:
         PC_FORCE (the device renders set_force())."""
         self._request(pclink.SET_SCENE, pclink.set_scene(int(kind), tuple(p0), tuple(n),  # type: ignore[arg-type]
                                                          k, b, ki))
+
+    def set_calib(self, axis: int, cal: calib.AxisCalib) -> None:
+        """Give one axis its calibration (hapgate.golden.calib.AxisCalib, the conventions of
+        calibration.toml; calib.load(path) reads one). Only while the forces are disabled
+        (else Refused with NAK_ENABLED); a malformed one is Refused with NAK_RANGE."""
+        if axis not in (0, 1, 2):
+            raise ValueError(f"axis {axis}: 0, 1 or 2")
+        self._request(pclink.SET_CALIB, pclink.set_calib(axis, cal.words()))
+
+    def get_calib(self, axis: int) -> calib.AxisCalib:
+        """One axis's calibration as the firmware holds it (its offset quantised to the
+        FPGA's 360/1024 deg electrical)."""
+        d = self._request(pclink.GET_CALIB, bytes([axis]))
+        if len(d) != struct_size(pclink.CALIB_FMT):
+            raise ProtocolError(f"GET_CALIB reply of {len(d)} bytes")
+        got, words = pclink.parse_calib(d)
+        if got != axis:
+            raise ProtocolError(f"GET_CALIB answered axis {got}, asked {axis}")
+        return calib.from_words(words)
 
     def enable(self) -> None:
         self._request(pclink.ENABLE, b"\x01")

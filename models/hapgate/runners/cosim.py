@@ -25,8 +25,8 @@ import numpy as np
 
 from ..base import cbuild, report
 from ..base.paths import ROOT, TB, ensure
-from ..golden import commutation, encsig, interp, kinematics
-from ..golden.top import TopConfig, blocks
+from ..golden import commutation, configs, encsig, interp, kinematics
+from ..golden.top import SOURCES, TopConfig
 from . import native
 
 HERE = TB / "native" / "cosim"
@@ -69,13 +69,14 @@ def _fw_lib(bdir: Path, defines: tuple[str, ...] = ()) -> Path:
     return lib
 
 
-def build(cfg: TopConfig = TopConfig()) -> Path:
-    """Verilate the top with the harness and link the firmware; return the executable (cached)."""
-    block = blocks()[0]
-    srcs = [ROOT / "rtl" / s for s in block.sources]
+def build(cfg: TopConfig | None = None) -> Path:
+    """Verilate the top with the harness and link the firmware; return the executable (cached).
+    `cfg`: the paper's configuration when None."""
+    cfg = cfg or configs.get("paper").top()
+    srcs = [ROOT / "rtl" / s for s in SOURCES]
     fw_srcs = sorted((FW / "src").glob("*.c")) + sorted((FW / "include").glob("*.h"))
     return native.verilate_harness(
-        "cosim_harness", block.top, [HERE / "public.vlt", *srcs], cfg.rtl_params(), HARNESS,
+        "cosim_harness", "hapgate_top", [HERE / "public.vlt", *srcs], cfg.rtl_params(), HARNESS,
         cflags=(f"-std=c++17 -DCLK_HZ={cfg.clk_hz} -DHG_LOAD_CLOCKS={cfg.comm.load_clocks + 1} "
                 f"-DHG_WR_CYCLES={cfg.comm.wr_cycles} -I{HERE} -I{FW / 'include'}"),
         ldflags="fw/libhgfw.a -lm",          # relative to the build directory (make runs there)
@@ -103,7 +104,7 @@ class CosimRun:
 
 
 def run(scenario: str = "wall", rate_hz: int = 1000, bus: BusTiming = BusTiming(),
-        cfg: TopConfig = TopConfig(), seed: int = 1) -> CosimRun:
+        cfg: TopConfig | None = None, seed: int = 1) -> CosimRun:
     """One scenario. `seed` picks the joints' power-up positions (uniform over the whole
     revolution, tb/native/cosim/README.md)."""
     if scenario not in SCENARIOS:
@@ -172,8 +173,10 @@ def _frame_torque_budget(tmax: np.ndarray, cc: commutation.CommutationConfig) ->
     return 2 * np.sqrt(3) * per_phase * scale + commutation.SINE_RIPPLE_BUDGET * tmax
 
 
-def check(r: CosimRun, cfg: TopConfig = TopConfig()) -> Check:
-    """Recompute the torque and force checks from the run's raw outputs with the golden models."""
+def check(r: CosimRun, cfg: TopConfig | None = None) -> Check:
+    """Recompute the torque and force checks from the run's raw outputs with the golden models
+    (`cfg`: the paper's configuration when None)."""
+    cfg = cfg or configs.get("paper").top()
     cc = cfg.comm
     f = r.frames
     clk = r.num("clk_hz")
@@ -282,7 +285,8 @@ def demo_section() -> bool:
     runs = [run("wall", 1000), run("wall", 10000), run("wdog"), run("hang"), run("dropout")]
     checks = [check(r) for r in runs]
     rows = [_row(r, c) for r, c in zip(runs, checks)]
-    bound = TopConfig().comm.frame_clocks + TopConfig().comm.wr_cycles + 1
+    paper = configs.get("paper").top().comm
+    bound = paper.frame_clocks + paper.wr_cycles + 1
     print(report.table(["scenario", "simulated", "wall clock", "bus tx/s", "ticks",
                         "max |F err|", f"zero torque after cause (<= {bound} clk)", "result"],
                        rows))

@@ -18,6 +18,7 @@ from ..base.block import Block, Params
 from ..base.paths import SIM, ensure, locked
 from ..base.tables import write_tables
 from ..flows.flow import param_text
+from ..golden.configs import Config
 from . import covbuild
 
 ALL_SIMS = ("verilator", "icarus")
@@ -66,14 +67,18 @@ def run_cocotb(
     seed: int | None = None,
     extra_sources: Sequence[Path] = (),
     quiet: bool = False,
+    config: Config | None = None,
 ) -> Path:
     """Build `block` for `sim` and run the cocotb module `test_module` (which lives in
-    `test_dir_of`, a folder under tb/). Raises (under pytest) when a cocotb test fails."""
+    `test_dir_of`, a folder under tb/). Raises (under pytest) when a cocotb test fails.
+    `config`: the named configuration (or a sweep point of one) of a whole-FPGA test, sent to
+    the cocotb module (`tbutil.config()`); the parameters are its `rtl_params()` unless given."""
     from cocotb_tools.check_results import get_results
     from cocotb_tools.runner import get_runner
 
     toolenv.apply()
-    params = block.params() if params is None else params
+    if params is None:
+        params = block.params() if config is None else config.rtl_params()
     write_tables(params)
     if sim == "verilator":   # coverage runs (HG_COVERAGE_DIR): flags + sources, own build dir
         cov_flags, cov_sources = covbuild.extra(block.top)
@@ -100,6 +105,8 @@ def run_cocotb(
     if sim == "verilator" and covbuild.active() is not None:   # default parameters or not
         cdir = covbuild.run_dir(_tag(params, ()) == _tag(block.params(), ()), block.top)
         env[covbuild.RUN_ENV] = str(cdir)
+    if config is not None:
+        env["HG_CONFIG"] = config.to_json()
     env |= dict(extra_env or {})
     if str(test_dir_of) not in sys.path:  # the runner passes sys.path on as PYTHONPATH
         sys.path.insert(0, str(test_dir_of))

@@ -11,8 +11,21 @@ from cocotb.clock import Clock
 from cocotb.triggers import ClockCycles, RisingEdge
 from cocotb.utils import get_sim_time
 
-from ..golden import emif
+from ..golden import configs, emif
 from . import cocotb_emif
+
+
+def config() -> configs.Config:
+    """The named configuration (or sweep point of one) the runner built the DUT with
+    (`sim.run_cocotb(config=...)`)."""
+    text = os.environ.get(CONFIG_ENV)
+    if not text:
+        raise RuntimeError(f"{CONFIG_ENV} is not set: run this module through "
+                           "hapgate.runners.sim.run_cocotb(..., config=...)")
+    return configs.from_json(text)
+
+
+CONFIG_ENV = "HG_CONFIG"
 
 
 def params() -> dict[str, object]:

@@ -308,8 +308,8 @@ int main(int argc, char** argv) {
     cfg.rate_hz = rate;
     cfg.fpga_clk_hz = CLK_HZ;
     for (int i = 0; i < 3; ++i)  // q = index_to_zero counts before the index (calibration)
-        cfg.enc[i].index_to_zero = static_cast<int32_t>(std::lround(-tr.q_index[i] / (2 * kPi) * HG_ENC_COUNTS_PER_REV));
-    if (s_miscal) cfg.motor[0].comm_offset = 32;
+        cfg.cal.axis[i].index_to_zero = static_cast<int32_t>(std::lround(-tr.q_index[i] / (2 * kPi) * HG_ENC_COUNTS_PER_REV));
+    if (s_miscal) cfg.cal.axis[0].comm_offset = 32;   // (the calibration sets motor[].comm_offset)
     static hg_servo_t s;
     const uint8_t init_err = hg_servo_init(&s, &cfg);
     const uint32_t dac_skew = fpga_read32(HG_WORD(offsetof(hapgate_t, DAC_SKEW))),

@@ -49,6 +49,10 @@ bool parse_run(const std::string& text, RunCfg& c, std::string& err, bool model_
         else if (key == "t_settle_s" && need(1)) c.t_settle_s = v[0];
         else if (key == "pc_force_timeout_ticks" && need(1)) c.pc_force_timeout_ticks = static_cast<int64_t>(v[0]);
         else if (key == "comm_err" && need(3)) for (int i = 0; i < 3; ++i) c.comm_err[i] = static_cast<int>(v[i]);
+        else if (key == "calib" && need(18)) {
+            for (int i = 0; i < 18; ++i) c.calib[i] = static_cast<int64_t>(v[i]);
+            c.calib_seen = 1;
+        }
         else if (key == "hold_pos_homed" && need(3)) for (int i = 0; i < 3; ++i) c.hold_pos_homed[i] = static_cast<uint32_t>(static_cast<int64_t>(v[i]));
         else if (key == "hold_index_pos" && need(3)) for (int i = 0; i < 3; ++i) c.hold_index_pos[i] = static_cast<uint32_t>(static_cast<int64_t>(v[i]));
         else if (key == "hold_index_count" && need(3)) for (int i = 0; i < 3; ++i) c.hold_index_count[i] = static_cast<uint32_t>(v[i]);
@@ -160,8 +164,20 @@ void fw_config(const RunCfg& cfg, uint32_t clk_hz, hg_servo_cfg_t* fw) {
     fw->rate_hz = cfg.servo_hz;
     fw->fpga_clk_hz = clk_hz;
     for (int i = 0; i < 3; ++i) {
-        fw->enc[i].index_to_zero = static_cast<int32_t>(std::lround(-cfg.q_index[i] / (2 * kPi) * HG_ENC_COUNTS_PER_REV));
-        fw->motor[i].comm_offset = static_cast<uint32_t>(cfg.comm_err[i] & 1023);
+        hg_axis_calib_t& a = fw->cal.axis[i];
+        if (cfg.calib_seen) {
+            const int64_t* w = cfg.calib + 6 * i;
+            a.flags = static_cast<uint8_t>(w[0]);
+            a.enc_dir = static_cast<int8_t>(w[1]);
+            a.phases_swapped = static_cast<uint8_t>(w[2]);
+            a.pole_pairs = static_cast<uint8_t>(w[3]);
+            a.index_to_zero = static_cast<int32_t>(w[4]);
+            a.comm_offset = static_cast<uint32_t>(w[5]);
+        } else {
+            a.index_to_zero = static_cast<int32_t>(std::lround(-cfg.q_index[i] / (2 * kPi) * HG_ENC_COUNTS_PER_REV));
+        }
+        // the scene's deliberate commutation error (firmware.comm_offset_error_counts)
+        if (a.flags & HG_CAL_ALIGNED) a.comm_offset = static_cast<uint32_t>(a.comm_offset + cfg.comm_err[i]) & 1023u;
     }
     if (cfg.pc_force_timeout_ticks >= 0) fw->pc_force_timeout = static_cast<uint32_t>(cfg.pc_force_timeout_ticks);
 }
@@ -179,7 +195,7 @@ int fw_home_scene_enable(hg_servo_t* s, const RunCfg& cfg, bool enable) {
     sc.b = static_cast<hg_real>(cfg.env_b);
     sc.ki = static_cast<hg_real>(cfg.env_ki);
     const int sr = hg_servo_set_scene(s, &sc);
-    const int en = enable ? hg_servo_enable(s, true) : 0;
+    const int en = enable && hg_servo_calibrated(s) ? hg_servo_enable(s, true) : 0;
     if (sr != 0 || en != 0) {
         std::fprintf(stderr, "error: the firmware refused the scene (%d) or enable (%d)\n", sr, en);
         return 3;

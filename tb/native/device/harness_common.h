@@ -31,6 +31,11 @@ struct RunCfg {
     double sweep_rad = 0.5 * kPi / 180.0;   // homing sweep, ends at q0, index half-way
     double t_sweep_s = 6e-3, t_settle_s = 3e-3;
     int comm_err[3] = {0, 0, 0};
+    // the firmware's calibration (scene.calib): per axis flags, enc_dir, phases_swapped,
+    // pole_pairs, index_to_zero, comm_offset (hg_axis_calib_t); without it (calib_seen 0) the
+    // truth of a forward encoder at q_index, as before
+    int64_t calib[18] = {0};
+    int calib_seen = 0;
     int64_t pc_force_timeout_ticks = -1;    // -1: the firmware's default
     uint32_t hold_pos_homed[3] = {0, 0, 0}, hold_index_pos[3] = {0, 0, 0}, hold_index_count[3] = {0, 0, 0};
     uint32_t record = 0xFF;                 // bit 0 plant (q,p,f_hand,tau,current), bit 1 dac, bit 2 adc
@@ -144,7 +149,8 @@ void progress_line(double t);
 // errors, PC-force timeout).
 void fw_config(const RunCfg& cfg, uint32_t clk_hz, hg_servo_cfg_t* fw);
 // The background loop's bring-up after homing: home every axis on IDX_POS (bus reads), set the
-// scene's environment, enable (unless a PC link enables). 0, or the harness's exit code 3.
+// scene's environment, enable (unless a PC link enables, or the firmware is not calibrated:
+// then its forces stay off until a calibration arrives). 0, or the harness's exit code 3.
 int fw_home_scene_enable(hg_servo_t* s, const RunCfg& cfg, bool enable);
 
 }  // namespace hg_dev

@@ -8,6 +8,7 @@
 #include <cstdio>
 #include <cstring>
 #include <map>
+#include <utility>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -40,7 +41,10 @@ struct Params {
     double amp[3] = {110, 110, 110}, off_a[3] = {0, 0, 0}, off_b[3] = {0, 0, 0};
     double gain_a[3] = {1, 1, 1}, gain_b[3] = {1, 1, 1}, phase[3] = {0, 0, 0};  // phase in rad
     double h2[3] = {0, 0, 0}, h3[3] = {0, 0, 0}, noise[3] = {0, 0, 0};
-    double q_index[3] = {0, 0, 0};    // rad: joint angle of the index = winding zero
+    double q_index[3] = {0, 0, 0};    // rad: joint angle of the index
+    double comm_off[3] = {0, 0, 0};   // rad electrical: winding zero's angle after the index
+    bool swapped[3] = {false, false, false};   // amplifier inputs a and b swapped (wiring fault)
+    bool enc_swap[3] = {false, false, false};  // encoder A and B swapped: counts run backwards
     double q0[3] = {0, 0, 0};
     double t0 = 0.0;                  // s, plant time at start
     bool free_[3] = {true, true, true};
@@ -254,14 +258,17 @@ void target(const hg_plant* s, double t, double* pt, double* vt) {
     }
 }
 
-// Motor torques from the phase currents at the true electrical angles te = p (q - q_index),
-// p = pole_pairs:
+// Motor torques from the phase currents at the true electrical angles te = p (q - q_index) + c,
+// p = pole_pairs, c = comm_offset_deg (winding 0's zero c after the index; 0 by default):
 // tau = kt * 2/3 * (ia sin(te) + ib sin(te - 120) + ic sin(te - 240)), ic = -(ia + ib)
 //     = kt * 2/3 * (ia (sin te - sin(te - 240)) + ib (sin(te - 120) - sin(te - 240)))
 //     = kt * 2/3 * sqrt(3) * (ia cos(te - 120) - ib cos(te))   (sum to product)
 // Both cosines are cos(p q - phi) = cos(p q) cos(phi) + sin(p q) sin(phi) with a fixed phi
-// (p q_index + 120 and p q_index): from sp, cp = sin, cos(p q) they take two products each, the
-// factors kt * 2/3 * sqrt(3) * (cos phi, sin phi) formed once (hg_plant_new, winding_factors).
+// (p q_index - c + 120 and p q_index - c): from sp, cp = sin, cos(p q) they take two products
+// each, the factors kt * 2/3 * sqrt(3) * (cos phi, sin phi) formed once (hg_plant_new,
+// winding_factors). Swapped phases (winding 0 fed by channel b, winding 1 by a):
+// tau = ib k cos(te - 120) - ia k cos(te) = ia (-k cos te) - ib (-k cos(te - 120)), the two
+// factor pairs exchanged and negated, also once.
 inline void torque_pq(const hg_plant* s, const double* ia, const double* ib, const double* sp,
                       const double* cp, double* tau) {
 #pragma GCC unroll 3
@@ -275,7 +282,7 @@ void winding_factors(hg_plant* s) {
     const Params& P = s->P;
     const double k = P.kt * (2.0 / 3.0) * kSqrt3;
     for (int m = 0; m < 3; ++m) {
-        const double phi = P.pole_pairs * P.q_index[m];
+        const double phi = P.pole_pairs * P.q_index[m] - P.comm_off[m];
         double sn, cs;
         sincos(phi + 2 * kPi / 3, &sn, &cs);
         s->wa_s[m] = k * sn;
@@ -283,13 +290,22 @@ void winding_factors(hg_plant* s) {
         sincos(phi, &sn, &cs);
         s->wb_s[m] = k * sn;
         s->wb_c[m] = k * cs;
+        if (P.swapped[m]) {
+            std::swap(s->wa_s[m], s->wb_s[m]);
+            std::swap(s->wa_c[m], s->wb_c[m]);
+            s->wa_s[m] = -s->wa_s[m];
+            s->wa_c[m] = -s->wa_c[m];
+            s->wb_s[m] = -s->wb_s[m];
+            s->wb_c[m] = -s->wb_c[m];
+        }
     }
 }
 
-// The true electrical angles pole_pairs * (q - q_index) (read-outs; the step needs only the
-// sines and cosines of pole_pairs * q).
+// The true electrical angles pole_pairs * (q - q_index) + c (read-outs; the step needs only
+// the sines and cosines of pole_pairs * q).
 inline void elec_angles(const hg_plant* s, double* th) {
-    for (int m = 0; m < 3; ++m) th[m] = s->P.pole_pairs * (s->q[m] - s->P.q_index[m]);
+    for (int m = 0; m < 3; ++m)
+        th[m] = s->P.pole_pairs * (s->q[m] - s->P.q_index[m]) + s->P.comm_off[m];
 }
 
 // The motor torques of the amplifier's present currents, their angles evaluated (read-out).
@@ -347,6 +363,7 @@ bool parse(const char* text, Params& P, std::string& err) {
     };
     double pp = P.pole_pairs, hand = P.hand, grav = 0, seed = static_cast<double>(P.seed);
     double fr[3] = {1, 1, 1}, ph_deg[3] = {0, 0, 0}, gq[2] = {0, 0};
+    double co_deg[3] = {0, 0, 0}, sw[3] = {0, 0, 0}, edir[3] = {1, 1, 1};
     bool ok = take("dt_s", &P.dt, 1) && take("kt_nm_per_a", &P.kt, 1) && take("r_ohm", &P.r_ohm, 1) &&
               take("j_rotor_kg_m2", &P.j_rotor, 1) && take("pole_pairs", &pp, 1) &&
               take("i_max_a", &P.i_max, 1) && take("current_bw_hz", &P.bw_hz, 1) &&
@@ -362,7 +379,9 @@ bool parse(const char* text, Params& P, std::string& err) {
               take("enc_h2", P.h2, 3) && take("enc_h3", P.h3, 3) &&
               take("enc_noise_lsb", P.noise, 3) && take("q_index", P.q_index, 3) &&
               take("q0", P.q0, 3) && take("t0_s", &P.t0, 1) && take("free", fr, 3) &&
-              take("seed", &seed, 1) && take("lines", &P.lines, 1);
+              take("seed", &seed, 1) && take("lines", &P.lines, 1) &&
+              take("comm_offset_deg", co_deg, 3) && take("phases_swapped", sw, 3) &&
+              take("encoder_dir", edir, 3);
     if (!ok) return false;
     if (kv.count("gravity_k")) {
         if (!take("gravity_k", P.gk, 12)) return false;
@@ -388,6 +407,13 @@ bool parse(const char* text, Params& P, std::string& err) {
     for (int i = 0; i < 3; ++i) {
         P.free_[i] = fr[i] != 0;
         P.phase[i] = ph_deg[i] * kPi / 180.0;
+        P.comm_off[i] = co_deg[i] * kPi / 180.0;
+        if ((sw[i] != 0 && sw[i] != 1) || (edir[i] != 1 && edir[i] != -1)) {
+            err = "phases_swapped must be 0 or 1 and encoder_dir +1 or -1";
+            return false;
+        }
+        P.swapped[i] = sw[i] != 0;
+        P.enc_swap[i] = edir[i] < 0;
     }
     if (!(P.dt > 0) || P.pole_pairs < 1 || !(P.bw_hz > 0) || !(P.j_rotor > 0) || P.hand < 0 || P.hand > 2) {
         err = "impossible value (dt_s, pole_pairs, current_bw_hz, j_rotor_kg_m2 or hand_kind)";
@@ -457,6 +483,7 @@ void add_harmonics(const Params& P, int i, double phi, double* sa, double* cb) {
     if (P.h2[i] != 0 || P.h3[i] != 0) add_harmonics(P, i, phi, &sa, &cb);
     *a = quant(P.amp[i] * P.gain_a[i] * sa + P.off_a[i] + na);
     *b = quant(P.amp[i] * P.gain_b[i] * cb + P.off_b[i] + nb);
+    if (P.enc_swap[i]) std::swap(*a, *b);   // encoder_dir -1: A and B swapped at the connector
 }
 
 }  // namespace

@@ -1,0 +1,112 @@
+"""cocotb: the FPGA's per-axis torque clamp (TQ_LIMIT) at its boundaries through the whole top
+(rtl/top/hapgate_top.v), written over the bus as the firmware does. ALIGN mode puts channel a at
+the OFFSET's angle whatever the shaft does, so each code depends on the torque and the limit
+only. The expected codes come from the spec's formulas (tb/top/test_top_bounds.py cites them);
+the golden model's clamp and commutation (as hapgate.golden.top chains them) must give the same
+codes as the RTL, and both the spec's."""
+
+from __future__ import annotations
+
+from fractions import Fraction
+
+import cocotb
+import numpy as np
+from cocotb.clock import Clock
+from cocotb.triggers import ClockCycles
+from cocotb.utils import get_sim_time
+from hapgate.flows import regmap
+from hapgate.golden import commutation as cm
+from hapgate.golden import emif
+from hapgate.golden.regmodel import WDOG_KEY
+from hapgate.runners import cocotb_emif, tbutil
+from hapgate.runners.cocotb_dac import DacModel
+
+P = tbutil.params()
+CLK_HZ = int(P["CLK_HZ"])  # type: ignore[arg-type]
+PERIOD_PS = 10**12 // CLK_HZ
+CFG = tbutil.config().top()   # the paper's, at the test's clock
+assert CFG.clk_hz == CLK_HZ
+RM = regmap.load(CLK_HZ)
+W = {r.name: r.word for r in RM.registers}
+
+K = 255                    # OFFSET: channel a at code 255 (T[255], sin next to 1), b at 255 - 341
+LIMITS = (10_000, 10_003, 3)   # per axis; see cases()
+
+
+def rom(i: int) -> int:
+    """docs/blocks/sine-rom.md: round(8191 sin((i + 1/2) 90 deg / 256))."""
+    return int(np.floor(8191 * np.sin((i + 0.5) * (np.pi / 2) / 256) + 0.5))
+
+
+def spec_code(k: int, torque: int, limit: int) -> int:
+    """commutator.md step 5: clamp to +-min(limit, 32768), round half away from zero of
+    v t / 2^15, saturate to +-8191; v from the unfolded quarter-wave ROM."""
+    q, i = (k % 1024) >> 8, k & 255
+    v = [rom(i), rom(255 - i), -rom(i), -rom(255 - i)][q]
+    lim = min(limit, 32768)
+    t = max(-lim, min(lim, torque))
+    x = Fraction(v * t, 1 << 15)
+    m = int(abs(x) + Fraction(1, 2))
+    return max(-8191, min(8191, m if x >= 0 else -m))
+
+
+def steps() -> list[tuple[int, int, int]]:
+    """Torque commands per step, one per axis: L - 1, L, L + 1, their negatives, and far past."""
+    out = []
+    for f in (lambda L: L - 1, lambda L: L, lambda L: L + 1, lambda L: -(L - 1),
+              lambda L: -L, lambda L: -(L + 1), lambda L: 32767, lambda L: -32768):
+        out.append(tuple(int(f(L)) for L in LIMITS))
+    return out
+
+
+@cocotb.test()
+async def torque_limit_bounds(dut) -> None:
+    cocotb.start_soon(Clock(dut.clk, PERIOD_PS, unit="ps").start())
+    master = cocotb_emif.EmifMaster(dut)
+    dac = DacModel(dut, CFG.comm)
+    dut.adc_a.value = 0x464646          # 70 on every axis: a healthy standstill, no fault
+    dut.adc_b.value = 0x464646
+    dut.enc_index.value = 0
+    dut.rst.value = 1
+    dac.start()
+    await ClockCycles(dut.clk, 4)
+    ref = int(get_sim_time(unit="ps"))
+    dac.reset_ps = ref
+    dut.rst.value = 0
+    t = emif.Timing(setup=PERIOD_PS, strobe=emif.MIN_STROBE_CLOCKS * PERIOD_PS, hold=0,
+                    idle=emif.MIN_RECOVERY_CLOCKS * PERIOD_PS)
+    await master.write(W["WDOG_TIMEOUT"], 1_000_000, t)
+    await master.write(W["WDOG"], WDOG_KEY, t)
+    for i in range(3):
+        await master.write(W[f"AXIS[{i}].TQ_LIMIT"], LIMITS[i], t)
+        await master.write(W[f"AXIS[{i}].OFFSET"], K, t)
+        await master.write(W[f"AXIS[{i}].MODE"], cm.ALIGN, t)
+    await master.write(W["CTRL"], 0b1111, t)                  # global and axis enables
+    frame = CFG.comm.frame_clocks
+    got, rows = [], []
+    for torque in steps():
+        for i in range(3):
+            await master.write(W[f"AXIS[{i}].TORQUE"], torque[i] & 0xFFFF, t)
+        await ClockCycles(dut.clk, 2 * frame + 10)            # a whole frame latched after it
+        last = {}
+        for ld in dac.loads:
+            last[ld.addr] = ld.word
+        got.append([last[c] for c in range(6)])
+        rows.append(torque)
+    status = await master.read(W["STATUS"], t)
+    assert status & 0x1007 == 0, f"a fault or the watchdog (STATUS {status:#x})"
+    assert not dac.violations, dac.violations[:5]
+    codes = cm.decode(np.array(got, dtype=np.int64), CFG.comm)
+    tq = np.array(rows, dtype=np.int64)
+    want = np.array([[spec_code(k, int(tq[r, m]), LIMITS[m]) for m in range(3)
+                      for k in (K, K - 341)] for r in range(len(rows))])
+    # the model as hapgate.golden.top chains it: per-axis clamp, then the commutator's codes
+    clamped = cm.clamp_torque(tq, np.broadcast_to(np.array(LIMITS), tq.shape))
+    model = cm.commutate(cm.Frames.make(np.zeros_like(tq), clamped, offset=K, mode=cm.ALIGN,
+                                        limit=65535), CFG.comm)
+    for engine, c in (("rtl", codes), ("model", model)):
+        bad = np.argwhere(c != want)
+        assert bad.size == 0, (f"{engine}: step {bad[0][0]} (torques {rows[bad[0][0]]}, limits "
+                               f"{LIMITS}) channel {bad[0][1]}: {c[tuple(bad[0])]}, spec "
+                               f"{want[tuple(bad[0])]}")
+    dut._log.info(f"TQ_LIMIT bounds: {len(rows)} steps x 6 channels as specified, RTL and model")
