@@ -15,7 +15,7 @@ extern "C" {
 #define HAPGATE__ID__VERSION_bm 0xffff
 #define HAPGATE__ID__VERSION_bp 0
 #define HAPGATE__ID__VERSION_bw 16
-#define HAPGATE__ID__VERSION_reset 0x102
+#define HAPGATE__ID__VERSION_reset 0x103
 #define HAPGATE__ID__MAGIC_bm 0xffff0000
 #define HAPGATE__ID__MAGIC_bp 16
 #define HAPGATE__ID__MAGIC_bw 16
@@ -325,6 +325,66 @@ typedef struct __attribute__ ((__packed__)) {
     uint8_t RESERVED_3c_3f[0x4];
 } hapgate__axis_t__stride40_t;
 
+// reg - hapgate::CAP_CTRL
+#define HAPGATE__CAP_CTRL__ARM_bm 0x1
+#define HAPGATE__CAP_CTRL__ARM_bp 0
+#define HAPGATE__CAP_CTRL__ARM_bw 1
+#define HAPGATE__CAP_CTRL__ARM_reset 0x0
+#define HAPGATE__CAP_CTRL__SEL_bm 0x30
+#define HAPGATE__CAP_CTRL__SEL_bp 4
+#define HAPGATE__CAP_CTRL__SEL_bw 2
+#define HAPGATE__CAP_CTRL__SEL_reset 0x0
+#define HAPGATE__CAP_CTRL__TRIG_bm 0x40
+#define HAPGATE__CAP_CTRL__TRIG_bp 6
+#define HAPGATE__CAP_CTRL__TRIG_bw 1
+#define HAPGATE__CAP_CTRL__TRIG_reset 0x0
+#define HAPGATE__CAP_CTRL__TRIG_AXIS_bm 0x300
+#define HAPGATE__CAP_CTRL__TRIG_AXIS_bp 8
+#define HAPGATE__CAP_CTRL__TRIG_AXIS_bw 2
+#define HAPGATE__CAP_CTRL__TRIG_AXIS_reset 0x0
+#define HAPGATE__CAP_CTRL__DECIM_bm 0xffff0000
+#define HAPGATE__CAP_CTRL__DECIM_bp 16
+#define HAPGATE__CAP_CTRL__DECIM_bw 16
+#define HAPGATE__CAP_CTRL__DECIM_reset 0x0
+
+// reg - hapgate::CAP_STAT
+#define HAPGATE__CAP_STAT__DONE_bm 0x1
+#define HAPGATE__CAP_STAT__DONE_bp 0
+#define HAPGATE__CAP_STAT__DONE_bw 1
+#define HAPGATE__CAP_STAT__DONE_reset 0x0
+#define HAPGATE__CAP_STAT__ARMED_bm 0x2
+#define HAPGATE__CAP_STAT__ARMED_bp 1
+#define HAPGATE__CAP_STAT__ARMED_bw 1
+#define HAPGATE__CAP_STAT__ARMED_reset 0x0
+#define HAPGATE__CAP_STAT__BUSY_bm 0x4
+#define HAPGATE__CAP_STAT__BUSY_bp 2
+#define HAPGATE__CAP_STAT__BUSY_bw 1
+#define HAPGATE__CAP_STAT__BUSY_reset 0x0
+#define HAPGATE__CAP_STAT__DEPTH_LOG2_bm 0xf0
+#define HAPGATE__CAP_STAT__DEPTH_LOG2_bp 4
+#define HAPGATE__CAP_STAT__DEPTH_LOG2_bw 4
+#define HAPGATE__CAP_STAT__DEPTH_LOG2_reset 0x0
+#define HAPGATE__CAP_STAT__COUNT_bm 0xffff0000
+#define HAPGATE__CAP_STAT__COUNT_bp 16
+#define HAPGATE__CAP_STAT__COUNT_bw 16
+#define HAPGATE__CAP_STAT__COUNT_reset 0x0
+
+// reg - hapgate::CAP_ADDR
+#define HAPGATE__CAP_ADDR__ADDR_bm 0xffff
+#define HAPGATE__CAP_ADDR__ADDR_bp 0
+#define HAPGATE__CAP_ADDR__ADDR_bw 16
+#define HAPGATE__CAP_ADDR__ADDR_reset 0x0
+
+// reg - hapgate::CAP_DATA
+#define HAPGATE__CAP_DATA__A_bm 0xff
+#define HAPGATE__CAP_DATA__A_bp 0
+#define HAPGATE__CAP_DATA__A_bw 8
+#define HAPGATE__CAP_DATA__A_reset 0x0
+#define HAPGATE__CAP_DATA__B_bm 0xff00
+#define HAPGATE__CAP_DATA__B_bp 8
+#define HAPGATE__CAP_DATA__B_bw 8
+#define HAPGATE__CAP_DATA__B_reset 0x0
+
 // addrmap - hapgate
 typedef struct __attribute__ ((__packed__)) {
     uint32_t ID;
@@ -344,6 +404,10 @@ typedef struct __attribute__ ((__packed__)) {
     uint32_t HARM_ADDR;
     uint32_t HARM_DATA;
     hapgate__axis_t__stride40_t AXIS[3];
+    uint32_t CAP_CTRL;
+    uint32_t CAP_STAT;
+    uint32_t CAP_ADDR;
+    uint32_t CAP_DATA;
 } hapgate_t;
 
 

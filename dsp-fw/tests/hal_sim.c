@@ -1,6 +1,7 @@
 /* SPDX-License-Identifier: Apache-2.0 */
 /* Host HAL implementation over a simulated register file. */
 #include "hal_sim.h"
+#include "hg_capture.h"
 #include "hg_fpga_regs.h"
 #include "hg_hal.h"
 
@@ -10,6 +11,8 @@ uint32_t hal_sim_bad_access;
 uint8_t hal_sim_harm[HG_NAXES][256];
 unsigned hal_sim_harm_log2 = 6;
 int hal_sim_harm_flip = -1;
+uint16_t hal_sim_cap[1u << 15];
+unsigned hal_sim_cap_log2 = 10;
 int hal_sim_irq_depth;
 uint32_t hal_sim_irq_saves;
 bool hal_sim_tear;
@@ -20,6 +23,7 @@ void hal_sim_reset(void)
         hal_sim_regs[i] = hal_sim_nwrites[i] = 0;
     hal_sim_regs[HG_REG_ID] = HG_ID_MAGIC << HG_ID_MAGIC_SHIFT | HG_ID_VERSION;
     hal_sim_regs[HG_REG_HARM_CTRL] = (uint32_t)hal_sim_harm_log2 << HAPGATE__HARM_CTRL__LOG2_bp;
+    hal_sim_regs[HG_REG_CAP_STAT] = (uint32_t)hal_sim_cap_log2 << HAPGATE__CAP_STAT__DEPTH_LOG2_bp;
     hal_sim_harm_flip = -1;
     hal_sim_bad_access = 0;
     hal_sim_irq_depth = 0;
@@ -48,6 +52,21 @@ static uint32_t harm_access(bool we, uint32_t v)
     return we ? 0 : r;
 }
 
+/* CAP_* as hg_capture.v has them, without the recording (a test sets CAP_STAT and the
+ * entries): a CAP_CTRL write stores the fields (ARM reads 0) and arms (CAP_STAT: ARMED, COUNT
+ * and DONE cleared) or stops (ARMED and BUSY cleared); CAP_ADDR is taken modulo the depth; a
+ * CAP_DATA read returns entry CAP_ADDR, then CAP_ADDR += 1 (wrapping); CAP_STAT and CAP_DATA are
+ * read-only. DEPTH_LOG2 = 0 (no buffer): the four read 0 and ignore writes. */
+static bool cap_reg(uint32_t addr)
+{
+    return addr >= HG_REG_CAP_CTRL && addr <= HG_REG_CAP_DATA;
+}
+
+static uint32_t cap_mask(void)
+{
+    return (1u << hal_sim_cap_log2) - 1u;
+}
+
 static bool harm_reg(uint32_t addr)
 {
     return addr == HG_REG_HARM_CTRL || addr == HG_REG_HARM_ADDR || addr == HG_REG_HARM_DATA;
@@ -63,6 +82,13 @@ uint32_t fpga_read32(uint32_t addr)
         return 0;
     if (addr == HG_REG_HARM_DATA)
         return harm_access(false, 0);
+    if (cap_reg(addr) && hal_sim_cap_log2 == 0)
+        return 0;
+    if (addr == HG_REG_CAP_DATA) {
+        const uint32_t e = hal_sim_regs[HG_REG_CAP_ADDR];
+        hal_sim_regs[HG_REG_CAP_ADDR] = (e + 1u) & cap_mask();
+        return hal_sim_cap[e];
+    }
     if (hal_sim_tear && addr == HG_REG_AXIS(0, HG_AX_POS)) {
         hal_sim_tear = false;
         hal_sim_regs[HG_REG_SEQ]++;
@@ -88,6 +114,20 @@ void fpga_write32(uint32_t addr, uint32_t v)
             v = (v & HG_HARM_EN_ALL) | (hal_sim_regs[addr] & HAPGATE__HARM_CTRL__LOG2_bm);
         else
             v &= HAPGATE__HARM_ADDR__ADDR_bm | HAPGATE__HARM_ADDR__AXIS_bm;
+    }
+    if (cap_reg(addr)) {
+        const uint32_t keep = (uint32_t)HAPGATE__CAP_STAT__DEPTH_LOG2_bm;
+        uint32_t *stat = &hal_sim_regs[HG_REG_CAP_STAT];
+        if (hal_sim_cap_log2 == 0 || addr == HG_REG_CAP_STAT || addr == HG_REG_CAP_DATA)
+            return;
+        if (addr == HG_REG_CAP_ADDR) {
+            v &= cap_mask();
+        } else if (v & HAPGATE__CAP_CTRL__ARM_bm) {
+            *stat = (*stat & keep) | HAPGATE__CAP_STAT__ARMED_bm;
+            v &= ~(uint32_t)HAPGATE__CAP_CTRL__ARM_bm;
+        } else {
+            *stat &= ~(uint32_t)(HAPGATE__CAP_STAT__ARMED_bm | HAPGATE__CAP_STAT__BUSY_bm);
+        }
     }
     if (addr == HG_REG_CTRL && (v & HG_CTRL_FAULT_CLR)) {
         hal_sim_regs[HG_REG_STATUS] &= ~(HG_STAT_FAULT_ALL | HG_STAT_WDOG);

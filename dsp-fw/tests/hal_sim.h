@@ -1,6 +1,6 @@
 /* SPDX-License-Identifier: Apache-2.0 */
 /* Host HAL: the FPGA register file as memory, with just enough behaviour for the tests
- * (SEQ/snapshot updates, FAULT_CLR, a torn-snapshot injector, the HARM_* table access) and access bookkeeping. */
+ * (SEQ/snapshot updates, FAULT_CLR, a torn-snapshot injector, the HARM_* table access, the CAP_* capture buffer) and access bookkeeping. */
 #ifndef HAL_SIM_H
 #define HAL_SIM_H
 
@@ -20,6 +20,8 @@ extern bool hal_sim_tear;                       /* bump SEQ on the next POS read
 extern uint8_t hal_sim_harm[HG_NAXES][256];     /* harmonic tables (not reset)     */
 extern unsigned hal_sim_harm_log2;              /* HARM_CTRL.LOG2 at reset (0: none) */
 extern int hal_sim_harm_flip;                   /* read-back of this entry flips bit 0 */
+extern uint16_t hal_sim_cap[1u << 15];          /* capture buffer entries {B, A} (not reset) */
+extern unsigned hal_sim_cap_log2;               /* CAP_STAT.DEPTH_LOG2 at reset (0: none) */
 
 void hal_sim_reset(void);
 /* Latch a new snapshot: SEQ += 1, positions and velocities. */

@@ -13,6 +13,8 @@ module hapgate_ice40_hx8k #(
     parameter integer SQ_RAM     = 1,          // signal-loss squares from block RAM (fit)
     parameter integer HOLD_C     = 1,          // interpolators without stage-D copies (fit)
     parameter integer LATCH_RAM  = 1,          // frame-latched torques/limits in block RAM (fit)
+    parameter integer CAPTURE    = 0,          // ADC capture buffer: off (fit: with it the logic
+                                               // cells exceed the 75 % limit, 78.9 %)
     parameter         ASIN_FILE  = "asin.hex", // arcsine table (hapgate.golden.interp.write_lut)
     parameter         SINE_FILE  = "sine.hex"  // sine ROM (hapgate.golden.sine.write_rom)
 ) (
@@ -65,7 +67,7 @@ module hapgate_ice40_hx8k #(
 
     hapgate_top #(
         .CLK_HZ(CLK_HZ), .ASIN_FILE(ASIN_FILE), .SINE_FILE(SINE_FILE), .SERIAL_MUL(SERIAL_MUL),
-        .SQ_RAM(SQ_RAM), .HOLD_C(HOLD_C), .LATCH_RAM(LATCH_RAM),
+        .SQ_RAM(SQ_RAM), .HOLD_C(HOLD_C), .LATCH_RAM(LATCH_RAM), .CAPTURE(CAPTURE),
         .ADC_CAPTURE_LEAD(1)   // adc_pair_mux takes the B words one clock before the core
     ) u_top (
         .clk(clk), .rst(rst),

@@ -60,6 +60,7 @@ module hg_bus #(
     output wire [7:0]           cfg_harm_addr,
     output wire [7:0]           cfg_harm_data,
     input  wire [23:0]          in_harm_rdata,
+    input  wire [127:0]         in_cap,          // capture buffer's registers (see hg_regfile)
     output wire                 wdog_expired,
     output wire                 irq,
     output wire                 tick,
@@ -111,6 +112,7 @@ module hg_bus #(
         .in_vel_obs(in_vel_obs), .cfg_obs_bw(cfg_obs_bw), .cfg_obs_type3(cfg_obs_type3),
         .ctl_harm_en(ctl_harm_en), .cfg_harm_we(cfg_harm_we), .cfg_harm_addr(cfg_harm_addr),
         .cfg_harm_data(cfg_harm_data), .in_harm_rdata(in_harm_rdata),
+        .in_cap(in_cap),
         .ctl_global_en(ctl_global_en), .ctl_axis_en(ctl_axis_en),
         .ctl_fault_clear(ctl_fault_clear), .ctl_home_arm(ctl_home_arm),
         .ctl_torque(ctl_torque), .ctl_offset(ctl_offset), .ctl_mode(ctl_mode),

@@ -65,6 +65,9 @@ module hg_regfile #(
     output wire [7:0]           cfg_harm_addr,   // HARM_ADDR.ADDR (write entry and read-back)
     output wire [7:0]           cfg_harm_data,   // the written HARM_DATA (with cfg_harm_we)
     input  wire [23:0]          in_harm_rdata,   // each axis's entry cfg_harm_addr (read-back)
+    input  wire [127:0]         in_cap,          // read values of CAP_CTRL..CAP_DATA (words
+                                                 // 0x40..0x43; rtl/capture/hg_capture.v, which
+                                                 // decodes their writes itself; 0: not built)
     output wire                 wdog_expired,    // sticky: all torque to zero
     output wire                 irq,             // servo tick pending (level)
     output reg                  tick             // one clock after each servo tick (observation)
@@ -93,7 +96,7 @@ module hg_regfile #(
     localparam [19:0] WD_MIN   = WD_MIN_I[19:0];
     localparam [19:0] WD_MAX   = WD_MAX_I[19:0];
     localparam [19:0] WD_RST   = WD_RST_I[19:0];
-    localparam [31:0] ID_VALUE = 32'h4847_0102;      // magic "HG", map version 1.2
+    localparam [31:0] ID_VALUE = 32'h4847_0103;      // magic "HG", map version 1.3
     localparam [31:0] WD_KEY   = 32'h5AFE_C0DE;
     localparam [31:0] UNMAPPED = 32'hDEAD_BEEF;
     localparam integer CLK_KHZ_I = CLK_HZ / 1000;
@@ -111,6 +114,7 @@ module hg_regfile #(
                      R_CAL_OFS = 4'hC, R_CAL_GAIN = 4'hD, R_CAL_PHASE = 4'hE;
     localparam [5:0] A_VEL_CTRL = 6'h0C;
     localparam [5:0] A_HARM_CTRL = 6'h0D, A_HARM_ADDR = 6'h0E, A_HARM_DATA = 6'h0F;
+    localparam integer A_CAP_W = 16;                 // CAP_CTRL..CAP_DATA: words 0x40..0x43
     localparam [2:0] VEL_SEL_R  = (VEL_SEL_RST != 0) ? 3'b111 : 3'b000;
     // VEL_CTRL {BW2, BW1, BW0, 1'b0, TYPE3, 1'b0, SEL}: BW = 6, TYPE3 = 1 on every axis
     localparam [19:0] VEL_CTRL_RST = {4'd6, 4'd6, 4'd6, 1'b0, 3'b111, 1'b0, VEL_SEL_R};
@@ -162,10 +166,19 @@ module hg_regfile #(
     wire [1:0] ax_w = wa[5:4] - 2'd1;
     wire wr        = s_req & s_we;
 
+    function is_cap;   // one of the capture buffer's four words (the address without [1:0])
+        input [ADDR_BITS-3:0] a_hi;
+        begin
+            is_cap = (a_hi == A_CAP_W[ADDR_BITS-3:0]);
+        end
+    endfunction
+
     function mapped;
         input [ADDR_BITS-1:0] a;
         begin
-            if (a[ADDR_BITS-1:6] != {(ADDR_BITS - 6){1'b0}})
+            if (is_cap(a[ADDR_BITS-1:2]))
+                mapped = 1'b1;
+            else if (a[ADDR_BITS-1:6] != {(ADDR_BITS - 6){1'b0}})
                 mapped = 1'b0;
             else if (a[5:4] == 2'b00)
                 mapped = 1'b1;                      // 0x0..0xF: every global word
@@ -505,7 +518,9 @@ module hg_regfile #(
 
     always @(*) begin
         s_rdata = UNMAPPED;
-        if (mapped(ra)) begin
+        if (is_cap(ra[ADDR_BITS-1:2])) begin
+            s_rdata = in_cap[32*ra[1:0] +: 32];
+        end else if (mapped(ra)) begin
             if (ra[5:4] == 2'b00) begin
                 case (ra[3:0])
                     A_ID[3:0]:       s_rdata = ID_VALUE;

@@ -59,8 +59,11 @@ module hapgate_top #(
     parameter integer SQ_RAM        = 0,          // 1: interpolators' signal-loss squares from block RAM
     parameter integer HOLD_C        = 0,          // 1: interpolators without stage-D copies
     parameter integer LATCH_RAM     = 0,          // 1: commutator's latched torques/limits in block RAM
-    parameter integer AXIS_MASK     = 7           // interpolators built (bit i = axis i); a
+    parameter integer AXIS_MASK     = 7,          // interpolators built (bit i = axis i); a
                                                   // cleared bit needs HG_SIM (held joint)
+    parameter integer CAPTURE       = 1,          // 1: raw ADC capture buffer, CAP_* registers
+                                                  // (0: they read 0 and ignore writes)
+    parameter integer CAP_DEPTH_LOG2 = 10         // CAPTURE = 1: 2**N 16-bit entries (block RAM)
 ) (
     input  wire                     clk,
     input  wire                     rst,
@@ -389,6 +392,7 @@ module hapgate_top #(
     wire        dbg_req, dbg_we, dbg_proto_err;
     wire [BUS_ADDR_BITS-1:0] dbg_addr;
     wire [31:0] dbg_wdata;
+    wire [127:0] cap_regs;
 
     hg_bus #(
         .CLK_HZ(CLK_HZ), .SAMPLE_HZ(SAMPLE_HZ), .VEL_LOG2W(VEL_LOG2W),
@@ -409,7 +413,7 @@ module hapgate_top #(
         .cfg_cal_mu(cal_mu),
         .in_vel_obs(vel_obs), .cfg_obs_bw(obs_bw), .cfg_obs_type3(obs_type3),
         .ctl_harm_en(harm_en), .cfg_harm_we(harm_we), .cfg_harm_addr(harm_addr),
-        .cfg_harm_data(harm_wdata), .in_harm_rdata(harm_rdata),
+        .cfg_harm_data(harm_wdata), .in_harm_rdata(harm_rdata), .in_cap(cap_regs),
         .ctl_global_en(global_en), .ctl_axis_en(axis_en), .ctl_fault_clear(fault_clear),
         .ctl_home_arm(home_arm), .ctl_torque(torque), .ctl_offset(offset), .ctl_mode(mode),
         .ctl_tq_limit(tq_limit), .wdog_expired(wdog_expired), .irq(irq), .tick(tick),
@@ -421,7 +425,27 @@ module hapgate_top #(
 `endif
 `endif
     );
-    wire unused_dbg = &{1'b0, tick, dbg_req, dbg_we, dbg_addr, dbg_wdata, dbg_proto_err};
+    wire unused_dbg = &{1'b0, tick, dbg_proto_err};
+
+    // ---------------------------------------------------------------- capture buffer
+    // The raw ADC words at the strobe (what the interpolators take), recorded on request and read
+    // back through CAP_ADDR / CAP_DATA (docs/blocks/capture.md). It decodes its own writes from
+    // the committed accesses; the register file only returns its four words.
+    generate
+        if (CAPTURE != 0) begin : g_capture
+            hg_capture #(
+                .CLK_HZ(CLK_HZ), .SAMPLE_HZ(SAMPLE_HZ), .DEPTH_LOG2(CAP_DEPTH_LOG2),
+                .ADDR_BITS(BUS_ADDR_BITS), .BASE(64)
+            ) u_capture (
+                .clk(clk), .rst(rst), .adc_strobe(adc_strobe), .adc_a(adc_a), .adc_b(adc_b),
+                .enc_index(enc_index), .s_req(dbg_req), .s_we(dbg_we), .s_addr(dbg_addr),
+                .s_wdata(dbg_wdata), .m_regs(cap_regs)
+            );
+        end else begin : g_no_capture
+            assign cap_regs = 128'd0;
+            wire unused_cap = &{1'b0, dbg_req, dbg_we, dbg_addr, dbg_wdata};
+        end
+    endgenerate
 
     // ---------------------------------------------------------------- commutation inputs
     // Per-axis torque clamp to +-TQ_LIMIT (>= 32768: none), in the commutator after its frame

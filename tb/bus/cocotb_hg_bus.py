@@ -68,6 +68,7 @@ class Inputs:
         d.in_cal_gain.value = pack2("cal_gain_a", "cal_gain_b", 16, 16)
         d.in_cal_stat.value = pack2("cal_gear", "cal_updates", 8, 16)
         d.in_cal_phase.value = pack("cal_phase", 16)
+        d.in_cap.value = 0        # (no capture buffer here: CAP_* read 0, as the model's)
 
     def set(self, axes: list[AxisInputs], edge: int) -> None:
         """Drive now (between edges); the hardware sees it from `edge` on."""
@@ -179,7 +180,7 @@ async def rdl_conformance(dut) -> None:
     await master.read(W["WDOG"], t)
     await master.write(W["WDOG"], WDOG_KEY, t)
     await master.read(W["WDOG"], t)
-    unmapped = [*range(0x0C, 0x10), 0x16, 0x17, 0x1C, 0x3F, *rng.sample(range(0x40, 256), 12)]
+    unmapped = [*range(0x0C, 0x10), 0x16, 0x17, 0x1C, 0x3F, *rng.sample(range(0x44, 256), 12)]
     for word in unmapped:
         await master.write(word, rng.getrandbits(32), t)
         await master.read(word, t)

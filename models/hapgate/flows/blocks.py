@@ -15,7 +15,8 @@ from ..base.block import Block, Params
 __all__ = ["Block", "Params", "BLOCKS", "get"]
 
 # Model modules that own RTL blocks, in lint/report order.
-OWNERS = ("golden.sine", "golden.interp", "golden.commutation", "golden.regmap", "golden.configs",
+OWNERS = ("golden.sine", "golden.interp", "golden.commutation", "golden.regmap", "golden.capture",
+          "golden.configs",
           "flows.boards")
 
 BLOCKS: dict[str, Block] = {

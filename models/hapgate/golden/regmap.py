@@ -15,7 +15,7 @@ from typing import Any
 
 from ..base.block import Block, Params
 
-BUS_ADDR_BITS = 8          # word-address lines the FPGA decodes (0x40..0xFF: unmapped)
+BUS_ADDR_BITS = 8          # word-address lines the FPGA decodes (0x44..0xFF: unmapped)
 DEFAULT_CLK_HZ = 48_000_000
 
 

@@ -23,7 +23,11 @@ refused). The hapgate-specific hardware behaviour is written out here:
   axis AXIS's table (AXIS = 3: none); every HARM_DATA access, read or write, then increments
   ADDR (mod 256) at its commit edge; a read returns that entry (0 for AXIS = 3); HARM_CTRL.LOG2
   reads harm_log2. The tables are block RAM, not reset: an entry never written reads as
-  unknown in the hardware (here: 0).
+  unknown in the hardware (here: 0);
+- capture buffer (`capture`, a `hapgate.golden.capture.CaptureModel`, hapgate_top CAPTURE = 1;
+  without it CAP_CTRL/CAP_STAT/CAP_ADDR/CAP_DATA read 0 and ignore writes): CAP_CTRL and
+  CAP_ADDR writes and CAP_DATA reads go to it at their commit edge; CAP_STAT and CAP_DATA read
+  its state as the bus samples it.
 
 Time is counted in clock edges (integers). Every register updates at an edge from the values
 before it. `access(word, we, wdata, edge)` applies an access that the bus slave committed at
@@ -38,6 +42,7 @@ import bisect
 from collections.abc import Callable
 from dataclasses import dataclass, field
 
+from .capture import CaptureModel
 from .regmap import Register, RegMap
 
 WDOG_KEY = 0x5AFEC0DE
@@ -87,6 +92,7 @@ class RegModel:
     vel_sel_reset: bool = False          # VEL_CTRL.SEL resets to 7 (hapgate_top VEL_OBS_SEL)
     harm: bool = False                   # the interpolator has the harmonic table (HARM = 1)
     harm_log2: int = 6                   # its entries per line, log2 (HARM_LOG2)
+    capture: CaptureModel | None = None  # the capture buffer (CAPTURE = 1)
     inputs: Inputs = _zero_inputs
     input_edges: list[int] = field(default_factory=list)  # sorted edges where inputs(e) changes
     # state
@@ -130,6 +136,8 @@ class RegModel:
         self.snap_at = self.cfg_err_at = NEVER
         self.done = edge
         self.reset_edge = edge
+        if self.capture is not None:
+            self.capture.reset(edge, edge)
 
     def _field(self, reg: str, name: str) -> int:
         f = self.regs[reg].field(name)
@@ -204,6 +212,12 @@ class RegModel:
         value = self.stored[reg.name]
         ack = 0
         fault_clr = pet = tick_ok = False
+        if reg.name.startswith("CAP_"):
+            if self.capture is not None and reg.name == "CAP_CTRL":
+                self.capture.ctrl_write(e, data)
+            elif self.capture is not None and reg.name == "CAP_ADDR":
+                self.capture.addr_write(data)
+            return ack, fault_clr, pet, tick_ok
         if reg.name.startswith("HARM_"):
             if self.harm and reg.name == "HARM_DATA":
                 addr, axis = self._field("HARM_ADDR", "ADDR"), self._field("HARM_ADDR", "AXIS")
@@ -267,6 +281,8 @@ class RegModel:
                    access_word=word)
         if not we and self.harm and reg is not None and reg.name == "HARM_DATA":
             self._harm_step()      # a read increments the address too (at its commit edge)
+        if not we and self.capture is not None and reg is not None and reg.name == "CAP_DATA":
+            self.capture.data_read()
         return value
 
     def _harm_step(self) -> None:
@@ -285,6 +301,10 @@ class RegModel:
             return self.rm.unmapped_read
         if reg.name.startswith("HARM_") and not self.harm:
             return 0
+        if reg.name.startswith("CAP_"):
+            if self.capture is None:
+                return 0
+            return self.capture.read(word - self.regs["CAP_CTRL"].word, self.done)
         if reg.name == "HARM_DATA":
             axis = self._field("HARM_ADDR", "AXIS")
             addr = self._field("HARM_ADDR", "ADDR") % (1 << self.harm_log2)

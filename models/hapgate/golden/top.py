@@ -109,7 +109,8 @@ class TopConfig:
 SOURCES = ("interp/enc_calib.v", "interp/ratio_div.v", "interp/vel_observer.v",
            "interp/enc_interp.v", "interp/sample_strobe.v", "interp/enc_interp3.v",
            "commutation/sine_lut.v", "dac_sched/dac_sched.v", "commutation/commutator.v",
-           "bus/emif_slave.v", "bus/hg_regfile.v", "bus/hg_bus.v", "top/hapgate_top.v")
+           "bus/emif_slave.v", "bus/hg_regfile.v", "bus/hg_bus.v", "capture/hg_capture.v",
+           "top/hapgate_top.v")
 
 
 # ---------------------------------------------------------------------------- register timeline
