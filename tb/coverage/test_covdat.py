@@ -23,7 +23,7 @@ def probe_exe(tmp_path_factory: pytest.TempPathFactory) -> Path:
     mp.setenv(covbuild.ENV, str(tmp_path_factory.mktemp("unused")))
     try:
         return native.verilate_harness("cov_probe", "cov_probe", [HERE / "cov_probe.v"], {},
-                                       [HERE / "cov_probe_harness.cpp"])
+                                       [HERE / "cov_probe_harness.cpp"], cov_toggle=True)
     finally:
         mp.undo()
 

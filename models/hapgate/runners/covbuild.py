@@ -28,6 +28,11 @@ RUN_ENV = "HG_COVERAGE_RUN_DIR"
 # (no --coverage-fsm: the 5.048 wheel stops with an internal error, "AstNode is not of expected
 # type, but instead has type 'SEL'", at rtl/bus/hg_regfile.v:159 when it is on)
 FLAGS = ("--coverage-line", "--coverage-toggle")
+# the native harnesses' builds (long closed-loop and million-sample runs): lines and branches
+# only. Toggle instrumentation of every signal costs tens of times the run time on the whole
+# design; the port toggles come from the cocotb builds of each block (and of the top and the
+# boards), which drive every port.
+NATIVE_FLAGS = ("--coverage-line",)
 ZERO = TB / "coverage" / "cov_zero.sv"
 # the reset of a top whose reset is not `rst` (the board tops' active-low pin)
 RESETS = {"hapgate_ice40_hx8k": "!rst_n", "hapgate_ecp5_evn": "!rst_n"}
@@ -67,10 +72,11 @@ def bind_file(top: str) -> Path:
     return cache.cached_file(BUILD / "coverage" / "bind" / name, lambda: text)
 
 
-def extra(top: str) -> tuple[list[str], list[Path]]:
-    """(Verilator flags, extra sources) of a coverage build of `top`; nothing outside one."""
+def extra(top: str, native: bool = False) -> tuple[list[str], list[Path]]:
+    """(Verilator flags, extra sources) of a coverage build of `top` (native: a native harness's
+    build, NATIVE_FLAGS); nothing outside a coverage run."""
     if active() is None:
         return [], []
     bind = bind_file(top)
     stamp = cache.digest(files=[ZERO, bind], length=10)   # (rebuild when either changes)
-    return [*FLAGS, f"-DHG_COVERAGE={stamp}"], [ZERO, bind]
+    return [*(NATIVE_FLAGS if native else FLAGS), f"-DHG_COVERAGE={stamp}"], [ZERO, bind]

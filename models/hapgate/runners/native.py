@@ -57,7 +57,8 @@ def verilate_harness(name: str, top: str, sources: Sequence[Path], params: Param
                      inputs: Sequence[Path] = (),
                      prepare: Callable[[Path], None] | None = None,
                      vflags: Sequence[str] = (),
-                     train: Callable[[Path], None] | None = None) -> Path:
+                     train: Callable[[Path], None] | None = None,
+                     cov_toggle: bool = False) -> Path:
     """Verilate `top` with a C++ harness into build/native/<name>-<hash>/ and return the
     executable. The hash covers the parameters, flags and the bytes of every source, harness and
     extra input, so a change rebuilds and an unchanged scene is reused (parallel callers wait on a
@@ -66,10 +67,11 @@ def verilate_harness(name: str, top: str, sources: Sequence[Path], params: Param
     compiled twice (profile-guided optimisation, `_pgo_build`): instrumented, `train(exe)` runs
     it on a representative input, then optimised with that profile. The compiler flags keep the
     IEEE semantics (no fast-math), so the optimised executable computes the same results bit for
-    bit (tb/device/test_closed_loop.py checks it), only faster."""
+    bit (tb/device/test_closed_loop.py checks it), only faster. In a coverage run the build
+    counts lines and branches, and with `cov_toggle` port toggles too (runners/covbuild.py)."""
     toolenv.apply()
     write_tables(params)
-    cov_flags, cov_sources = covbuild.extra(top)   # coverage runs only (HG_COVERAGE_DIR)
+    cov_flags, cov_sources = covbuild.extra(top, native=not cov_toggle)   # coverage runs
     vflags, sources = [*vflags, *cov_flags], [*sources, *cov_sources]
     key = cache.digest(
         files=[*sources, *harness, *inputs],
