@@ -33,7 +33,7 @@ import tomllib
 from ..base import covdat
 from ..base.atomic import write_bytes as write_text
 from ..base.paths import BUILD, REPORTS, ROOT, RTL, TB, ensure
-from ..flows.boards import BOARDS
+from ..golden import configs
 from ..runners import covbuild, funcov
 
 OUT = REPORTS / "coverage"
@@ -50,14 +50,16 @@ DESELECT = "not icarus and not netlist and not gatelevel"
 CATEGORIES = ("UNR", "NON_RTL", "UNSUPPORTED", "EXTERNAL", "LOW_RISK")
 METRICS = ("line", "branch", "toggle")
 # the configurations reported: every parameter set the selected tests build, merged (cocotb
-# and native harness runs); the blocks' default parameter set alone (cocotb runs only); each
-# board top (cocotb runs of the board top; runners/covbuild.config_of)
+# and native harness runs); each named configuration (golden/configs.py) the cocotb runs of the
+# top and of the boards use, `paper` also holding each block's default parameter set
+# (runners/covbuild.config_of)
 CONFIGS = {"suite": "every parameter set the selected tests build, merged (cocotb tests and "
                     "native harnesses)",
-           "paper": "each block's default parameter set, the design the paper and the spec "
-                    "describe (cocotb tests only)",
-           **{name: f"the {name} board top with the parameters flows/boards.py gives it "
-                    f"(cocotb tests of the board top)" for name in BOARDS}}
+           **{name: f"the named configuration `{name}` ({doc}): the cocotb tests of the top "
+                    f"and the boards that run it"
+                    + (", and each block's own default parameter set (the design the paper "
+                       "and the spec describe)" if name == "paper" else "")
+              for name, doc in ((n, configs.get(n).doc) for n in configs.names())}}
 # functional coverage group (runners/funcov.py) -> the RTL modules whose row shows it
 FUNC_MODULES = {"interp": ("enc_interp", "enc_interp3"), "commutation": ("commutator",),
                 "dac_sched": ("dac_sched",), "bus": ("hg_bus", "hg_regfile", "emif_slave"),

@@ -44,21 +44,20 @@ def active() -> Path | None:
     return Path(d) if d else None
 
 
-def config_of(default_params: bool, top: str) -> str:
-    """The configuration a cocotb run's coverage counts in: a board top's board name, `paper`
-    for a block's default parameter set (the design the paper and the spec describe), `other`."""
-    from ..flows.boards import BOARDS
-    board = [name for name, b in BOARDS.items() if b.top == top]
-    return board[0] if board else "paper" if default_params else "other"
+def config_of(config_name: str | None, default_params: bool) -> str:
+    """The configuration a cocotb run's coverage counts in: the named configuration a
+    whole-FPGA or board test runs (docs/configs.md), `paper` for a block's default parameter
+    set (the design the paper and the spec describe), else `other`."""
+    return config_name or ("paper" if default_params else "other")
 
 
-def run_dir(default_params: bool, top: str) -> Path | None:
-    """Where a cocotb run's files go: <dir>/<config_of(...)>; None outside a coverage run.
+def run_dir(config: str) -> Path | None:
+    """Where a cocotb run's files go: <dir>/<config>; None outside a coverage run.
     (Native harness runs write to <dir> itself: they count in the merged `suite` table only.)"""
     d = active()
     if d is None:
         return None
-    sub = d / config_of(default_params, top)
+    sub = d / config
     sub.mkdir(parents=True, exist_ok=True)
     return sub
 

@@ -103,7 +103,9 @@ def run_cocotb(
     tdir = ensure(bdir / "runs" / name[:120])
     env = {"HG_PARAMS": json.dumps({k: param_text(v) for k, v in params.items()})}
     if sim == "verilator" and covbuild.active() is not None:   # default parameters or not
-        cdir = covbuild.run_dir(_tag(params, ()) == _tag(block.params(), ()), block.top)
+        cdir = covbuild.run_dir(covbuild.config_of(
+            config.name if config is not None else None,
+            _tag(params, ()) == _tag(block.params(), ())))
         env[covbuild.RUN_ENV] = str(cdir)
     if config is not None:
         env["HG_CONFIG"] = config.to_json()
