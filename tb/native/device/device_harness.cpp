@@ -418,6 +418,28 @@ void view_send(ViewLink* v, const hg_servo_t& s, const ViewCtl& ctl, const UartL
 }  // namespace
 extern "C" void hg_hal_irq_restore(uint32_t token) { (void)token; }
 
+// Bring-up's guided move (scene hand.guided): with the hand off while a step drives, on the
+// scripted move while a GUIDED step runs (a spring from the endpoint at the step's start along
+// the displacements), as configured otherwise. Called after each ISR.
+static void guided_hand(hg_plant* plant, const hg_dev::RunCfg& cfg, const hg_bringup_t& bu) {
+    static int mode = -2;   // -1 configured hand, 0 off, 1 guided
+    const int want = !hg_bringup_active(&bu) ? -1 : bu.step == HG_BU_STEP_GUIDED ? 1 : 0;
+    if (want == mode) return;
+    mode = want;
+    if (want != 1) {
+        hg_plant_set_hand(plant, want, nullptr, 0);
+        return;
+    }
+    hg_plant_out o;
+    hg_plant_read(plant, &o);
+    std::vector<double> path(cfg.guided);
+    for (size_t k = 0; k + 3 < path.size(); k += 4) {
+        path[k] += o.t;
+        for (int i = 0; i < 3; ++i) path[k + 1 + i] += o.p[i];
+    }
+    hg_plant_set_hand(plant, 1, path.data(), static_cast<int>(path.size() / 4));
+}
+
 int main(int argc, char** argv) {
     if (argc != 4 && argc != 5) {
         std::fprintf(stderr, "usage: %s PLANT_CFG RUN_CFG OUTDIR [LINK_CFG]\n", argv[0]);
@@ -502,6 +524,7 @@ int main(int argc, char** argv) {
     hg_servo_cfg_t fw;
     hg_dev::fw_config(cfg, CLK_HZ, &fw);
     static hg_servo_t s;
+    static hg_bringup_t bu;   // reachable from the link once the start pose is reached
     const uint8_t init_err = hg_servo_init(&s, &fw);
     bench.skew = fpga_read32(HG_WORD(offsetof(hapgate_t, DAC_SKEW)));
     bench.frame = fpga_read32(HG_WORD(offsetof(hapgate_t, DAC_FRAME)));
@@ -599,13 +622,15 @@ int main(int argc, char** argv) {
             g_in_isr = true;
         }
         if (vctl.forces_off && s.enabled) hg_servo_enable(&s, false);   // a PC may not re-enable
-        hg_servo_isr();
+        if (vctl.forces_off && hg_bringup_active(&bu)) hg_bringup_abort(&bu, HG_BU_ERR_ABORT);
+        hg_bringup_isr();   // the bring-up step while one runs, else the servo step
         if (g_profile) {
             g_isr_s += now_s() - ti0;
             g_in_isr = false;
         }
         // the snapshot holds the sample of grid point tick_g - 1 (the one visible at the tick)
         const uint64_t gs = tick_g - 1;
+        if (!cfg.guided.empty()) guided_hand(plant, cfg, bu);
         const TickRec r = hg_dev::tick_record(s, bench.scene_t(tick_g), &bench.qtrue_ring[(gs % Bench::kRing) * 3]);
         ticks.push_back(r);
         if (link && !scripted && ticks.size() >= 65536) ticks.clear();  // serving: runs until a signal
@@ -617,6 +642,12 @@ int main(int argc, char** argv) {
             } else if (homed_isr >= 0 && static_cast<int64_t>(tick_g) >= bench.scene0_us - 1000000 / static_cast<int64_t>(cfg.servo_hz)) {
                 const int rc = hg_dev::fw_home_scene_enable(&s, cfg, !link && !vctl.forces_off);  // with a PC link: the PC enables
                 if (rc != 0) return rc;
+                // the joints rest in the scene's start pose: bring-up's reference pose
+                hg_bringup_cfg_t bc;
+                hg_dev::fw_bringup_config(cfg, &bc);
+                hg_bringup_init(&bu, &s, &bc, hg_servo_calibrated(&s) ? &s.cfg.cal : nullptr);
+                hg_bringup_isr_ctx = &bu;
+                if (link) uart_link_set_bringup(link, &bu);
                 enabled = true;
                 enable_t = bench.scene_t(bench.edge / D);
             }
