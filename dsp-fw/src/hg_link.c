@@ -277,13 +277,15 @@ static int h_bu_start(hg_link_t *l, const uint8_t *req, uint8_t *out, size_t *n)
     int8_t expect[3];
     for (int i = 0; i < 3; i++)
         expect[i] = (int8_t)(req[2 + i] >= 0x80u ? (int)req[2 + i] - 256 : (int)req[2 + i]);
-    const float v0 = b->err_value, l0 = b->err_limit;
-    const int rc = hg_bringup_start(b, req[0], req[1], expect, hg_get_u32(req + 5));
+    int rc = HG_BU_ERR_BUSY;
+    if (!hg_bringup_active(b)) {
+        /* a refusal leaves its figures here (ERR_CONFIG, NOT_READY); others leave zeros */
+        b->err_value = b->err_limit = 0.0f;
+        rc = hg_bringup_start(b, req[0], req[1], expect, hg_get_u32(req + 5));
+    }
     out[0] = (uint8_t)rc;
-    /* a refusal's figures, where hg_bringup_start left them (ERR_CONFIG, NOT_READY) */
-    const bool figs = rc != HG_BU_OK && (b->err_value != v0 || b->err_limit != l0);
-    hg_put_f32(out + 1, figs ? b->err_value : 0.0f);
-    hg_put_f32(out + 5, figs ? b->err_limit : 0.0f);
+    hg_put_f32(out + 1, rc != HG_BU_OK ? b->err_value : 0.0f);
+    hg_put_f32(out + 5, rc != HG_BU_OK ? b->err_limit : 0.0f);
     *n = HG_BU_START_ACK_LEN;
     return 0;
 }

@@ -889,9 +889,13 @@ void test_bringup_link_align(void)
 
     /* refusals carry their figures */
     CHECK(link_start(HG_BU_STEP_ALIGN, 3, 0, 0, 0, raw) == HG_BU_ERR_ARG);
+    CHECK(f32_at(raw + 4) == 0.0f && f32_at(raw + 8) == 0.0f);
     CHECK(link_start(HG_BU_STEP_IDENT + 1, 0, 0, 0, 0, raw) == HG_BU_ERR_ARG);
     CHECK(link_start(HG_BU_STEP_IDENT, 1, 0, 0, 0, raw) == HG_BU_ERR_NOT_READY);
     CHECK(f32_at(raw + 4) == -1.0f && f32_at(raw + 8) == 1.0f); /* scan sign, needed */
+    /* the same refusal again: its figures again (not those of the last step) */
+    CHECK(link_start(HG_BU_STEP_IDENT, 1, 0, 0, 0, raw) == HG_BU_ERR_NOT_READY);
+    CHECK(f32_at(raw + 4) == -1.0f && f32_at(raw + 8) == 1.0f);
     B.cfg.travel_max = 1.0f;
     CHECK(link_start(HG_BU_STEP_ALIGN, 0, 0, 0, 0, raw) == HG_BU_ERR_CONFIG);
     CHECK_NEAR(f32_at(raw + 4), 2.5 / 2.0 * 2.0 * PI_D, 1e-4);

@@ -152,6 +152,11 @@ def print_step(rec: dict[str, Any], checks: list[dict[str, Any]], out: Any) -> N
         state = f"REFUSED {rec['err']}" + (f" ({_fmt(rec['value'])} beside limit "
                                             f"{_fmt(rec['limit'])})" if rec["value"] or rec["limit"]
                                             else "")
+    if rec["err"] == "POLE_PAIRS" and "scan" in rec:
+        sc = rec["scan"]
+        state += (f": {sc['counts_per_elec']:.0f} counts per electrical cycle measured "
+                  f"({sc['pole_pairs_measured']:.2f} pole pairs), {sc['counts_per_elec_cfg']:.0f} "
+                  f"configured ({calib.COUNTS_PER_REV / sc['counts_per_elec_cfg']:.0f} pole pairs)")
     print(f"{head} device time {rec['duration_s']:7.3f} s  {state}", file=out)
     for c in checks:
         print(f"    {c['name']:<30} {_fmt(c['value']):>10} {c['unit']:<9} {c['op']} "
@@ -264,6 +269,10 @@ def bringup(dev: api.Device, steps: tuple[str, ...], expect: tuple[int, ...], se
             if step == "guided":
                 rec["axis"] = "all"
             rec["checks"] = _step_checks(dev, {**rec, "axis": max(axis, 0)})
+            if rec["err"] == "POLE_PAIRS":
+                r0 = dev.bu_result(rec["axis"], 0)
+                rec["scan"] = {"counts_per_elec": r0[6], "counts_per_elec_cfg": r0[7],
+                               "pole_pairs_measured": r0[8]}
             print_step(rec, rec["checks"], out)
             recs.append(rec)
     return recs, [_axis_record(dev, a) for a in range(3)]
@@ -297,7 +306,7 @@ def main(args: argparse.Namespace) -> int:
             doc = {"result": "PASS" if ok else "FAIL",
                    "duration_s": float(sum(r["duration_s"] for r in recs)),
                    "steps": [{k: r[k] for k in ("step", "axis", "err", "value", "limit",
-                                                "duration_s")} for r in recs],
+                                                "duration_s", "checks")} for r in recs],
                    "axes": axes}
             out.mkdir(parents=True, exist_ok=True)
             (out / "bringup.json").write_text(json.dumps(doc, indent=1) + "\n", encoding="utf-8")
