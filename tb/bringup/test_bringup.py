@@ -224,7 +224,7 @@ def test_link_loss_mid_scan_aborts(tmp_path: Path) -> None:
         st = dev.stats()
     assert p["state"] == "IDLE" and p["err"] == "LINK", p
     assert 0 < p["ticks"] - last["ticks"] <= LINK_TIMEOUT_TICKS + 1, (p, last)
-    assert st.timeouts >= 1
+    assert st.device["timeouts"] >= 1
 
 
 def test_exit_codes_for_bad_arguments_and_silence(tmp_path: Path, capsys: Any) -> None:

@@ -254,8 +254,9 @@ td,th{{padding:1px 6px;border-bottom:1px solid #ddd}}.PASS{{color:#080}}.FAIL{{c
 
 
 def bringup(dev: api.Device, steps: tuple[str, ...], expect: tuple[int, ...], seed: int,
-            out: Any = sys.stdout) -> tuple[list[dict[str, Any]], list[dict[str, Any]]]:
-    """Run the steps; (step records, axis records)."""
+            out: Any = None) -> tuple[list[dict[str, Any]], list[dict[str, Any]]]:
+    """Run the steps, printing to out (default stdout); (step records, axis records)."""
+    out = sys.stdout if out is None else out
     recs = []
     for step in steps:
         if step == "guided":

@@ -418,18 +418,19 @@ void view_send(ViewLink* v, const hg_servo_t& s, const ViewCtl& ctl, const UartL
 }  // namespace
 extern "C" void hg_hal_irq_restore(uint32_t token) { (void)token; }
 
-// Bring-up's guided move (scene hand.guided): the hand is as configured until the first step
-// starts; from then on it is off (the operator lets go for bring-up), except on the scripted
-// move while a GUIDED step runs (a spring from the endpoint at the step's start along the
-// displacements), until the forces are enabled (the operator takes the handle back). Called
-// after each ISR.
+// The hand during bring-up: as configured until the first step starts; from then on off (the
+// operator lets go for bring-up), except on the scripted move while a GUIDED step runs (scene
+// hand.guided: a spring from the endpoint at the step's start along the displacements; none:
+// the move never comes), until the forces are enabled (the operator takes the handle back).
+// A rigid grip (hand kind fixed) never lets go: the held handle. Called after each ISR.
 static void guided_hand(hg_plant* plant, const hg_dev::RunCfg& cfg, const hg_bringup_t& bu,
                         const hg_servo_t& s) {
     static int mode = -2;   // -1 configured hand, 0 off, 1 guided
     static bool session = false;
     if (hg_bringup_active(&bu)) session = true;
     if (s.enabled) session = false;
-    const int want = hg_bringup_active(&bu) && bu.step == HG_BU_STEP_GUIDED ? 1 : session ? 0 : -1;
+    const bool guided = hg_bringup_active(&bu) && bu.step == HG_BU_STEP_GUIDED && !cfg.guided.empty();
+    const int want = guided ? 1 : session ? 0 : -1;
     if (want == mode) return;
     mode = want;
     if (want != 1) {
@@ -636,7 +637,7 @@ int main(int argc, char** argv) {
         }
         // the snapshot holds the sample of grid point tick_g - 1 (the one visible at the tick)
         const uint64_t gs = tick_g - 1;
-        if (!cfg.guided.empty()) guided_hand(plant, cfg, bu, s);
+        guided_hand(plant, cfg, bu, s);
         const TickRec r = hg_dev::tick_record(s, bench.scene_t(tick_g), &bench.qtrue_ring[(gs % Bench::kRing) * 3]);
         ticks.push_back(r);
         if (link && !scripted && ticks.size() >= 65536) ticks.clear();  // serving: runs until a signal

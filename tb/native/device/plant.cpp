@@ -863,6 +863,7 @@ void hg_plant_encode1(const hg_plant* p, int axis, double lines, double za, doub
 double hg_plant_noise_lsb(const hg_plant* p, int axis) { return p->P.noise[axis]; }
 
 void hg_plant_set_hand(hg_plant* s, int kind, const double* path, int n) {
+    if (s->hand0 == 2) return;   // a rigid grip holds on
     if (kind < 0) {
         s->P.hand = s->hand0;
         s->P.path = s->path0;
