@@ -35,7 +35,19 @@ def wrap180(x: float) -> float:
     return (x + 180.0) % 360.0 - 180.0
 
 
+SETTLED_TICKS = 1500        # the scene's hand path ends at 0.2 s; its spring settles in ~0.1 s
+
+
+def settle(port: str) -> None:
+    """Wait until the handle rests where the scene's hand put it (device time): a linkage let go
+    while still moving drifts on (its only damping is 2e-4 N m s/rad per joint)."""
+    with Device.open(port) as dev:
+        while dev.state().seq < SETTLED_TICKS:
+            time.sleep(0.05)
+
+
 def bringup(port: str, out: Path, capsys: Any, *extra: str) -> tuple[int, str, dict[str, Any]]:
+    settle(port)
     rc = cli.main(["bringup", port, "--out", str(out), *extra])
     text = capsys.readouterr().out
     doc = json.loads((out / "bringup.json").read_text()) if (out / "bringup.json").exists() else {}
