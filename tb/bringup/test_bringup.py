@@ -253,3 +253,31 @@ def test_exit_codes_for_bad_arguments_and_silence(tmp_path: Path, capsys: Any) -
         os.close(slave)
     assert rc == 2 and "does not answer" in capsys.readouterr().err
     assert not (tmp_path / "bringup.json").exists()
+
+
+@pytest.mark.parametrize("hand, want", [
+    ('kind = "spring"\nguided = [[0.1, 0.1, 0.0, 0.0]]',
+     "hand.guided[0]: |d| = 0.1 m out of range: <= 0.05 m"),
+    ('kind = "spring"\nguided = [[0.5, 0.0, 0.0, 0.0], [0.5, 0.01, 0.0, 0.0]]',
+     "hand.guided[1][0]: time must increase"),
+    ('kind = "spring"\nguided = []', "hand.guided: expected at least one point"),
+    ('kind = "spring"\nguided = [[0.5, 0.0, 0.0]]', "hand.guided[0]"),
+    ('kind = "none"\nk = 300.0', "hand.k: does not apply to hand kind 'none'"),
+])
+def test_bad_guided_keys_exit_2(tmp_path: Path, capsys: Any, hand: str, want: str) -> None:
+    p = tmp_path / "bad.toml"
+    p.write_text(f"[hand]\n{hand}\n")
+    assert cli.main(["scene", "check", str(p)]) == 2
+    err = capsys.readouterr().err
+    assert f"{p}: {want}" in err, err
+
+
+def test_guided_with_no_hand_admits_its_spring(tmp_path: Path) -> None:
+    p = tmp_path / "ok.toml"
+    p.write_text('[hand]\nkind = "none"\nk = 300.0\nb = 3.0\nguided = [[0.0, 0.0, 0.0, 0.0], '
+                 '[1.0, 0.0, -0.01, 0.0]]\n')
+    h = sc.load(p).hand
+    assert (h.kind, h.k, h.b) == ("none", 300.0, 3.0)
+    assert h.guided == ((0.0, 0.0, 0.0, 0.0), (1.0, 0.0, -0.01, 0.0))
+    text = harness.plant_config(sc.load(p), runner.start_pose(sc.load(p)))
+    assert "hand_kind = 0" in text and "hand_k = 300.0" in text and "hand_path" not in text
