@@ -258,24 +258,28 @@ def bringup(dev: api.Device, steps: tuple[str, ...], expect: tuple[int, ...], se
     """Run the steps, printing to out (default stdout); (step records, axis records)."""
     out = sys.stdout if out is None else out
     recs = []
-    for step in steps:
+    # alignment and homing axis by axis: the joints left free drift while another axis moves
+    # (the linkage couples them), so each axis homes right after its scan walked it back to the
+    # reference pose, where the search window is centred
+    plan = [(step, a, (0, 0, 0)) for a in range(3) for step in ("align", "homing")
+            if step in steps]
+    if "guided" in steps:
+        plan.append(("guided", -1, expect))
+    plan += [("dynamics", a, (0, 0, 0)) for a in range(3) if "dynamics" in steps]
+    for step, axis, ex in plan:
         if step == "guided":
             print(f"guided: move the handle along the named direction now "
                   f"(joint signs {list(expect)})", file=out, flush=True)
-            todo = [(-1, expect)]
-        else:
-            todo = [(a, (0, 0, 0)) for a in range(3)]
-        for axis, ex in todo:
-            rec = run_step(dev, step, max(axis, 0), ex, seed)
-            if step == "guided":
-                rec["axis"] = "all"
-            rec["checks"] = _step_checks(dev, {**rec, "axis": max(axis, 0)})
-            if rec["err"] == "POLE_PAIRS":
-                r0 = dev.bu_result(rec["axis"], 0)
-                rec["scan"] = {"counts_per_elec": r0[6], "counts_per_elec_cfg": r0[7],
-                               "pole_pairs_measured": r0[8]}
-            print_step(rec, rec["checks"], out)
-            recs.append(rec)
+        rec = run_step(dev, step, max(axis, 0), ex, seed)
+        if step == "guided":
+            rec["axis"] = "all"
+        rec["checks"] = _step_checks(dev, {**rec, "axis": max(axis, 0)})
+        if rec["err"] == "POLE_PAIRS":
+            r0 = dev.bu_result(rec["axis"], 0)
+            rec["scan"] = {"counts_per_elec": r0[6], "counts_per_elec_cfg": r0[7],
+                           "pole_pairs_measured": r0[8]}
+        print_step(rec, rec["checks"], out)
+        recs.append(rec)
     return recs, [_axis_record(dev, a) for a in range(3)]
 
 
