@@ -164,9 +164,9 @@ calibration = "{cal}"
 
 @pytest.mark.parametrize("name", ["offset", "swapped"])
 def test_offsets_and_swapped_phases(name: str, tmp_path: Path, capsys: Any) -> None:
-    """bringup/offset.toml (180, -90, 7.5 deg) and bringup/swapped.toml: align and homing
-    find each axis's offset and phase order (the configured encoder direction, unconfirmed:
-    exit 0, the report says so)."""
+    """bringup/offset.toml (180, -90, 7.5 deg), bringup/swapped.toml: align and homing find
+    each axis's offset and phase order (the configured encoder direction, unconfirmed: the
+    report says so)."""
     scene = sc.load(SCENES / "bringup" / f"{name}.toml")
     with serve(scene) as srv:
         rc, text, doc = bringup(srv.port, tmp_path, capsys, "--steps", "align,homing")
@@ -174,6 +174,20 @@ def test_offsets_and_swapped_phases(name: str, tmp_path: Path, capsys: Any) -> N
     assert_found(doc, scene)
     assert not any(a["dir_confirmed"] for a in doc["axes"])
     assert "align_movement" in text and "PASS" in text
+
+
+def test_reversed_encoder_by_the_guided_move(tmp_path: Path, capsys: Any) -> None:
+    """bringup/encoder_dir.toml (axis 1 counts against its joint): the guided move alone finds
+    it; every axis's direction is confirmed."""
+    scene = sc.load(SCENES / "bringup" / "encoder_dir.toml")
+    with serve(scene) as srv:
+        rc, text, doc = bringup(srv.port, tmp_path, capsys, "--steps", "guided")
+    assert rc == 0, text
+    assert [a["encoder_dir"] for a in doc["axes"]] == list(scene.plant.encoder_dir)
+    assert all(a["dir_confirmed"] and not a["refused"] for a in doc["axes"])
+    for i in range(3):
+        c = check(doc, i, "guided_movement")
+        assert c["result"] == "PASS" and c["value"] >= c["limit"], c
 
 
 def test_wrong_pole_pairs_refused_with_both_figures(tmp_path: Path, capsys: Any) -> None:

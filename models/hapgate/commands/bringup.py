@@ -30,6 +30,7 @@ DEFAULT_REF_POSE_DEG = (4.0, 46.0, 43.0)  # the linkage's rest pose (hapgate.dev
 AMP_A_PER_V = 0.8                         # amplifier gain (dsp-fw README: 8 A at 10 V)
 POLL_S = 0.05                             # progress polls: well inside the 250 ms link timeout
 EXPECT_SHARE = 0.3                        # a joint is watched if it turns >= 30 % of the most
+REST_SPEED, REST_S, REST_MAX_S = 2e-3, 0.3, 10.0   # m/s, s, s: the handle at rest after the move
 
 
 class BringupError(Exception):
@@ -98,6 +99,24 @@ def run_step(dev: api.Device, step: str, axis: int, expect: tuple[int, ...] = (0
     dur = dev.bu_result(axis, 1)[4 + 6 + pclink.BU_STEPS[step]]
     return {"step": step, "axis": axis, "err": p["err"], "value": p["value"],
             "limit": p["limit"], "started": True, "duration_s": float(dur)}
+
+
+def wait_at_rest(dev: api.Device, out: Any) -> float:
+    """After the guided move: wait until the operator has let go and the handle rests (its
+    speed below REST_SPEED over REST_S of device time, at most REST_MAX_S). Device seconds."""
+    print("guided: let go of the handle", file=out, flush=True)
+    s0 = dev.state()
+    quiet_since = None
+    while True:
+        s = dev.state()
+        t = (s.seq - s0.seq) / dev.servo_hz
+        if float(np.linalg.norm(s.v)) >= REST_SPEED:
+            quiet_since = None
+        elif quiet_since is None:
+            quiet_since = t
+        if (quiet_since is not None and t - quiet_since >= REST_S) or t >= REST_MAX_S:
+            return t
+        time.sleep(POLL_S)
 
 
 def _axis_record(dev: api.Device, axis: int) -> dict[str, Any]:
@@ -258,13 +277,15 @@ def bringup(dev: api.Device, steps: tuple[str, ...], expect: tuple[int, ...], se
     """Run the steps, printing to out (default stdout); (step records, axis records)."""
     out = sys.stdout if out is None else out
     recs = []
-    # alignment and homing axis by axis: the joints left free drift while another axis moves
-    # (the linkage couples them), so each axis homes right after its scan walked it back to the
-    # reference pose, where the search window is centred
-    plan = [(step, a, (0, 0, 0)) for a in range(3) for step in ("align", "homing")
-            if step in steps]
-    if "guided" in steps:
-        plan.append(("guided", -1, expect))
+    # The guided move first, while the handle still rests in the reference pose: there the
+    # named direction turns each joint by the signs `expect` gives (the firmware needs nothing
+    # before it, and the later steps use the direction it found). Then alignment and homing
+    # axis by axis: the joints left free drift while another axis moves (the linkage couples
+    # them), so each axis homes right after its scan walked it back to the reference pose,
+    # where the search window is centred.
+    plan = [("guided", -1, expect)] if "guided" in steps else []
+    plan += [(step, a, (0, 0, 0)) for a in range(3) for step in ("align", "homing")
+             if step in steps]
     plan += [("dynamics", a, (0, 0, 0)) for a in range(3) if "dynamics" in steps]
     for step, axis, ex in plan:
         if step == "guided":
@@ -280,6 +301,8 @@ def bringup(dev: api.Device, steps: tuple[str, ...], expect: tuple[int, ...], se
                            "pole_pairs_measured": r0[8]}
         print_step(rec, rec["checks"], out)
         recs.append(rec)
+        if step == "guided" and rec["started"]:
+            wait_at_rest(dev, out)
     return recs, [_axis_record(dev, a) for a in range(3)]
 
 

@@ -421,15 +421,22 @@ extern "C" void hg_hal_irq_restore(uint32_t token) { (void)token; }
 // The hand during bring-up: as configured until the first step starts; from then on off (the
 // operator lets go for bring-up), except on the scripted move while a GUIDED step runs (scene
 // hand.guided: a spring from the endpoint at the step's start along the displacements; none:
-// the move never comes), until the forces are enabled (the operator takes the handle back).
+// the move never comes; the hand finishes the move and holds its end kGuidedHoldS even when the
+// step has already seen it), until the forces are enabled (the operator takes the handle back).
 // A rigid grip (hand kind fixed) never lets go: the held handle. Called after each ISR.
+constexpr double kGuidedHoldS = 0.2;   // s the hand holds the end of the guided move
+
 static void guided_hand(hg_plant* plant, const hg_dev::RunCfg& cfg, const hg_bringup_t& bu,
                         const hg_servo_t& s) {
     static int mode = -2;   // -1 configured hand, 0 off, 1 guided
     static bool session = false;
+    static double guided_until = -1.0;   // plant time the scripted move ends (the hand lets go)
     if (hg_bringup_active(&bu)) session = true;
     if (s.enabled) session = false;
-    const bool guided = hg_bringup_active(&bu) && bu.step == HG_BU_STEP_GUIDED && !cfg.guided.empty();
+    hg_plant_out o;
+    hg_plant_read(plant, &o);
+    const bool guided = (hg_bringup_active(&bu) && bu.step == HG_BU_STEP_GUIDED && !cfg.guided.empty())
+                     || (mode == 1 && o.t < guided_until);   // the operator finishes the move
     const int want = guided ? 1 : session ? 0 : -1;
     if (want == mode) return;
     mode = want;
@@ -437,8 +444,7 @@ static void guided_hand(hg_plant* plant, const hg_dev::RunCfg& cfg, const hg_bri
         hg_plant_set_hand(plant, want, nullptr, 0);
         return;
     }
-    hg_plant_out o;
-    hg_plant_read(plant, &o);
+    guided_until = o.t + cfg.guided[cfg.guided.size() - 4] + kGuidedHoldS;
     std::vector<double> path(cfg.guided);
     for (size_t k = 0; k + 3 < path.size(); k += 4) {
         path[k] += o.t;
