@@ -7,6 +7,7 @@
 #include <stdbool.h>
 #include <stddef.h>
 #include <stdint.h>
+#include "hg_bringup.h"
 #include "hg_hal.h"
 #include "hg_link.h"
 #include "hg_servo.h"
@@ -41,12 +42,14 @@ void hg_hal_irq_restore(uint32_t token)
 
 static hg_servo_t servo;
 static hg_link_t link;
+static hg_bringup_t bringup;
 
-/* The FPGA's servo-tick interrupt line (an external interrupt on a real board). */
+/* The FPGA's servo-tick interrupt line (an external interrupt on a real board): the bring-up
+ * step while one runs, else the servo step. */
 void board_tick_irq(void);
 void board_tick_irq(void)
 {
-    hg_servo_isr();
+    hg_bringup_isr();
 }
 
 static void uart_send(const uint8_t *d, size_t n)
@@ -65,7 +68,14 @@ int main(void)
     hg_servo_default_cfg(&cfg);
     if (hg_servo_init(&servo, &cfg) == HG_ERR_NONE)
         hg_servo_isr_ctx = &servo;
+    /* the power-up pose is the reference pose (a fixture holds the handle there); a real
+     * board sets q_ref and the bounds from its linkage, and passes a stored calibration */
+    hg_bringup_cfg_t bc;
+    hg_bringup_default_cfg(&bc);
+    hg_bringup_init(&bringup, &servo, &bc, NULL);
+    hg_bringup_isr_ctx = &bringup;
     hg_link_init(&link, &servo);
+    link.bu = &bringup;
     for (;;) {
         uint8_t tx[HG_LINK_MAX_FRAME];
         size_t n = 0;

@@ -11,6 +11,7 @@
 #include <stdbool.h>
 #include <stddef.h>
 #include <stdint.h>
+#include "hg_bringup.h"
 #include "hg_proto.h"
 #include "hg_servo.h"
 
@@ -61,6 +62,9 @@ typedef struct {
     uint16_t live_ctr;    /* counter of the FORCE the pushed tick rendered           */
     uint16_t live_lat;    /* its latency in ticks: first tick using it - answered SEQ */
     uint8_t ver;          /* protocol version of the request being handled           */
+    uint32_t now;         /* link_now(): the latest SEQ seen (bring-up or servo)        */
+    hg_bringup_t *bu;     /* bring-up reachable over the link (NULL: its messages NAK 6);
+                           * set by the board code after hg_link_init                   */
 } hg_link_t;
 
 void hg_link_init(hg_link_t *l, hg_servo_t *servo);
@@ -76,7 +80,8 @@ size_t hg_link_encode_v(uint8_t version, uint8_t type, uint8_t seq, const uint8_
                         size_t n, uint8_t out[HG_LINK_MAX_FRAME]);
 /* Background-loop duty, called often (at least once per servo tick): the link-silence
  * timeout (while forces are enabled over the link, silence beyond cfg.timeout_ms disables
- * them and stops the stream; a state-only stream goes on) and the stream. When a push is due
+ * them and stops the stream; a state-only stream goes on; while a bring-up step runs, the
+ * same silence aborts it to zero torque with HG_BU_ERR_LINK) and the stream. When a push is due
  * and tx_free, the encoded STATE_PUSH (the state of the current tick) is written to tx and its
  * length returned. A due push waits while the transmitter is busy; each further period that
  * passes while it waits counts one dropped sample. Otherwise 0. */

@@ -26,6 +26,11 @@ enum {
     HG_MSG_FORCE = 0x0A,     /* v2: PC force with TTL, counter and the state it answers */
     HG_MSG_SET_CALIB = 0x0B, /* v2: one axis's calibration (hg_calib.h); only while disabled */
     HG_MSG_GET_CALIB = 0x0C, /* v2: read one axis's calibration                            */
+    HG_MSG_BU_START = 0x0D,  /* v2: start a bring-up step (hg_bringup.h)                   */
+    HG_MSG_BU_PROGRESS = 0x0E, /* v2: the running step's state, ticks and error            */
+    HG_MSG_BU_RESULT = 0x0F, /* v2: one page of an axis's bring-up results                 */
+    HG_MSG_BU_CHECK = 0x10,  /* v2: one check {name, value, limit, unit, pass} of an axis  */
+    HG_MSG_BU_ABORT = 0x11,  /* v2: stop the running step at once (zero torque)            */
     HG_MSG_STATE_PUSH = 0x8A, /* v2, device -> PC only: the compact streamed state       */
     HG_MSG_REPLY = 0x80,     /* reply bit                                          */
     HG_MSG_NAK = 0xFF,       /* reply refusing a good frame: data = type, reason   */
@@ -37,6 +42,8 @@ enum {
     HG_NAK_REPLAY = 3,
     HG_NAK_UNCALIBRATED = 4, /* ENABLE or a force while an axis is not homed and aligned     */
     HG_NAK_ENABLED = 5,      /* SET_CALIB while the forces are enabled                       */
+    HG_NAK_BRINGUP = 6,      /* ENABLE 1 or SET_CALIB while a bring-up step runs, or a bring-up
+                              * message to a device without bring-up                         */
 };
 
 /* Reply data lengths (HG_FORCE_LEN: the FORCE request) */
@@ -49,12 +56,23 @@ enum {
 #define HG_PUSH_LEN 54u
 #define HG_FORCE_LEN 20u
 #define HG_CALIB_LEN 11u       /* SET_CALIB request = GET_CALIB reply */
+#define HG_BU_START_ACK_LEN 9u  /* u8 result, f32 value, f32 limit */
+#define HG_BU_PROGRESS_LEN 26u
+#define HG_BU_RESULT0_LEN 54u   /* page 0: ALIGN, HOME, GUIDED */
+#define HG_BU_RESULT1_LEN 52u   /* page 1: IDENT and the step durations */
+#define HG_BU_RESULT2_LEN HG_CALIB_LEN /* page 2: the calibration bring-up found (SET_CALIB's) */
+#define HG_BU_CHECK_LEN 56u
+#define HG_BU_NAME_LEN 32u      /* BU_CHECK: NUL-padded name */
+#define HG_BU_UNIT_LEN 12u      /* BU_CHECK: NUL-padded unit */
 /* Request data lengths */
 #define HG_SET_FORCE_LEN 12u
 #define HG_SET_SCENE_LEN 37u
 #define HG_ENABLE_LEN 1u
 #define HG_STREAM_LEN 2u
 #define HG_GET_CALIB_LEN 1u
+#define HG_BU_START_LEN 9u     /* u8 step, u8 axis, i8 expect[3], u32 seed */
+#define HG_BU_RESULT_LEN 2u    /* u8 axis, u8 page */
+#define HG_BU_CHECK_REQ_LEN 2u /* u8 axis, u8 check */
 #define HG_STREAM_MAX_PERIOD 1000u  /* ticks */
 #define HG_LINK_TIMEOUT_MS 250u     /* default link-silence timeout */
 

@@ -130,6 +130,11 @@ static int h_enable(hg_link_t *l, const uint8_t *req, uint8_t *out, size_t *n)
     (void)n;
     if (req[0] > 1)
         return HG_NAK_RANGE;
+    if (l->bu && hg_bringup_active(l->bu)) {
+        if (req[0] == 1)
+            return HG_NAK_BRINGUP; /* the step owns the FPGA */
+        hg_bringup_abort(l->bu, HG_BU_ERR_ABORT); /* disable stops a step to zero torque */
+    }
     const int rc = hg_servo_enable(l->servo, req[0] == 1);
     if (rc)
         return rc == HG_SERVO_E_UNCAL ? HG_NAK_UNCALIBRATED : HG_NAK_ERROR_LATCHED;
@@ -237,6 +242,8 @@ static int h_set_calib(hg_link_t *l, const uint8_t *req, uint8_t *out, size_t *n
     hg_axis_calib_t c;
     (void)out;
     (void)n;
+    if (l->bu && hg_bringup_active(l->bu))
+        return HG_NAK_BRINGUP;
     c.flags = req[1];
     c.enc_dir = (int8_t)(req[2] >= 0x80u ? (int)req[2] - 256 : (int)req[2]);
     c.phases_swapped = req[3];
@@ -255,6 +262,152 @@ static int h_get_calib(hg_link_t *l, const uint8_t *req, uint8_t *out, size_t *n
     put_calib(out, req[0], &l->servo->cfg.cal.axis[req[0]]);
     hg_hal_irq_restore(t);
     *n = HG_CALIB_LEN;
+    return 0;
+}
+
+/* ---- bring-up (hg_bringup.h); the layouts are tabled in README.md, "PC link protocol" */
+
+/* u8 step, u8 axis, i8 expect[3], u32 seed -> u8 result (HG_BU_*: 0 started), f32 value,
+ * f32 limit (the figures of a refusal, e.g. ERR_CONFIG's planned travel and its bound). */
+static int h_bu_start(hg_link_t *l, const uint8_t *req, uint8_t *out, size_t *n)
+{
+    hg_bringup_t *b = l->bu;
+    if (!b)
+        return HG_NAK_BRINGUP;
+    int8_t expect[3];
+    for (int i = 0; i < 3; i++)
+        expect[i] = (int8_t)(req[2 + i] >= 0x80u ? (int)req[2 + i] - 256 : (int)req[2 + i]);
+    int rc = HG_BU_ERR_BUSY;
+    if (!hg_bringup_active(b)) {
+        /* a refusal leaves its figures here (ERR_CONFIG, NOT_READY); others leave zeros */
+        b->err_value = b->err_limit = 0.0f;
+        rc = hg_bringup_start(b, req[0], req[1], expect, hg_get_u32(req + 5));
+    }
+    out[0] = (uint8_t)rc;
+    hg_put_f32(out + 1, rc != HG_BU_OK ? b->err_value : 0.0f);
+    hg_put_f32(out + 5, rc != HG_BU_OK ? b->err_limit : 0.0f);
+    *n = HG_BU_START_ACK_LEN;
+    return 0;
+}
+
+/* u8 state, u8 step, u8 axis, u8 err, u32 ticks, u32 tick_limit, f32 err_value,
+ * f32 err_limit, u32 FPGA SEQ of the step's last snapshot, u16 servo rate Hz. */
+static int h_bu_progress(hg_link_t *l, const uint8_t *req, uint8_t *out, size_t *n)
+{
+    const hg_bringup_t *b = l->bu;
+    (void)req;
+    if (!b)
+        return HG_NAK_BRINGUP;
+    const uint32_t t = hg_hal_irq_save();
+    out[0] = (uint8_t)b->state;
+    out[1] = b->step;
+    out[2] = b->axis;
+    out[3] = b->err;
+    hg_put_u32(out + 4, b->ticks);
+    hg_put_u32(out + 8, b->tick_limit);
+    hg_put_f32(out + 12, b->err_value);
+    hg_put_f32(out + 16, b->err_limit);
+    hg_put_u32(out + 20, b->seq);
+    hg_hal_irq_restore(t);
+    hg_put_u16(out + 24, l->servo->cfg.rate_hz);
+    *n = HG_BU_PROGRESS_LEN;
+    return 0;
+}
+
+static void put_calib(uint8_t *d, uint8_t axis, const hg_axis_calib_t *c);
+
+/* u8 axis, u8 page -> page 0 (ALIGN, HOME, GUIDED), 1 (IDENT, durations), 2 (calibration). */
+static int h_bu_result(hg_link_t *l, const uint8_t *req, uint8_t *out, size_t *n)
+{
+    const hg_bringup_t *b = l->bu;
+    const uint8_t a = req[0];
+    if (!b)
+        return HG_NAK_BRINGUP;
+    if (a >= 3u || req[1] > 2u)
+        return HG_NAK_RANGE;
+    const hg_bu_axis_t *r = &b->res[a];
+    const uint32_t t = hg_hal_irq_save();
+    if (req[1] == 2u) {
+        put_calib(out, a, &b->calib.axis[a]);
+        *n = HG_BU_RESULT2_LEN;
+    } else if (req[1] == 1u) {
+        const float v[12] = { r->inertia, r->b_visc, r->tau_coulomb, r->tau_gravity, r->kt_amp,
+                              r->ident_resid, r->duration_s[0], r->duration_s[1],
+                              r->duration_s[2], r->duration_s[3], r->duration_s[4],
+                              r->duration_s[5] };
+        out[0] = a;
+        out[1] = 1;
+        out[2] = out[3] = 0;
+        for (int i = 0; i < 12; i++)
+            hg_put_f32(out + 4 + 4 * i, v[i]);
+        *n = HG_BU_RESULT1_LEN;
+    } else {
+        out[0] = a;
+        out[1] = 0;
+        out[2] = (uint8_t)((r->aligned ? 1u : 0u) | (r->homed ? 2u : 0u)
+                           | (r->home_virtual ? 4u : 0u) | (r->guided_reversed ? 8u : 0u)
+                           | (r->refused ? 16u : 0u));
+        out[3] = (uint8_t)r->scan_sign;
+        out[4] = (uint8_t)r->dir_base;
+        out[5] = 0;
+        const float f[6] = { r->counts_per_elec, r->counts_per_elec_cfg, r->pole_pairs_meas,
+                             r->align_lambda, r->offset_raw, r->move_elec_deg };
+        for (int i = 0; i < 6; i++)
+            hg_put_f32(out + 6 + 4 * i, f[i]);
+        hg_put_u32(out + 30, (uint32_t)r->home_count);
+        hg_put_u32(out + 34, (uint32_t)r->ref_count);
+        hg_put_u32(out + 38, (uint32_t)r->enc_offset);
+        hg_put_f32(out + 42, r->home_travel);
+        hg_put_f32(out + 46, r->guided_move);
+        hg_put_f32(out + 50, r->guided_wait_s);
+        *n = HG_BU_RESULT0_LEN;
+    }
+    hg_hal_irq_restore(t);
+    return 0;
+}
+
+static void put_str(uint8_t *d, const char *s, size_t len)
+{
+    size_t i = 0;
+    for (; s && s[i] && i + 1 < len; i++)
+        d[i] = (uint8_t)s[i];
+    for (; i < len; i++)
+        d[i] = 0;
+}
+
+/* u8 axis, u8 check -> u8 axis, u8 check, u8 number of checks, u8 flags (bit 0 passes when
+ * value >= limit, 1 evaluated in the last run of its step, 2 passed), f32 value, f32 limit,
+ * name[32], unit[12] (NUL-terminated, NUL-padded). */
+static int h_bu_check(hg_link_t *l, const uint8_t *req, uint8_t *out, size_t *n)
+{
+    const hg_bringup_t *b = l->bu;
+    if (!b)
+        return HG_NAK_BRINGUP;
+    if (req[0] >= 3u || req[1] >= HG_BU_NCHECKS)
+        return HG_NAK_RANGE;
+    const uint32_t t = hg_hal_irq_save();
+    const hg_bu_check_info_t c = hg_bringup_check(b, req[0], req[1]);
+    hg_hal_irq_restore(t);
+    out[0] = req[0];
+    out[1] = req[1];
+    out[2] = HG_BU_NCHECKS;
+    out[3] = (uint8_t)((c.ge ? 1u : 0u) | (c.done ? 2u : 0u) | (c.pass ? 4u : 0u));
+    hg_put_f32(out + 4, c.value);
+    hg_put_f32(out + 8, c.limit);
+    put_str(out + 12, c.name, HG_BU_NAME_LEN);
+    put_str(out + 12 + HG_BU_NAME_LEN, c.unit, HG_BU_UNIT_LEN);
+    *n = HG_BU_CHECK_LEN;
+    return 0;
+}
+
+static int h_bu_abort(hg_link_t *l, const uint8_t *req, uint8_t *out, size_t *n)
+{
+    (void)req;
+    (void)out;
+    (void)n;
+    if (!l->bu)
+        return HG_NAK_BRINGUP;
+    hg_bringup_abort(l->bu, HG_BU_ERR_ABORT);
     return 0;
 }
 
@@ -281,6 +434,11 @@ static const struct {
     { HG_MSG_STREAM, HG_STREAM_LEN, 2, h_stream },        { HG_MSG_FORCE, HG_FORCE_LEN, 2, h_force },
     { HG_MSG_SET_CALIB, HG_CALIB_LEN, 2, h_set_calib },
     { HG_MSG_GET_CALIB, HG_GET_CALIB_LEN, 2, h_get_calib },
+    { HG_MSG_BU_START, HG_BU_START_LEN, 2, h_bu_start },
+    { HG_MSG_BU_PROGRESS, 0, 2, h_bu_progress },
+    { HG_MSG_BU_RESULT, HG_BU_RESULT_LEN, 2, h_bu_result },
+    { HG_MSG_BU_CHECK, HG_BU_CHECK_REQ_LEN, 2, h_bu_check },
+    { HG_MSG_BU_ABORT, 0, 2, h_bu_abort },
 };
 
 void hg_link_init(hg_link_t *l, hg_servo_t *servo)
@@ -306,6 +464,21 @@ size_t hg_link_encode_v(uint8_t version, uint8_t type, uint8_t seq, const uint8_
                         size_t n, uint8_t out[HG_LINK_MAX_FRAME])
 {
     return hg_frame_encode(version, type, seq, data, n, out);
+}
+
+/* The link's clock in FPGA SEQ ticks: the servo's snapshot SEQ, or while bring-up runs (the
+ * servo does not step) the later of it and bring-up's, never going back. */
+static uint32_t link_now(hg_link_t *l)
+{
+    if (!l->bu)
+        return l->servo->seq;
+    uint32_t t = l->now;
+    if ((int32_t)(l->servo->seq - t) > 0)
+        t = l->servo->seq;
+    if (l->bu->have_prev && (int32_t)(l->bu->seq - t) > 0)
+        t = l->bu->seq;
+    l->now = t;
+    return t;
 }
 
 /* One complete frame (delimiter stripped): check, dispatch, build the reply. */
@@ -338,7 +511,7 @@ static size_t handle_frame(hg_link_t *l, uint8_t tx[HG_LINK_MAX_FRAME])
         return 0;
     }
     l->st.good++;
-    l->last_rx = l->servo->seq;
+    l->last_rx = link_now(l);
     l->ver = raw[0];
     uint8_t out[HG_LINK_MAX_DATA];
     size_t out_n = 0;
@@ -359,7 +532,14 @@ size_t hg_link_poll(hg_link_t *l, bool tx_free, uint8_t tx[HG_LINK_MAX_FRAME])
     hg_servo_t *s = l->servo;
     const uint32_t seq = s->seq;
     const uint32_t limit = ms_to_ticks(s, l->cfg.timeout_ms);
-    if (limit > 0 && l->armed && seq - l->last_rx > limit) { /* the driving PC went silent */
+    const uint32_t now = link_now(l);
+    /* with bring-up, last_rx may be ahead of a servo SEQ not yet re-seeded: no silence */
+    const uint32_t quiet = l->bu && (int32_t)(now - l->last_rx) < 0 ? 0u : now - l->last_rx;
+    if (l->bu && hg_bringup_active(l->bu) && limit > 0 && quiet > limit) {
+        hg_bringup_abort(l->bu, HG_BU_ERR_LINK); /* silence during a step: zero torque */
+        l->st.timeouts++;
+    }
+    if (limit > 0 && l->armed && quiet > limit) { /* the driving PC went silent */
         hg_servo_enable(s, false);
         l->armed = false;
         l->period = 0;

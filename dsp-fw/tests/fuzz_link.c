@@ -3,7 +3,9 @@
  * Every chunk between delimiters is classified by an independent reference (its own COBS
  * decoder and the protocol table of README.md); the link's counters must match the reference
  * after every chunk, a bad chunk must produce no reply and leave the servo bit-identical,
- * a good one exactly one reply with its seq.  Usage: fuzz_link [frames] [seed] */
+ * a good one exactly one reply with its seq. Bring-up is reachable (its messages start and
+ * abort steps, stepped in place of the servo while one runs) and must stay bit-identical too.
+ * Usage: fuzz_link [frames] [seed] */
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -28,10 +30,10 @@ static uint32_t rnd(void) /* xorshift64* */
 /* request data length per type and version, from the protocol table; -1 = unknown type */
 static int ref_len(uint8_t version, uint8_t type)
 {
-    static const int len[13] = { -1, 0, 0, 12, 37, 1, 0, 0, 0, 2, 20, 11, 1 };
+    static const int len[18] = { -1, 0, 0, 12, 37, 1, 0, 0, 0, 2, 20, 11, 1, 9, 0, 2, 2, 0 };
     if (version == 1 && type >= 8)
         return -1; /* the version-2 messages do not exist in version 1 */
-    return type < 13 ? len[type] : -1;
+    return type < 18 ? len[type] : -1;
 }
 
 static int ref_classify(const uint8_t *e, size_t n, uint8_t *seq, uint8_t *type)
@@ -69,9 +71,9 @@ static int ref_classify(const uint8_t *e, size_t n, uint8_t *seq, uint8_t *type)
  * knows. Returns the encoded length (delimiter not included). */
 static size_t make_chunk(uint8_t *out, int *want)
 {
-    static const uint8_t types[] = { 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12 };
+    static const uint8_t types[] = { 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15, 16, 17 };
     uint8_t raw[HG_LINK_MAX_RAW + 8];
-    const uint8_t type = types[rnd() % 12];
+    const uint8_t type = types[rnd() % 17];
     const uint8_t ver = type >= 8 ? 2 : (uint8_t)(1 + rnd() % 2);
     size_t n = 3 + (size_t)ref_len(ver, type);
     raw[0] = ver;
@@ -97,6 +99,16 @@ static size_t make_chunk(uint8_t *out, int *want)
         raw[7] = 2;
         raw[13] = (uint8_t)(rnd() % 4);
     }
+    if (type == 13) { /* BU_START: a valid step, axis and expectation often */
+        raw[3] = (uint8_t)(rnd() % 7);
+        raw[4] = (uint8_t)(rnd() % 4);
+        for (int i = 5; i < 8 && rnd() % 2; i++)
+            raw[i] = (uint8_t)(rnd() % 3 == 0 ? 0xFF : rnd() % 2);
+    }
+    if (type == 15 || type == 16) { /* BU_RESULT / BU_CHECK: axis, page or check in range */
+        raw[3] = (uint8_t)(rnd() % 4);
+        raw[4] = (uint8_t)(rnd() % (type == 15 ? 4 : 11));
+    }
     if (type == 9) /* stream period: mostly in range */
         raw[4] = (uint8_t)(rnd() % 5);
     if (type == 10 && rnd() % 2) { /* FORCE: a valid TTL and a newer counter half the time */
@@ -115,7 +127,7 @@ static size_t make_chunk(uint8_t *out, int *want)
             raw[0] = (uint8_t)(3 + rnd() % 253); /* versions 3..255; 0 comes with garbage */
             *want = VERSION;
         } else if (w == 1) {
-            raw[1] = (uint8_t)(13 + rnd() % 243);
+            raw[1] = (uint8_t)(18 + rnd() % 238);
             *want = TYPE;
         } else {
             size_t nn;
@@ -167,6 +179,11 @@ int main(int argc, char **argv)
     hal_sim_reset();
     hg_servo_init(&s, &cfg);
     hg_link_init(&l, &s);
+    static hg_bringup_t bu; /* bring-up reachable: its messages act (steps start, abort) */
+    hg_bringup_cfg_t bc;
+    hg_bringup_default_cfg(&bc);
+    hg_bringup_init(&bu, &s, &bc, NULL);
+    l.bu = &bu;
 
     uint32_t count[NCLASS] = { 0 };
     long chunks = 0, bytes = 0, replies = 0, naks = 0, fails = 0, pushes = 0;
@@ -175,7 +192,10 @@ int main(int argc, char **argv)
     for (long f = 0; f < frames && fails < 10; f++) {
         if (f % 64 == 0) { /* keep the servo running; clear anything it latched */
             hal_sim_snapshot(pos, vel);
-            hg_servo_step(&s);
+            if (hg_bringup_active(&bu)) /* the ISR's choice (hg_bringup_isr) */
+                hg_bringup_step(&bu);
+            else
+                hg_servo_step(&s);
             uint8_t tx[HG_LINK_MAX_FRAME], raw[HG_LINK_MAX_RAW];
             const size_t r = hg_link_poll(&l, rnd() % 4 != 0, tx);
             if (r) { /* a push is a well-formed version-2 STATE_PUSH */
@@ -205,6 +225,8 @@ int main(int argc, char **argv)
                 fails++;
             }
             const hg_servo_t before = s;
+            static hg_bringup_t bu_before;
+            bu_before = bu;
             size_t got = 0, got_nak = 0;
             uint8_t tx[HG_LINK_MAX_FRAME];
             for (size_t j = start; j <= i; j++) {
@@ -237,9 +259,11 @@ int main(int argc, char **argv)
                 }
             /* a good FORCE is answered only when refused (NAK); every other good frame once */
             const bool reply_ok = type == HG_MSG_FORCE ? got == got_nak && got <= 1 : got == 1;
-            if (cls == GOOD ? !reply_ok : (got != 0 || memcmp(&before, &s, sizeof s) != 0)) {
+            if (cls == GOOD ? !reply_ok
+                            : (got != 0 || memcmp(&before, &s, sizeof s) != 0
+                               || memcmp(&bu_before, &bu, sizeof bu) != 0)) {
                 printf("FAIL frame %ld: class %s gave %zu replies%s\n", f, NAMES[cls], got,
-                       cls == GOOD ? "" : " or changed the servo");
+                       cls == GOOD ? "" : " or changed the servo or bring-up");
                 fails++;
             }
         }

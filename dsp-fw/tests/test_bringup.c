@@ -8,7 +8,9 @@
  * torque clamp, the enables, HOME_ARM and the index latch, the snapshot. Every expected value
  * is computed here from the plant's parameters. */
 #include <stdlib.h>
+#include <string.h>
 #include "hal_sim.h"
+#include "hg_frame.h"
 #include "hg_bringup.h"
 #include "hg_fpga_regs.h"
 #include "hg_test.h"
@@ -739,4 +741,231 @@ void test_bringup_ident(void)
     sim_tick();
     CHECK(B.err == HG_BU_ERR_FAULT);
     check_zero_torque_now();
+}
+
+/* ---------------------------------------------------------------- over the PC link */
+
+static hg_link_t L;
+
+/* One version-2 request to L; exactly one reply, decoded into raw; returns its type. */
+static uint8_t link_req(uint8_t type, const uint8_t *data, size_t n, uint8_t raw[HG_LINK_MAX_RAW],
+                        size_t *dn)
+{
+    static uint8_t seq;
+    uint8_t f[HG_LINK_MAX_FRAME], tx[HG_LINK_MAX_FRAME];
+    const size_t m = hg_link_encode_v(HG_PROTO_VERSION, type, ++seq, data, n, f);
+    CHECK(m > 0);
+    int replies = 0;
+    size_t rn = 0;
+    for (size_t i = 0; i < m; i++) {
+        const size_t k = hg_link_rx_byte(&L, f[i], tx);
+        if (k) {
+            replies++;
+            rn = hg_cobs_decode(tx, k - 1, raw, HG_LINK_MAX_RAW);
+        }
+    }
+    CHECK(replies == 1 && rn >= 5 && rn != HG_COBS_ERR);
+    CHECK(raw[0] == HG_PROTO_VERSION && raw[2] == seq);
+    *dn = rn - 5;
+    return raw[1];
+}
+
+static float f32_at(const uint8_t *d)
+{
+    return hg_get_f32(d);
+}
+
+static void setup_link(void)
+{
+    hg_link_init(&L, &S);
+    L.bu = &B;
+}
+
+/* BU_START over the link: the result byte (HG_BU_*) */
+static uint8_t link_start(uint8_t step, uint8_t axis, int8_t e0, int8_t e1, int8_t e2,
+                          uint8_t raw[HG_LINK_MAX_RAW])
+{
+    const uint8_t d[HG_BU_START_LEN] = { step, axis, (uint8_t)e0, (uint8_t)e1, (uint8_t)e2,
+                                         7, 0, 0, 0 };
+    size_t n = 0;
+    CHECK(link_req(HG_MSG_BU_START, d, sizeof d, raw, &n) == (HG_MSG_BU_START | HG_MSG_REPLY));
+    CHECK(n == HG_BU_START_ACK_LEN);
+    return raw[3];
+}
+
+/* One tick of the plant and the ISR, then the background loop's link poll. */
+static void tick_polled(void)
+{
+    uint8_t tx[HG_LINK_MAX_FRAME];
+    sim_tick();
+    (void)hg_link_poll(&L, true, tx);
+}
+
+/* Run the started step to its end, asking for progress every 100 ticks (a host's loop);
+ * every answer is the machine's own state at that moment. */
+static void run_step_link(void)
+{
+    const uint32_t max = B.tick_limit + 1000u;
+    uint8_t raw[HG_LINK_MAX_RAW];
+    size_t n = 0;
+    for (uint32_t k = 0; k < max && hg_bringup_active(&B); k++) {
+        tick_polled();
+        if (k % 100 == 0) {
+            CHECK(link_req(HG_MSG_BU_PROGRESS, NULL, 0, raw, &n)
+                  == (HG_MSG_BU_PROGRESS | HG_MSG_REPLY));
+            CHECK(n == HG_BU_PROGRESS_LEN);
+            CHECK(raw[3] == (uint8_t)B.state && raw[4] == B.step && raw[5] == B.axis);
+            CHECK(hg_get_u32(raw + 7) == B.ticks && hg_get_u32(raw + 11) == B.tick_limit);
+            CHECK(hg_get_u32(raw + 23) == B.seq && hg_get_u16(raw + 27) == S.cfg.rate_hz);
+        }
+    }
+    CHECK(!hg_bringup_active(&B));
+}
+
+/* ALIGN and a guided move started, followed and read over the link: every field of the
+ * result pages and checks is the machine's. */
+void test_bringup_link_align(void)
+{
+    uint8_t raw[HG_LINK_MAX_RAW], d[2];
+    size_t n = 0;
+    setup_sim();
+    SIM.ax[1].off_deg = -120.0;
+    SIM.ax[1].swapped = 1;
+    setup_fw(NULL, NULL);
+    setup_link();
+    CHECK(link_start(HG_BU_STEP_ALIGN, 1, 0, 0, 0, raw) == HG_BU_OK);
+    CHECK(hg_bringup_active(&B) && B.step == HG_BU_STEP_ALIGN && B.axis == 1);
+    CHECK(link_start(HG_BU_STEP_ALIGN, 0, 0, 0, 0, raw) == HG_BU_ERR_BUSY);
+    run_step_link();
+    CHECK(B.err == HG_BU_OK && B.res[1].scan_sign == -1);
+    CHECK(link_req(HG_MSG_BU_PROGRESS, NULL, 0, raw, &n) == (HG_MSG_BU_PROGRESS | HG_MSG_REPLY));
+    CHECK(raw[3] == HG_BU_IDLE && raw[6] == HG_BU_OK);
+    /* page 0 */
+    d[0] = 1;
+    d[1] = 0;
+    CHECK(link_req(HG_MSG_BU_RESULT, d, 2, raw, &n) == (HG_MSG_BU_RESULT | HG_MSG_REPLY));
+    CHECK(n == HG_BU_RESULT0_LEN);
+    const hg_bu_axis_t *r = &B.res[1];
+    const uint8_t *p = raw + 3;
+    CHECK(p[0] == 1 && p[1] == 0 && (p[2] & 1u) && !(p[2] & 2u));
+    CHECK((int8_t)p[3] == -1 && (int8_t)p[4] == 1);
+    CHECK(f32_at(p + 6) == r->counts_per_elec && f32_at(p + 10) == r->counts_per_elec_cfg);
+    CHECK(f32_at(p + 14) == r->pole_pairs_meas && f32_at(p + 22) == r->offset_raw);
+    CHECK(f32_at(p + 26) == r->move_elec_deg);
+    CHECK((int32_t)hg_get_u32(p + 34) == r->ref_count);
+    /* page 1: ALIGN's device time */
+    d[1] = 1;
+    CHECK(link_req(HG_MSG_BU_RESULT, d, 2, raw, &n) == (HG_MSG_BU_RESULT | HG_MSG_REPLY));
+    CHECK(n == HG_BU_RESULT1_LEN);
+    CHECK(f32_at(raw + 3 + 4 + 4 * (6 + HG_BU_STEP_ALIGN)) == r->duration_s[HG_BU_STEP_ALIGN]);
+    CHECK(r->duration_s[HG_BU_STEP_ALIGN] >= 10.0f);
+    /* page 2: the calibration, SET_CALIB's layout */
+    d[1] = 2;
+    CHECK(link_req(HG_MSG_BU_RESULT, d, 2, raw, &n) == (HG_MSG_BU_RESULT | HG_MSG_REPLY));
+    CHECK(n == HG_CALIB_LEN);
+    CHECK(raw[3] == 1 && raw[4] == B.calib.axis[1].flags && raw[6] == 1);
+    CHECK(hg_get_u16(raw + 12) == B.calib.axis[1].comm_offset);
+    d[1] = 3;
+    CHECK(link_req(HG_MSG_BU_RESULT, d, 2, raw, &n) == HG_MSG_NAK && raw[4] == HG_NAK_RANGE);
+    /* a check, self-describing */
+    d[1] = HG_BU_CHK_ALIGN_MOVE;
+    CHECK(link_req(HG_MSG_BU_CHECK, d, 2, raw, &n) == (HG_MSG_BU_CHECK | HG_MSG_REPLY));
+    CHECK(n == HG_BU_CHECK_LEN);
+    CHECK(raw[3] == 1 && raw[4] == HG_BU_CHK_ALIGN_MOVE && raw[5] == HG_BU_NCHECKS);
+    CHECK(raw[6] == (1u | 2u | 4u)); /* >=, done, pass */
+    CHECK(f32_at(raw + 7) == r->chk[HG_BU_CHK_ALIGN_MOVE].value && f32_at(raw + 11) == 3.6f);
+    CHECK(memcmp(raw + 15, "align_movement", 15) == 0);
+    CHECK(memcmp(raw + 15 + HG_BU_NAME_LEN, "deg_elec", 9) == 0);
+    d[1] = HG_BU_NCHECKS;
+    CHECK(link_req(HG_MSG_BU_CHECK, d, 2, raw, &n) == HG_MSG_NAK && raw[4] == HG_NAK_RANGE);
+
+    /* GUIDED over the link: the expectation bytes are signed */
+    hand_move(1, SIM.t + 0.5, -0.3);
+    CHECK(link_start(HG_BU_STEP_GUIDED, 0, 0, -1, 0, raw) == HG_BU_OK);
+    CHECK(B.expect[0] == 0 && B.expect[1] == -1 && B.expect[2] == 0);
+    run_step_link();
+    CHECK(B.err == HG_BU_OK && B.res[1].chk[HG_BU_CHK_GUIDED_MOVE].pass);
+    CHECK(!B.res[1].guided_reversed && B.calib.axis[1].phases_swapped == 1);
+
+    /* refusals carry their figures */
+    CHECK(link_start(HG_BU_STEP_ALIGN, 3, 0, 0, 0, raw) == HG_BU_ERR_ARG);
+    CHECK(f32_at(raw + 4) == 0.0f && f32_at(raw + 8) == 0.0f);
+    CHECK(link_start(HG_BU_STEP_IDENT + 1, 0, 0, 0, 0, raw) == HG_BU_ERR_ARG);
+    CHECK(link_start(HG_BU_STEP_IDENT, 1, 0, 0, 0, raw) == HG_BU_ERR_NOT_READY);
+    CHECK(f32_at(raw + 4) == -1.0f && f32_at(raw + 8) == 1.0f); /* scan sign, needed */
+    /* the same refusal again: its figures again (not those of the last step) */
+    CHECK(link_start(HG_BU_STEP_IDENT, 1, 0, 0, 0, raw) == HG_BU_ERR_NOT_READY);
+    CHECK(f32_at(raw + 4) == -1.0f && f32_at(raw + 8) == 1.0f);
+    B.cfg.travel_max = 1.0f;
+    CHECK(link_start(HG_BU_STEP_ALIGN, 0, 0, 0, 0, raw) == HG_BU_ERR_CONFIG);
+    CHECK_NEAR(f32_at(raw + 4), 2.5 / 2.0 * 2.0 * PI_D, 1e-4);
+    CHECK(f32_at(raw + 8) == 1.0f);
+}
+
+/* Link silence in mid-scan: zero torque within the link timeout (250 ms) + one tick; the
+ * servo takes the FPGA back without an error. */
+void test_bringup_link_loss(void)
+{
+    uint8_t raw[HG_LINK_MAX_RAW];
+    setup_sim();
+    setup_fw(NULL, NULL);
+    setup_link();
+    CHECK(link_start(HG_BU_STEP_ALIGN, 0, 0, 0, 0, raw) == HG_BU_OK);
+    for (unsigned k = 0; k < 3000; k++) { /* talked to: runs on */
+        tick_polled();
+        if (k % 200 == 0) {
+            size_t n;
+            (void)link_req(HG_MSG_BU_PROGRESS, NULL, 0, raw, &n);
+        }
+    }
+    CHECK(B.state == HG_BU_ALIGN_FWD && hal_sim_torque(0) != 0);
+    const uint32_t seq_last = L.last_rx;
+    unsigned k = 0;
+    while (hg_bringup_active(&B) && k < 2000) {
+        tick_polled();
+        k++;
+    }
+    CHECK(B.err == HG_BU_ERR_LINK && L.st.timeouts == 1);
+    check_zero_torque_now();
+    /* the tick the silence exceeded 250 ticks (1 kHz, 250 ms) */
+    CHECK(B.seq - seq_last == 251u);
+    CHECK(k <= 251u);
+    tick_polled();
+    CHECK(SIM.ax[0].tau == 0.0 && S.err == HG_ERR_NONE);
+}
+
+/* disable, ENABLE 1, SET_CALIB and BU_ABORT around a running step; a device without
+ * bring-up refuses its messages */
+void test_bringup_link_abort(void)
+{
+    uint8_t raw[HG_LINK_MAX_RAW];
+    size_t n = 0;
+    const uint8_t off[1] = { 0 }, on[1] = { 1 };
+    setup_sim();
+    setup_fw(NULL, NULL);
+    setup_link();
+    CHECK(link_start(HG_BU_STEP_ALIGN, 2, 0, 0, 0, raw) == HG_BU_OK);
+    run_ticks(2500);
+    CHECK(hal_sim_torque(2) != 0);
+    CHECK(link_req(HG_MSG_ENABLE, on, 1, raw, &n) == HG_MSG_NAK && raw[4] == HG_NAK_BRINGUP);
+    uint8_t cal[HG_CALIB_LEN] = { 0, 3, 1, 0, 2, 0, 0, 0, 0, 0, 0 };
+    CHECK(link_req(HG_MSG_SET_CALIB, cal, sizeof cal, raw, &n) == HG_MSG_NAK
+          && raw[4] == HG_NAK_BRINGUP);
+    CHECK(hg_bringup_active(&B) && hal_sim_torque(2) != 0);
+    CHECK(link_req(HG_MSG_ENABLE, off, 1, raw, &n) == (HG_MSG_ENABLE | HG_MSG_REPLY));
+    CHECK(B.err == HG_BU_ERR_ABORT && !hg_bringup_active(&B));
+    check_zero_torque_now();
+
+    CHECK(link_start(HG_BU_STEP_ALIGN, 2, 0, 0, 0, raw) == HG_BU_OK);
+    run_ticks(2500);
+    CHECK(hal_sim_torque(2) != 0);
+    CHECK(link_req(HG_MSG_BU_ABORT, NULL, 0, raw, &n) == (HG_MSG_BU_ABORT | HG_MSG_REPLY));
+    CHECK(n == 0 && B.err == HG_BU_ERR_ABORT);
+    check_zero_torque_now();
+
+    L.bu = NULL;
+    CHECK(link_req(HG_MSG_BU_PROGRESS, NULL, 0, raw, &n) == HG_MSG_NAK && raw[4] == HG_NAK_BRINGUP);
+    const uint8_t d[HG_BU_START_LEN] = { HG_BU_STEP_ALIGN, 0 };
+    CHECK(link_req(HG_MSG_BU_START, d, sizeof d, raw, &n) == HG_MSG_NAK);
+    CHECK(link_req(HG_MSG_BU_ABORT, NULL, 0, raw, &n) == HG_MSG_NAK);
 }

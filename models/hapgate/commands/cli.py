@@ -17,6 +17,7 @@ from ..golden import configs
 from ..runners.sim import MissingSimulator, simulators
 from . import (
     bench,
+    bringup,
     coverage,
     demo,
     device,
@@ -241,6 +242,10 @@ def main(argv: list[str] | None = None) -> int:
 
     scene.add_arguments(sub.add_parser(
         "scene", help="virtual-device scenes: run FILE [--out DIR] | check FILE..."))
+    up = sub.add_parser("bringup", help="bring-up over the PC link: PORT [--steps ...] [--out DIR] "
+                        "[--apply] (docs/bringup.md)")
+    bringup.add_arguments(up)
+    up.set_defaults(fn=bringup.main)
     dp = sub.add_parser("device", help="the virtual device")
     dsub = dp.add_subparsers(dest="device_cmd", required=True)
     device.add_arguments(dsub.add_parser(

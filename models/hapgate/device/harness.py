@@ -155,8 +155,9 @@ def plant_config(scene: Any, q0: np.ndarray) -> str:
     if gk:
         lines += ["gravity_on = 1", f"gravity_k = {_vec(gk)}",
                   f"gravity_q = {_vec(getattr(pl, 'gravity_q', (0.0, 0.0)))}"]
-    if hand.kind == "spring":
+    if hand.kind == "spring" or getattr(hand, "guided", ()):
         lines += [f"hand_k = {hand.k!r}", f"hand_b = {hand.b!r}"]
+    if hand.kind == "spring":
         path = np.asarray(hand.path if hand.path else [[0.0, *kinematics.fk(q0)]], dtype=float)
         lines.append(f"hand_path = {_vec(path)}")
     return "\n".join(lines) + "\n"
@@ -220,6 +221,9 @@ def run_config(scene: Any, q0: np.ndarray) -> str:
     if timeout_ms is not None:
         ticks = int(round(timeout_ms * scene.run.servo_hz / 1000))
         lines.append(f"pc_force_timeout_ticks = {ticks}")
+    guided = getattr(scene.hand, "guided", ())
+    if guided:
+        lines.append(f"guided = {_vec(np.asarray(guided, dtype=float))}")
     if calib_line(scene):
         lines.append(calib_line(scene))
     for k, v in hold_values(scene, q0).items():

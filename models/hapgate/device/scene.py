@@ -34,6 +34,7 @@ class SceneError(ValueError):
 # ------------------------------------------------------------------------------- vocabulary
 
 FIDELITIES = ("rtl", "model")
+GUIDED_MAX_M = 0.05                # hand.guided: largest displacement from the step's start
 RECORDABLE = ("q", "p", "f_hand", "tau", "dac", "adc", "pos", "current")
 ENV_KINDS = ("none", "wall", "spring", "viscous", "pc")
 HAND_KINDS = ("none", "spring", "fixed")
@@ -130,6 +131,10 @@ class HandCfg:
     b: float = 2.0                   # N s/m, [0, 1e3]
     path: tuple[tuple[float, float, float, float], ...] = ()   # (t s, x m, y m, z m)
     #                                   empty: the target is the start pose's endpoint
+    guided: tuple[tuple[float, float, float, float], ...] = ()  # (t s, dx m, dy m, dz m)
+    #                                   bring-up's guided move: while a GUIDED step runs, a spring
+    #                                   (k, b) pulls the endpoint along these displacements from
+    #                                   where the step started; while another step runs, no hand
 
     def target(self, t: np.ndarray, start: np.ndarray) -> np.ndarray:
         """Target endpoint (m, shape t.shape + (3,)) at times t: a C1 smooth (cubic ease)
@@ -585,7 +590,7 @@ class _Validator:
     def hand(self, d: dict[str, Any]) -> HandCfg:
         kind = self.str_(d.get("kind", HandCfg.kind), "hand.kind", HAND_KINDS)
         if kind == "none":
-            for k in ("k", "b", "path"):
+            for k in ("path",) if "guided" in d else ("k", "b", "path"):
                 if k in d:
                     raise self.fail(f"hand.{k}", "does not apply to hand kind 'none' "
                                                  "(a free linkage)")
@@ -612,7 +617,18 @@ class _Validator:
                 out.append((t, *xyz))
             return tuple(out)
 
+        def guided(x: object, k: str) -> tuple[tuple[float, ...], ...]:
+            rows = path(x, k)
+            if not rows:
+                raise self.fail(k, "expected at least one point [t, dx, dy, dz]")
+            for i, r in enumerate(rows):
+                if math.hypot(*r[1:]) > GUIDED_MAX_M:
+                    raise self.fail(f"{k}[{i}]", f"|d| = {math.hypot(*r[1:]):.3g} m out of "
+                                                 f"range: <= {GUIDED_MAX_M} m")
+            return rows
+
         kw = self.fields_of(d, "hand", {
+            "guided": guided,
             "kind": lambda x, k: x,
             "k": lambda x, k: self.num(x, k, lambda v: 0 < v <= 1e5, "0 < k <= 1e5 N/m"),
             "b": lambda x, k: self.num(x, k, lambda v: 0 <= v <= 1e3, "0..1e3 N s/m"),

@@ -15,13 +15,29 @@ VERSIONS = (VERSION, VERSION2)
 PING, GET_STATE, SET_FORCE, SET_SCENE, ENABLE, GET_STATS, CLEAR_ERROR = range(1, 8)
 INFO, STREAM, FORCE = 8, 9, 10           # version 2
 SET_CALIB, GET_CALIB = 0x0B, 0x0C        # version 2 (issue 26)
+BU_START, BU_PROGRESS, BU_RESULT, BU_CHECK, BU_ABORT = 0x0D, 0x0E, 0x0F, 0x10, 0x11  # v2 bring-up
 STATE_PUSH = 0x8A                        # version 2, device -> PC only
 REPLY, NAK = 0x80, 0xFF
 NAK_RANGE, NAK_ERROR_LATCHED, NAK_REPLAY, NAK_UNCALIBRATED, NAK_ENABLED = 1, 2, 3, 4, 5
+NAK_BRINGUP = 6
 NAK_REASONS = {NAK_RANGE: "value out of range", NAK_ERROR_LATCHED: "an error is latched",
                NAK_REPLAY: "force counter not newer (replay)",
                NAK_UNCALIBRATED: "an axis is not calibrated (homed and aligned)",
-               NAK_ENABLED: "not while the forces are enabled"}
+               NAK_ENABLED: "not while the forces are enabled",
+               NAK_BRINGUP: "a bring-up step is running (or the device has no bring-up)"}
+# bring-up (dsp-fw/include/hg_bringup.h): steps, states, errors, the message layouts
+BU_STEPS = {"align": 1, "homing": 2, "restart": 3, "guided": 4, "dynamics": 5}
+BU_STATES = ("IDLE", "ALIGN_LOCK", "ALIGN_FWD", "ALIGN_BACK", "HOME_SEARCH", "RETURN",
+             "GUIDED_WAIT", "IDENT_RUN", "IDENT_SETTLE")
+BU_ERRORS = ("OK", "ARG", "BUSY", "NOT_READY", "SERVO", "FAULT", "WDOG", "STALE", "SPEED",
+             "TRAVEL", "TIME", "ABORT", "LINK", "NO_MOVE", "POLE_PAIRS", "FIT", "NO_INDEX",
+             "GUIDED_TIMEOUT", "CONFIG")
+BU_START_FMT = "<BBbbbI"      # step, axis, expect[3], seed
+BU_START_ACK_FMT = "<Bff"     # result, value, limit
+BU_PROGRESS_FMT = "<BBBBIIffIH"   # state, step, axis, err, ticks, tick_limit, value, limit, SEQ, Hz
+BU_RESULT0_FMT = "<BBBbbB6f3i3f"  # axis, page, flags, scan_sign, dir_base, 0, ... (README table)
+BU_RESULT1_FMT = "<BBBB12f"       # axis, page, 0, 0, J, b, c, g, kt_amp, resid, durations[6]
+BU_CHECK_FMT = "<BBBBff32s12s"    # axis, check, count, flags, value, limit, name, unit
 CALIB_FMT = "<BBbBBiH"     # axis, flags, enc_dir, phases_swapped, pole_pairs, index_to_zero,
 #                            comm_offset (hg_axis_calib_t): SET_CALIB request, GET_CALIB reply
 SCENE_NONE, SCENE_WALL, SCENE_SPRING, SCENE_VISCOUS, SCENE_PC_FORCE = range(5)

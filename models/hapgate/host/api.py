@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import collections
 import math
+import struct
 import time
 from collections.abc import Iterator, Sequence
 from dataclasses import dataclass, field
@@ -378,6 +379,56 @@ class Device:
             raise ProtocolError(f"GET_CALIB answered axis {got}, asked {axis}")
         return calib.from_words(words)
 
+    # ---------------------------------------------------------------- bring-up (v2)
+    def bu_start(self, step: int, axis: int = 0, expect: Sequence[int] = (0, 0, 0),
+                 seed: int = 1) -> tuple[int, float, float]:
+        """Start a bring-up step (pclink.BU_STEPS); (result, value, limit): result 0 started,
+        else the refusal (pclink.BU_ERRORS) with its figures."""
+        d = self._request(pclink.BU_START, struct.pack(pclink.BU_START_FMT, step, axis,
+                                                       *(int(e) for e in expect), seed))
+        if len(d) != struct_size(pclink.BU_START_ACK_FMT):
+            raise ProtocolError(f"BU_START reply of {len(d)} bytes")
+        rc, v, lim = struct.unpack(pclink.BU_START_ACK_FMT, d)
+        return int(rc), float(v), float(lim)
+
+    def bu_progress(self) -> dict[str, Any]:
+        """The step's progress: state, step, axis, err (names), ticks, tick_limit, value,
+        limit, seq, rate_hz, t_s (device time into the step)."""
+        d = self._request(pclink.BU_PROGRESS)
+        if len(d) != struct_size(pclink.BU_PROGRESS_FMT):
+            raise ProtocolError(f"BU_PROGRESS reply of {len(d)} bytes")
+        st, step, ax, err, ticks, lim_t, v, lim, seq, hz = struct.unpack(pclink.BU_PROGRESS_FMT, d)
+        return {"state": _name(pclink.BU_STATES, st), "step": step, "axis": ax,
+                "err": _name(pclink.BU_ERRORS, err), "ticks": ticks, "tick_limit": lim_t,
+                "value": v, "limit": lim, "seq": seq, "rate_hz": hz,
+                "t_s": ticks / hz if hz else 0.0}
+
+    def bu_result(self, axis: int, page: int) -> tuple[Any, ...]:
+        """One page of an axis's results (dsp-fw/README.md, BU_RESULT): page 0 and 1 as the
+        struct tuples of pclink.BU_RESULT0_FMT / BU_RESULT1_FMT, page 2 the calibration bring-up
+        found (hapgate.golden.calib.AxisCalib)."""
+        d = self._request(pclink.BU_RESULT, bytes([axis, page]))
+        fmt = {0: pclink.BU_RESULT0_FMT, 1: pclink.BU_RESULT1_FMT, 2: pclink.CALIB_FMT}[page]
+        if len(d) != struct_size(fmt):
+            raise ProtocolError(f"BU_RESULT page {page} reply of {len(d)} bytes")
+        if page == 2:
+            return (calib.from_words(pclink.parse_calib(d)[1]),)
+        return struct.unpack(fmt, d)
+
+    def bu_check(self, axis: int, check: int) -> dict[str, Any]:
+        """One check: {name, value, limit, unit, ge, done, pass, count}."""
+        d = self._request(pclink.BU_CHECK, bytes([axis, check]))
+        if len(d) != struct_size(pclink.BU_CHECK_FMT):
+            raise ProtocolError(f"BU_CHECK reply of {len(d)} bytes")
+        _, _, n, fl, v, lim, name, unit = struct.unpack(pclink.BU_CHECK_FMT, d)
+        return {"name": name.split(b"\0")[0].decode(), "value": float(v), "limit": float(lim),
+                "unit": unit.split(b"\0")[0].decode(), "ge": bool(fl & 1), "done": bool(fl & 2),
+                "pass": bool(fl & 4), "count": int(n)}
+
+    def bu_abort(self) -> None:
+        """Stop the running bring-up step: zero torque before the reply."""
+        self._request(pclink.BU_ABORT)
+
     def enable(self) -> None:
         self._request(pclink.ENABLE, b"\x01")
 
@@ -490,6 +541,10 @@ class Device:
         return Stats(device=d, host_bad=dict(self._bad), rtt_wall_s=_pct(self._rtt),
                      loop_latency_ticks=_pct(self._lat), pushes=self._n_push,
                      dropped_push_seq=self._dropped, stray=self._stray)
+
+
+def _name(names: Sequence[str], i: int) -> str:
+    return names[i] if i < len(names) else str(i)
 
 
 def struct_size(fmt: str) -> int:

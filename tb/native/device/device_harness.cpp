@@ -418,6 +418,41 @@ void view_send(ViewLink* v, const hg_servo_t& s, const ViewCtl& ctl, const UartL
 }  // namespace
 extern "C" void hg_hal_irq_restore(uint32_t token) { (void)token; }
 
+// The hand during bring-up: as configured until the first step starts; from then on off (the
+// operator lets go for bring-up), except on the scripted move while a GUIDED step runs (scene
+// hand.guided: a spring from the endpoint at the step's start along the displacements; none:
+// the move never comes; the hand finishes the move and holds its end kGuidedHoldS even when the
+// step has already seen it), until the forces are enabled (the operator takes the handle back).
+// A rigid grip (hand kind fixed) never lets go: the held handle. Called after each ISR.
+constexpr double kGuidedHoldS = 0.2;   // s the hand holds the end of the guided move
+
+static void guided_hand(hg_plant* plant, const hg_dev::RunCfg& cfg, const hg_bringup_t& bu,
+                        const hg_servo_t& s) {
+    static int mode = -2;   // -1 configured hand, 0 off, 1 guided
+    static bool session = false;
+    static double guided_until = -1.0;   // plant time the scripted move ends (the hand lets go)
+    if (hg_bringup_active(&bu)) session = true;
+    if (s.enabled) session = false;
+    hg_plant_out o;
+    hg_plant_read(plant, &o);
+    const bool guided = (hg_bringup_active(&bu) && bu.step == HG_BU_STEP_GUIDED && !cfg.guided.empty())
+                     || (mode == 1 && o.t < guided_until);   // the operator finishes the move
+    const int want = guided ? 1 : session ? 0 : -1;
+    if (want == mode) return;
+    mode = want;
+    if (want != 1) {
+        hg_plant_set_hand(plant, want, nullptr, 0);
+        return;
+    }
+    guided_until = o.t + cfg.guided[cfg.guided.size() - 4] + kGuidedHoldS;
+    std::vector<double> path(cfg.guided);
+    for (size_t k = 0; k + 3 < path.size(); k += 4) {
+        path[k] += o.t;
+        for (int i = 0; i < 3; ++i) path[k + 1 + i] += o.p[i];
+    }
+    hg_plant_set_hand(plant, 1, path.data(), static_cast<int>(path.size() / 4));
+}
+
 int main(int argc, char** argv) {
     if (argc != 4 && argc != 5) {
         std::fprintf(stderr, "usage: %s PLANT_CFG RUN_CFG OUTDIR [LINK_CFG]\n", argv[0]);
@@ -502,6 +537,7 @@ int main(int argc, char** argv) {
     hg_servo_cfg_t fw;
     hg_dev::fw_config(cfg, CLK_HZ, &fw);
     static hg_servo_t s;
+    static hg_bringup_t bu;   // reachable from the link once the start pose is reached
     const uint8_t init_err = hg_servo_init(&s, &fw);
     bench.skew = fpga_read32(HG_WORD(offsetof(hapgate_t, DAC_SKEW)));
     bench.frame = fpga_read32(HG_WORD(offsetof(hapgate_t, DAC_FRAME)));
@@ -599,13 +635,15 @@ int main(int argc, char** argv) {
             g_in_isr = true;
         }
         if (vctl.forces_off && s.enabled) hg_servo_enable(&s, false);   // a PC may not re-enable
-        hg_servo_isr();
+        if (vctl.forces_off && hg_bringup_active(&bu)) hg_bringup_abort(&bu, HG_BU_ERR_ABORT);
+        hg_bringup_isr();   // the bring-up step while one runs, else the servo step
         if (g_profile) {
             g_isr_s += now_s() - ti0;
             g_in_isr = false;
         }
         // the snapshot holds the sample of grid point tick_g - 1 (the one visible at the tick)
         const uint64_t gs = tick_g - 1;
+        guided_hand(plant, cfg, bu, s);
         const TickRec r = hg_dev::tick_record(s, bench.scene_t(tick_g), &bench.qtrue_ring[(gs % Bench::kRing) * 3]);
         ticks.push_back(r);
         if (link && !scripted && ticks.size() >= 65536) ticks.clear();  // serving: runs until a signal
@@ -617,6 +655,12 @@ int main(int argc, char** argv) {
             } else if (homed_isr >= 0 && static_cast<int64_t>(tick_g) >= bench.scene0_us - 1000000 / static_cast<int64_t>(cfg.servo_hz)) {
                 const int rc = hg_dev::fw_home_scene_enable(&s, cfg, !link && !vctl.forces_off);  // with a PC link: the PC enables
                 if (rc != 0) return rc;
+                // the joints rest in the scene's start pose: bring-up's reference pose
+                hg_bringup_cfg_t bc;
+                hg_dev::fw_bringup_config(cfg, &bc);
+                hg_bringup_init(&bu, &s, &bc, hg_servo_calibrated(&s) ? &s.cfg.cal : nullptr);
+                hg_bringup_isr_ctx = &bu;
+                if (link) uart_link_set_bringup(link, &bu);
                 enabled = true;
                 enable_t = bench.scene_t(bench.edge / D);
             }

@@ -56,6 +56,10 @@ bool parse_run(const std::string& text, RunCfg& c, std::string& err, bool model_
         else if (key == "hold_pos_homed" && need(3)) for (int i = 0; i < 3; ++i) c.hold_pos_homed[i] = static_cast<uint32_t>(static_cast<int64_t>(v[i]));
         else if (key == "hold_index_pos" && need(3)) for (int i = 0; i < 3; ++i) c.hold_index_pos[i] = static_cast<uint32_t>(static_cast<int64_t>(v[i]));
         else if (key == "hold_index_count" && need(3)) for (int i = 0; i < 3; ++i) c.hold_index_count[i] = static_cast<uint32_t>(v[i]);
+        else if (key == "guided") {
+            if (v.empty() || v.size() % 4 != 0) err = key + ": expected groups of 4 values (t dx dy dz)";
+            else c.guided = v;
+        }
         else if (key == "record" && need(1)) c.record = static_cast<uint32_t>(v[0]);
         else if (key == "progress_s" && need(1)) c.progress_s = v[0];
         else if (key == "view_fd" && need(1)) c.view_fd = static_cast<int>(v[0]);
@@ -180,6 +184,14 @@ void fw_config(const RunCfg& cfg, uint32_t clk_hz, hg_servo_cfg_t* fw) {
         if (a.flags & HG_CAL_ALIGNED) a.comm_offset = static_cast<uint32_t>(a.comm_offset + cfg.comm_err[i]) & 1023u;
     }
     if (cfg.pc_force_timeout_ticks >= 0) fw->pc_force_timeout = static_cast<uint32_t>(cfg.pc_force_timeout_ticks);
+}
+
+void fw_bringup_config(const RunCfg& cfg, hg_bringup_cfg_t* bc) {
+    hg_bringup_default_cfg(bc);
+    for (int i = 0; i < 3; ++i) bc->q_ref[i] = static_cast<hg_real>(cfg.q0[i]);
+    bc->align_cycles = HG_C(0.5);    // (0.5 + 0.5) cycles at 2 pole pairs: pi rad planned
+    bc->align_rate = HG_C(0.25);     // slow: the linkage's coupled joints lag less
+    bc->travel_max = HG_C(3.2);
 }
 
 int fw_home_scene_enable(hg_servo_t* s, const RunCfg& cfg, bool enable) {

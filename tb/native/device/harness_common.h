@@ -12,6 +12,7 @@
 #include <vector>
 
 extern "C" {
+#include "hg_bringup.h"
 #include "hg_servo.h"
 }
 
@@ -37,6 +38,9 @@ struct RunCfg {
     int64_t calib[18] = {0};
     int calib_seen = 0;
     int64_t pc_force_timeout_ticks = -1;    // -1: the firmware's default
+    // bring-up's guided move (scene hand.guided): t dx dy dz per point, from the start of a
+    // GUIDED step and the endpoint there; empty: the hand stays as configured during bring-up
+    std::vector<double> guided;
     uint32_t hold_pos_homed[3] = {0, 0, 0}, hold_index_pos[3] = {0, 0, 0}, hold_index_count[3] = {0, 0, 0};
     uint32_t record = 0xFF;                 // bit 0 plant (q,p,f_hand,tau,current), bit 1 dac, bit 2 adc
     double progress_s = 0.05;               // progress line every this much simulated time
@@ -148,6 +152,10 @@ void progress_line(double t);
 // Its configuration for this run (rate, clock, encoder zero at the index, commutation offset
 // errors, PC-force timeout).
 void fw_config(const RunCfg& cfg, uint32_t clk_hz, hg_servo_cfg_t* fw);
+// Bring-up on the virtual device: the reference pose is the scene's start pose (where the
+// homing sweep ends: call this there), the bounds those of the linkage (dsp-fw/README.md,
+// "Bring-up": a partial alignment scan inside the walls).
+void fw_bringup_config(const RunCfg& cfg, hg_bringup_cfg_t* bc);
 // The background loop's bring-up after homing: home every axis on IDX_POS (bus reads), set the
 // scene's environment, enable (unless a PC link enables, or the firmware is not calibrated:
 // then its forces stay off until a calibration arrives). 0, or the harness's exit code 3.

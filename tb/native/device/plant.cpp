@@ -82,6 +82,8 @@ struct Rng {  // xoshiro256+ seeded by splitmix64
 
 struct hg_plant {
     Params P;
+    int hand0 = 0;                    // the configured hand (hg_plant_set_hand(-1) restores it)
+    std::vector<double> path0;
     Rng rng;
     double t = 0;
     double q[3], qd[3];
@@ -499,6 +501,8 @@ hg_plant* hg_plant_new(const char* config_text, char* err, int errlen) {
     }
     auto* s = new hg_plant;
     s->P = P;
+    s->hand0 = P.hand;
+    s->path0 = P.path;
     s->rng = Rng(P.seed);
     s->t = P.t0;
     for (int i = 0; i < 3; ++i) {
@@ -857,6 +861,18 @@ void hg_plant_encode1(const hg_plant* p, int axis, double lines, double za, doub
 }
 
 double hg_plant_noise_lsb(const hg_plant* p, int axis) { return p->P.noise[axis]; }
+
+void hg_plant_set_hand(hg_plant* s, int kind, const double* path, int n) {
+    if (s->hand0 == 2) return;   // a rigid grip holds on
+    if (kind < 0) {
+        s->P.hand = s->hand0;
+        s->P.path = s->path0;
+    } else {
+        s->P.hand = kind;
+        if (path) s->P.path.assign(path, path + 4 * n);
+    }
+    s->path_seg = 0;
+}
 
 void hg_plant_set_target(hg_plant* s, const double xyz[3]) {
     s->P.path = {0.0, xyz[0], xyz[1], xyz[2]};

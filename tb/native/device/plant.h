@@ -37,6 +37,10 @@ void hg_plant_set_q(hg_plant* p, const double q[3], const double qd[3]);
 // Move the spring hand's target to xyz [m] from now on (its path replaced by that point; the
 // live view's mouse-moved target). No effect on other hand kinds.
 void hg_plant_set_target(hg_plant* p, const double xyz[3]);
+// Change the hand from now on (bring-up's guided move): kind 0 none, 1 spring (to path: n points
+// t x y z, plant time; NULL keeps the path), 2 fixed; kind -1 restores the configured hand.
+// A configured rigid grip (fixed) is never changed.
+void hg_plant_set_hand(hg_plant* p, int kind, const double* path, int n);
 
 // ADC codes of axis i for the current state (A, B int8; index bit), noise drawn per call.
 void hg_plant_adc(hg_plant* p, int8_t a[3], int8_t b[3], uint8_t idx[3]);

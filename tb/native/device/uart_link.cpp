@@ -287,3 +287,5 @@ void uart_link_service(UartLink* u, uint64_t g_us) {
         u->out.clear();
     }
 }
+
+void uart_link_set_bringup(UartLink* u, hg_bringup_t* b) { u->link.bu = b; }

@@ -10,6 +10,7 @@
 #include <cstdio>
 
 extern "C" {
+#include "hg_bringup.h"
 #include "hg_servo.h"
 }
 
@@ -33,5 +34,7 @@ void uart_link_counters(const UartLink* u, uint32_t out[4]);
 // One background-loop pass at grid point g_us (between ISRs). On SIGINT/SIGTERM it prints the
 // link summary and ends the process with exit status 0.
 void uart_link_service(UartLink* u, uint64_t g_us);
+// Make bring-up reachable over the link (its messages, and its abort on disable and silence).
+void uart_link_set_bringup(UartLink* u, hg_bringup_t* b);
 
 #endif  // UART_LINK_H

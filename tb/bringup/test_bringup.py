@@ -1,0 +1,297 @@
+"""Bring-up end to end on the virtual device (issue 26): `hapgate bringup` against
+`hapgate device serve` of the bring-up scenes. Every expected value comes from the scene's
+[plant] keys (the plant's truth) or from the firmware's documented limits (dsp-fw/README.md,
+"Bring-up"); timing is the device's own (BU_PROGRESS ticks, step durations)."""
+
+from __future__ import annotations
+
+import json
+import os
+import time
+from collections.abc import Iterator
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pytest
+from hapgate.base.paths import ROOT
+from hapgate.commands import cli
+from hapgate.commands.device import Server
+from hapgate.device import harness, runner
+from hapgate.device import scene as sc
+from hapgate.golden import calib, pclink
+from hapgate.host import Device
+
+SCENES = ROOT / "scenes"
+UNALIGNED = SCENES / "unaligned.toml"
+OFFSET_TOL_DEG = 1.0        # the issue's goal: <= 1 deg electrical from the plant's truth
+INDEX_TOL_DEG = 0.01        # the index latch: one count is 3.4e-4 deg
+RATIO_LO, RATIO_HI = 0.999, 1.00177 + 6e-4   # tb/device/test_calibration.py's derivation
+WALL_BUDGET_N = 0.05        # scenes/README.md: wall.toml's force-law budget
+LINK_TIMEOUT_TICKS = 250    # dsp-fw: HG_LINK_TIMEOUT_MS at 1 kHz
+
+
+def wrap180(x: float) -> float:
+    return (x + 180.0) % 360.0 - 180.0
+
+
+SETTLED_TICKS = 1500        # the scene's hand path ends at 0.2 s; its spring settles in ~0.1 s
+
+
+def settle(port: str) -> None:
+    """Wait until the handle rests where the scene's hand put it (device time): a linkage let go
+    while still moving drifts on (its only damping is 2e-4 N m s/rad per joint)."""
+    with Device.open(port) as dev:
+        while dev.state().seq < SETTLED_TICKS:
+            time.sleep(0.05)
+
+
+def bringup(port: str, out: Path, capsys: Any, *extra: str) -> tuple[int, str, dict[str, Any]]:
+    settle(port)
+    rc = cli.main(["bringup", port, "--out", str(out), *extra])
+    text = capsys.readouterr().out
+    doc = json.loads((out / "bringup.json").read_text()) if (out / "bringup.json").exists() else {}
+    return rc, text, doc
+
+
+def variant(changes: dict[str, Any]) -> sc.Scene:
+    """unaligned.toml with dotted keys replaced (None: removed), validated like a file."""
+    d = json.loads(sc.load(UNALIGNED).raw)
+    for dotted, value in changes.items():
+        *head, last = dotted.split(".")
+        node = d
+        for part in head:
+            node = node.setdefault(part, {})
+        if value is None:
+            node.pop(last, None)
+        else:
+            node[last] = value
+    return sc.from_dict(d, str(UNALIGNED))
+
+
+def serve(scene: sc.Scene) -> Server:
+    return Server(scene=scene, pace="free")
+
+
+def check(doc: dict[str, Any], axis: int, name: str) -> dict[str, Any]:
+    got = [c for c in doc["axes"][axis]["checks"] if c["name"] == name]
+    assert len(got) == 1, (axis, name, doc["axes"][axis]["checks"])
+    return got[0]
+
+
+def assert_found(doc: dict[str, Any], scene: sc.Scene) -> None:
+    """bringup.json reproduces the scene's [plant] values."""
+    pl = scene.plant
+    q_index = np.rad2deg(harness.q_index(runner.start_pose(scene), scene))
+    for i, a in enumerate(doc["axes"]):
+        assert a["homed"] and a["aligned"], (i, a)
+        assert abs(wrap180(a["comm_offset_elec_deg"] - pl.comm_offset_elec_deg[i])) \
+            <= OFFSET_TOL_DEG, (i, a["comm_offset_elec_deg"], pl.comm_offset_elec_deg[i])
+        assert a["phases_swapped"] == pl.phases_swapped[i], (i, a)
+        assert a["encoder_dir"] == pl.encoder_dir[i], (i, a)
+        assert a["pole_pairs"] == pl.pole_pairs
+        assert abs(a["index_q_deg"] - q_index[i]) <= INDEX_TOL_DEG, (i, a["index_q_deg"], q_index)
+
+
+@pytest.fixture(scope="module")
+def unaligned_run(tmp_path_factory: pytest.TempPathFactory) -> Iterator[dict[str, Any]]:
+    """unaligned.toml served; `hapgate bringup --steps align,homing,guided --apply` on it."""
+    out = tmp_path_factory.mktemp("bringup")
+    with serve(sc.load(UNALIGNED)) as srv:
+        rc = cli.main(["bringup", srv.port, "--out", str(out), "--steps",
+                       "align,homing,guided", "--apply"])
+        with Device.open(srv.port) as dev:
+            words = [dev.get_calib(a).words() for a in range(3)]
+        yield {"rc": rc, "out": out, "doc": json.loads((out / "bringup.json").read_text()),
+               "device_words": words}
+
+
+def test_unaligned_finds_every_error(unaligned_run: dict[str, Any]) -> None:
+    """Offsets 120, -35 and 200 (= -160) deg, swapped phases on axis 1, a reversed encoder on
+    axis 2 (found by the guided move), the index angles: all in bringup.json; every check
+    passes, so the exit code is 0, and the outputs are written."""
+    doc, out = unaligned_run["doc"], unaligned_run["out"]
+    assert unaligned_run["rc"] == 0 and doc["result"] == "PASS"
+    assert_found(doc, sc.load(UNALIGNED))
+    for a in doc["axes"]:
+        assert a["dir_confirmed"] and all(c["result"] == "PASS" for c in a["checks"])
+        assert {"align_movement", "align_counts_per_elec_error", "home_travel",
+                "guided_movement", "guided_wait"} <= {c["name"] for c in a["checks"]}
+    # device time of each step: ALIGN locks 2 s and scans 0.5 cycle each way at 0.25 cycle/s
+    for s in doc["steps"]:
+        assert s["err"] == "OK" and s["duration_s"] > 0, s
+        if s["step"] == "align":
+            assert s["duration_s"] >= 2.0 + 2 * 0.5 / 0.25, s
+    for f in ("calibration.toml", "report.html", "alignment_scan.png", "identification.png"):
+        assert (out / f).stat().st_size > 0, f
+
+
+def test_apply_sends_the_calibration(unaligned_run: dict[str, Any]) -> None:
+    cal = calib.load(unaligned_run["out"] / "calibration.toml")
+    assert unaligned_run["device_words"] == [a.words() for a in cal]
+
+
+def test_after_apply_torque_and_wall(unaligned_run: dict[str, Any], tmp_path: Path) -> None:
+    """The calibration bring-up found, loaded by the unaligned plant: every motor delivers
+    >= 0.999 of the commanded torque under a rigid grip, and the wall renders within
+    wall.toml's force-law budget."""
+    cal = unaligned_run["out"] / "calibration.toml"
+    base = sc.load(UNALIGNED)
+    plant = "".join(f"{k} = {json.dumps(list(getattr(base.plant, k)))}\n" for k in
+                    ("comm_offset_elec_deg", "phases_swapped", "encoder_dir"))
+    p = tmp_path / "grip.toml"
+    p.write_text(f"""[run]
+duration_s = 0.05
+axes = [0, 1, 2]
+record = ["q", "f_hand", "tau", "dac"]
+[env]
+kind = "spring"
+point = [-0.002, 0.0732, 0.0011]
+k = 1000.0
+[hand]
+kind = "fixed"
+[plant]
+{plant}[firmware]
+calibration = "{cal}"
+""")
+    r = runner.run(sc.load(p))
+    ratios = r.per_axis["torque_ratio"]
+    assert all(RATIO_LO <= x <= RATIO_HI for x in ratios), ratios
+    wall = runner.run(base.override({"firmware.calibration": str(cal)}))
+    assert wall.metrics["fw_error"] == "NONE"
+    assert wall.metrics["force_error_n"] <= WALL_BUDGET_N, wall.metrics
+
+
+@pytest.mark.parametrize("name", ["offset", "swapped"])
+def test_offsets_and_swapped_phases(name: str, tmp_path: Path, capsys: Any) -> None:
+    """bringup/offset.toml (180, -90, 7.5 deg), bringup/swapped.toml: align and homing find
+    each axis's offset and phase order (the configured encoder direction, unconfirmed: the
+    report says so)."""
+    scene = sc.load(SCENES / "bringup" / f"{name}.toml")
+    with serve(scene) as srv:
+        rc, text, doc = bringup(srv.port, tmp_path, capsys, "--steps", "align,homing")
+    assert rc == 0, text
+    assert_found(doc, scene)
+    assert not any(a["dir_confirmed"] for a in doc["axes"])
+    assert "align_movement" in text and "PASS" in text
+
+
+def test_reversed_encoder_by_the_guided_move(tmp_path: Path, capsys: Any) -> None:
+    """bringup/encoder_dir.toml (axis 1 counts against its joint): the guided move alone finds
+    it; every axis's direction is confirmed."""
+    scene = sc.load(SCENES / "bringup" / "encoder_dir.toml")
+    with serve(scene) as srv:
+        rc, text, doc = bringup(srv.port, tmp_path, capsys, "--steps", "guided")
+    assert rc == 0, text
+    assert [a["encoder_dir"] for a in doc["axes"]] == list(scene.plant.encoder_dir)
+    assert all(a["dir_confirmed"] and not a["refused"] for a in doc["axes"])
+    for i in range(3):
+        c = check(doc, i, "guided_movement")
+        assert c["result"] == "PASS" and c["value"] >= c["limit"], c
+
+
+def test_wrong_pole_pairs_refused_with_both_figures(tmp_path: Path, capsys: Any) -> None:
+    """A 3-pole-pair motor on an FPGA and firmware configured for 2: ALIGN refuses it with
+    the measured and configured counts per electrical cycle; exit 1."""
+    scene = variant({"plant.pole_pairs": 3})
+    with serve(scene) as srv:
+        rc, text, doc = bringup(srv.port, tmp_path, capsys, "--steps", "align")
+    assert rc == 1 and doc["result"] == "FAIL"
+    want_meas, want_cfg = calib.COUNTS_PER_REV / 3, calib.COUNTS_PER_REV / 2
+    for i in range(3):
+        c = check(doc, i, "align_counts_per_elec_error")
+        assert c["result"] == "FAIL" and c["limit"] == 2.0
+        assert abs(c["value"] - 100 / 3) < 1.0, c
+    line = next(ln for ln in text.splitlines() if "axis 0 align" in ln)
+    assert "POLE_PAIRS" in line and f"{want_cfg:.0f} configured" in line, line
+    meas = float(line.split(": ")[1].split()[0])
+    assert abs(meas / want_meas - 1) < 0.01, line
+
+
+def test_held_handle_no_movement(tmp_path: Path, capsys: Any) -> None:
+    """A rigid grip: ALIGN ends with NO_MOVE, the movement printed beside 3.6 deg; exit 1."""
+    scene = variant({"hand.kind": "fixed", "hand.k": None, "hand.b": None,
+                     "hand.guided": None})
+    with serve(scene) as srv:
+        rc, text, doc = bringup(srv.port, tmp_path, capsys, "--steps", "align")
+    assert rc == 1
+    for i in range(3):
+        c = check(doc, i, "align_movement")
+        assert c["result"] == "FAIL" and c["op"] == ">=" and c["limit"] == pytest.approx(3.6)
+        assert 0 <= c["value"] < 3.6
+    assert "ERROR NO_MOVE" in text and "align_movement" in text
+
+
+def test_guided_move_that_never_comes(tmp_path: Path, capsys: Any) -> None:
+    """No scripted move: the guided step waits its 20 s (device time) and refuses every axis,
+    the waited time beside the limit; exit 1."""
+    scene = variant({"hand.guided": None})
+    with serve(scene) as srv:
+        rc, text, doc = bringup(srv.port, tmp_path, capsys, "--steps", "guided")
+    assert rc == 1
+    for i in range(3):
+        c = check(doc, i, "guided_wait")
+        assert c["result"] == "FAIL" and c["limit"] == 20.0 and c["value"] >= 20.0, c
+        assert doc["axes"][i]["refused"]
+    assert "GUIDED_TIMEOUT" in text
+
+
+def test_link_loss_mid_scan_aborts(tmp_path: Path) -> None:
+    """The PC goes silent during an alignment scan: the device aborts the step with
+    ERR_LINK within the link timeout (250 ticks) + 1 of the last request, in its own ticks."""
+    with serve(sc.load(UNALIGNED)) as srv, Device.open(srv.port) as dev:
+        assert dev.bu_start(pclink.BU_STEPS["align"], 0)[0] == 0
+        last = dev.bu_progress()
+        while last["ticks"] < 2500:          # into the lock-in with current applied
+            time.sleep(0.05)
+            last = dev.bu_progress()
+        time.sleep(2.0)                      # silence: the device runs on alone
+        p = dev.bu_progress()
+        st = dev.stats()
+    assert p["state"] == "IDLE" and p["err"] == "LINK", p
+    assert 0 < p["ticks"] - last["ticks"] <= LINK_TIMEOUT_TICKS + 1, (p, last)
+    assert st.device["timeouts"] >= 1
+
+
+def test_exit_codes_for_bad_arguments_and_silence(tmp_path: Path, capsys: Any) -> None:
+    assert cli.main(["bringup", "/dev/null", "--steps", "align,encoderz"]) == 2
+    assert "--steps" in capsys.readouterr().err
+    assert cli.main(["bringup", "/dev/null", "--direction", "1,2"]) == 2
+    assert cli.main(["bringup", str(tmp_path / "no-such-port")]) == 2
+    master, slave = os.openpty()             # a port nobody answers on
+    try:
+        rc = cli.main(["bringup", os.ttyname(slave), "--timeout", "0.5", "--out",
+                       str(tmp_path)])
+    finally:
+        os.close(master)
+        os.close(slave)
+    assert rc == 2 and "does not answer" in capsys.readouterr().err
+    assert not (tmp_path / "bringup.json").exists()
+
+
+@pytest.mark.parametrize("hand, want", [
+    ('kind = "spring"\nguided = [[0.1, 0.1, 0.0, 0.0]]',
+     "hand.guided[0]: |d| = 0.1 m out of range: <= 0.05 m"),
+    ('kind = "spring"\nguided = [[0.5, 0.0, 0.0, 0.0], [0.5, 0.01, 0.0, 0.0]]',
+     "hand.guided[1][0]: time must increase"),
+    ('kind = "spring"\nguided = []', "hand.guided: expected at least one point"),
+    ('kind = "spring"\nguided = [[0.5, 0.0, 0.0]]', "hand.guided[0]"),
+    ('kind = "none"\nk = 300.0', "hand.k: does not apply to hand kind 'none'"),
+])
+def test_bad_guided_keys_exit_2(tmp_path: Path, capsys: Any, hand: str, want: str) -> None:
+    p = tmp_path / "bad.toml"
+    p.write_text(f"[hand]\n{hand}\n")
+    assert cli.main(["scene", "check", str(p)]) == 2
+    err = capsys.readouterr().err
+    assert f"{p}: {want}" in err, err
+
+
+def test_guided_with_no_hand_admits_its_spring(tmp_path: Path) -> None:
+    p = tmp_path / "ok.toml"
+    p.write_text('[hand]\nkind = "none"\nk = 300.0\nb = 3.0\nguided = [[0.0, 0.0, 0.0, 0.0], '
+                 '[1.0, 0.0, -0.01, 0.0]]\n')
+    h = sc.load(p).hand
+    assert (h.kind, h.k, h.b) == ("none", 300.0, 3.0)
+    assert h.guided == ((0.0, 0.0, 0.0, 0.0), (1.0, 0.0, -0.01, 0.0))
+    text = harness.plant_config(sc.load(p), runner.start_pose(sc.load(p)))
+    assert "hand_kind = 0" in text and "hand_k = 300.0" in text and "hand_path" not in text
