@@ -88,6 +88,9 @@ REGRESS: dict[str, str] = {
         "10 kHz",
     r"^tb/test_native_pgo\.py::test_a_failed_training_run":
         "a profile-guided build's failure path (two device builds); tier 2 beside the PGO build",
+    r"^tb/bringup/test_bringup\.py::test_offsets_and_swapped_phases":
+        "the single-error bring-up scenes (36 s of device time each); tier 1 keeps "
+        "unaligned.toml, which has an offset, swapped phases and a reversed encoder at once",
     r"^tb/replay/test_streaming\.py::test_interp_output_does_not_depend_on_the_chunk"
     r"\[rtl-ratio-harm\]":
         "its own ratio+harmonic harness build; tier 1 keeps the chunking test on the other "
