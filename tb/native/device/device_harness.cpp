@@ -655,6 +655,7 @@ int main(int argc, char** argv) {
             } else if (homed_isr >= 0 && static_cast<int64_t>(tick_g) >= bench.scene0_us - 1000000 / static_cast<int64_t>(cfg.servo_hz)) {
                 const int rc = hg_dev::fw_home_scene_enable(&s, cfg, !link && !vctl.forces_off);  // with a PC link: the PC enables
                 if (rc != 0) return rc;
+                enable_t = bench.scene_t(bench.edge / D);   // (before bring-up's bus reads)
                 // the joints rest in the scene's start pose: bring-up's reference pose
                 hg_bringup_cfg_t bc;
                 hg_dev::fw_bringup_config(cfg, &bc);
@@ -662,7 +663,6 @@ int main(int argc, char** argv) {
                 hg_bringup_isr_ctx = &bu;
                 if (link) uart_link_set_bringup(link, &bu);
                 enabled = true;
-                enable_t = bench.scene_t(bench.edge / D);
             }
         }
     }
