@@ -91,6 +91,11 @@ REGRESS: dict[str, str] = {
     r"^tb/bringup/test_bringup\.py::test_offsets_and_swapped_phases":
         "the single-error bring-up scenes (36 s of device time each); tier 1 keeps "
         "unaligned.toml, which has an offset, swapped phases and a reversed encoder at once",
+    r"^tb/bringup/test_bringup\.py::test_(guided_move_that_never_comes|held_handle_no_"
+    r"movement|wrong_pole_pairs_refused_with_both_figures)":
+        "bring-up's refusals end to end on the virtual device; tier 1 keeps the same refusals "
+        "in the firmware's C unit tests (bringup_guided_timeout, bringup_align_held, "
+        "bringup_align_pole_pairs) and unaligned.toml end to end",
     r"^tb/replay/test_streaming\.py::test_interp_output_does_not_depend_on_the_chunk"
     r"\[rtl-ratio-harm\]":
         "its own ratio+harmonic harness build; tier 1 keeps the chunking test on the other "
