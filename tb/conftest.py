@@ -96,6 +96,9 @@ REGRESS: dict[str, str] = {
         "bring-up's refusals end to end on the virtual device; tier 1 keeps the same refusals "
         "in the firmware's C unit tests (bringup_guided_timeout, bringup_align_held, "
         "bringup_align_pole_pairs) and unaligned.toml end to end",
+    r"^tb/bus/test_hg_bus\.py::test_random_accesses_16mhz":
+        "random bus accesses at a second FPGA clock (16 MHz, no board's); tier 1 keeps them at "
+        "the bus tests' own clock",
     r"^tb/replay/test_streaming\.py::test_interp_output_does_not_depend_on_the_chunk"
     r"\[rtl-ratio-harm\]":
         "its own ratio+harmonic harness build; tier 1 keeps the chunking test on the other "
