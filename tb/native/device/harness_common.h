@@ -66,6 +66,8 @@ bool parse_run(const std::string& text, RunCfg& c, std::string& err, bool model_
 std::string slurp(const char* path);
 
 // ------------------------------------------------------------------ records
+// Read by numpy as hapgate.device.harness FRAME_DT / TICK_DT / LOAD_DT; tb/device/test_record_layout.py
+// compares the two field by field (record_layout.cpp prints this side).
 struct FrameRec {         // one per DAC frame (16 us), sampled at the frame's grid start
     double t;             // scene time, s
     double q[3], p[3], f_hand[3], tau[3], i_ab[6];
