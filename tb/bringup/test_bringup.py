@@ -131,30 +131,17 @@ def test_apply_sends_the_calibration(unaligned_run: dict[str, Any]) -> None:
     assert unaligned_run["device_words"] == [a.words() for a in cal]
 
 
-def test_after_apply_torque_and_wall(unaligned_run: dict[str, Any], tmp_path: Path) -> None:
+def test_after_apply_torque_and_wall(unaligned_run: dict[str, Any]) -> None:
     """The calibration bring-up found, loaded by the unaligned plant: every motor delivers
     >= 0.999 of the commanded torque under a rigid grip, and the wall renders within
     wall.toml's force-law budget."""
     cal = unaligned_run["out"] / "calibration.toml"
     base = sc.load(UNALIGNED)
-    plant = "".join(f"{k} = {json.dumps(list(getattr(base.plant, k)))}\n" for k in
-                    ("comm_offset_elec_deg", "phases_swapped", "encoder_dir"))
-    p = tmp_path / "grip.toml"
-    p.write_text(f"""[run]
-duration_s = 0.05
-axes = [0, 1, 2]
-record = ["q", "f_hand", "tau", "dac"]
-[env]
-kind = "spring"
-point = [-0.002, 0.0732, 0.0011]
-k = 1000.0
-[hand]
-kind = "fixed"
-[plant]
-{plant}[firmware]
-calibration = "{cal}"
-""")
-    r = runner.run(sc.load(p))
+    grip = sc.load(SCENES / "grip.toml").override(
+        {**{f"plant.{k}": list(getattr(base.plant, k)) for k in
+            ("comm_offset_elec_deg", "phases_swapped", "encoder_dir")},
+         "firmware.calibration": str(cal)})
+    r = runner.run(grip)
     ratios = r.per_axis["torque_ratio"]
     assert all(RATIO_LO <= x <= RATIO_HI for x in ratios), ratios
     wall = runner.run(base.override({"firmware.calibration": str(cal)}))

@@ -19,22 +19,8 @@ from hapgate.golden import calib
 SCENES = ROOT / "scenes"
 BRINGUP = sorted((SCENES / "bringup").glob("*.toml")) + [SCENES / "unaligned.toml"]
 
-# A rigid grip holds the start pose (4, 46, 43) deg while a 1000 N/m spring scene pulls toward
-# a point (3, 2, 3) mm away: every motor commands a steady torque above the metric's 0.01 N m
-# and below its clamp (miscommutation.toml's set-up, with all three motors loaded).
-GRIP = """
-[run]
-duration_s = 0.05
-fidelity = "{fidelity}"
-axes = [0, 1, 2]
-record = ["q", "f_hand", "tau", "dac"]
-[env]
-kind = "spring"
-point = [-0.002, 0.0732, 0.0011]
-k = 1000.0
-[hand]
-kind = "fixed"
-"""
+# scenes/grip.toml: a rigid grip holds the start pose while a spring scene loads every motor
+GRIP = SCENES / "grip.toml"
 # The delivered/commanded torque of a correctly commutated motor at a fixed pose: the sine
 # ROM's channel b sits 341/1024 of a cycle after a, 1/3 code short of 120 deg, which makes the
 # torque per command swing over 0.99941 .. 1.00177 with the field angle (docs/blocks/
@@ -48,11 +34,14 @@ def delivered(r: list[float]) -> bool:
     return all(RATIO_LO <= x <= RATIO_HI for x in r)
 
 
-def grip(tmp_path: Path, plant: str, firmware: str = "", fidelity: str = "model") -> sc.Scene:
-    p = tmp_path / "grip.toml"
-    p.write_text(GRIP.format(fidelity=fidelity) + "[plant]\n" + plant + "\n[firmware]\n"
-                 + firmware + "\n")
-    return sc.load(p)
+def grip(plant: dict[str, object] | None = None, calibration: str | None = None,
+         fidelity: str = "model") -> sc.Scene:
+    """scenes/grip.toml with these [plant] keys and this [firmware] calibration."""
+    changes: dict[str, object] = {"run.fidelity": fidelity}
+    changes.update({f"plant.{k}": v for k, v in (plant or {}).items()})
+    if calibration is not None:
+        changes["firmware.calibration"] = calibration
+    return sc.load(GRIP).override(changes)
 
 
 def refused(tmp_path: Path, text: str) -> str:
@@ -173,10 +162,10 @@ def _records(raw: runner.Raw) -> list[bytes]:
             for n in a.dtype.names if not n.startswith("pad")]
 
 
-def test_default_keys_are_bit_identical(tmp_path: Path) -> None:
+def test_default_keys_are_bit_identical() -> None:
     """The four keys at their defaults and calibration "truth" given explicitly: every frame,
     tick and DAC load as without them (today's device)."""
-    base = grip(tmp_path, "", "")
+    base = grip()
     explicit = base.override({"plant.comm_offset_elec_deg": [0.0, 0.0, 0.0],
                               "plant.phases_swapped": [False] * 3,
                               "plant.encoder_dir": [1, 1, 1],
@@ -197,32 +186,32 @@ def test_truth_delivers_the_commanded_torque_and_a_wrong_calibration_does_not(
     plant's own calibration every motor delivers the commanded torque; with a calibration
     whose motor-0 offset is 90 deg off, motor 0 delivers none of it (cos 90 deg), and one
     180 deg off on motor 2 pushes backwards (cos 180 deg)."""
-    plant = ("comm_offset_elec_deg = [90.0, -35.0, -150.0]\n"
-             "phases_swapped = [false, true, true]\n")
-    truth = grip(tmp_path, plant, 'calibration = "truth"')
+    plant = {"comm_offset_elec_deg": [90.0, -35.0, -150.0],
+             "phases_swapped": [False, True, True]}
+    truth = grip(plant, "truth")
     r = _ratios(truth)
     assert delivered(r), r
     wrong = [calib.AxisCalib(a.index_to_zero_counts, a.comm_offset_elec_deg + d,
                              a.phases_swapped, a.encoder_dir, a.pole_pairs)
              for a, d in zip(truth.calib(), (90.0, 0.0, 180.0), strict=True)]
     (tmp_path / "wrong.toml").write_text(calib.dumps(wrong))
-    r = _ratios(grip(tmp_path, plant, 'calibration = "wrong.toml"'))
+    r = _ratios(grip(plant, str(tmp_path / "wrong.toml")))
     assert abs(r[0]) < 0.02 and delivered(r[1:2]) and r[2] < -0.99, r
     # no calibration at all: the firmware never drives (and latches nothing)
-    none = runner.simulate(grip(tmp_path, plant, 'calibration = "none"'))
+    none = runner.simulate(grip(plant, "none"))
     assert none.ticks.size > 40 and not none.ticks["drive"].any()
     assert not none.loads["code"].any() and not none.frames["tau"].any()
     assert none.summary["fw_err"] == "0"
 
 
-def test_reversed_encoder_with_truth_on_the_gateware(tmp_path: Path) -> None:
+def test_reversed_encoder_with_truth_on_the_gateware() -> None:
     """A reversed encoder (A and B swapped: the gateware's interpolator counts backwards) on
     axis 1, an offset on axis 2: with "truth" the firmware's joint angles are the true ones
     (index_to_zero of the reversed count) and every motor delivers its torque; without a
     calibration no torque reaches any motor."""
-    plant = "encoder_dir = [1, -1, -1]\ncomm_offset_elec_deg = [0.0, 0.0, 45.0]\n" \
-            "phases_swapped = [false, false, true]\n"
-    s = grip(tmp_path, plant, 'calibration = "truth"', fidelity="rtl") \
+    plant = {"encoder_dir": [1, -1, -1], "comm_offset_elec_deg": [0.0, 0.0, 45.0],
+             "phases_swapped": [False, False, True]}
+    s = grip(plant, "truth", fidelity="rtl") \
         .override({"run.duration_s": 0.02})
     r = runner.run(s)
     assert r.metrics["fw_error"] == "NONE"
@@ -241,7 +230,7 @@ def test_harness_gets_the_calibration_words() -> None:
         120 / 360 * 1024)
 
 
-def test_an_index_off_the_sweep_on_a_held_axis_runs_uncalibrated(tmp_path: Path) -> None:
+def test_an_index_off_the_sweep_on_a_held_axis_runs_uncalibrated() -> None:
     """bringup/index.toml with one axis built: the held axes' registers come from a sweep
     that never meets their index (nothing homed), which an uncalibrated firmware accepts."""
     s = sc.load(SCENES / "bringup" / "index.toml").override(
@@ -258,7 +247,7 @@ def test_an_index_moved_along_the_sweep_with_truth(tmp_path: Path) -> None:
     (within the interpolator's error on these signals, <= 25 counts) and every motor delivers
     its torque. A calibration that keeps the old index_to_zero reads each joint off by the
     shift: 0.15 deg = 437 counts."""
-    s = grip(tmp_path, "", "")
+    s = grip()
     q0 = np.asarray(s.run.q0_deg)
     moved = s.override({"plant.index_q_deg": list(q0 - [0.1, 0.4, 0.1]),
                         "firmware.calibration": "truth"})
@@ -266,6 +255,6 @@ def test_an_index_moved_along_the_sweep_with_truth(tmp_path: Path) -> None:
     assert r.metrics["position_error_counts"] <= 25, r.metrics
     assert delivered(r.per_axis["torque_ratio"]), r.per_axis
     (tmp_path / "old.toml").write_text(calib.dumps(s.calib()))
-    r = runner.run(moved.override({"firmware.calibration": "old.toml"}))
+    r = runner.run(moved.override({"firmware.calibration": str(tmp_path / "old.toml")}))
     err = r.per_axis["pos_err_max_counts"]
     assert all(abs(e - 0.15 / 360 * 2**20) <= 25 for e in err), err
