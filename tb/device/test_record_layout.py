@@ -55,3 +55,13 @@ def test_a_moved_field_is_seen(cxx_layout):
     assert cxx_layout["LoadRec"] == numpy_layout(dt)
     assert cxx_layout["LoadRec"] != numpy_layout(swapped)
     assert cxx_layout["LoadRec"] != numpy_layout(widened)
+
+
+def test_fault_kinds_match(cxx_layout):
+    """The fault kinds are named once in C++ (harness_common.h kFaultKinds); the run
+    configuration names them, so Python's list of the kinds the harnesses simulate must be the
+    same names, each found by the parser's look-up, with distinct values."""
+    rows = cxx_layout["FaultKind"]
+    assert tuple(r[0] for r in rows) == harness.HARNESS_FAULTS
+    assert all(r[2] == 1 for r in rows)                    # fault_kind_of finds each name
+    assert len({r[1] for r in rows}) == len(rows)

@@ -30,7 +30,8 @@ T_SWEEP0_S, T_SWEEP_S, T_SETTLE_S = 100e-6, 6e-3, 3e-3   # homing before scene t
 SWEEP_DEG = 0.5              # homing sweep, ending at q0; the index lies half-way
 LOSS_SAMPLES = 16            # interpolator: the 16th bad sample raises signal loss
 ENV_KINDS = {"none": 0, "wall": 1, "spring": 2, "viscous": 3, "pc": 4}
-FAULT_KINDS = {"dropout": 1, "hang": 2, "watchdog": 3}
+# the [[fault]] kinds the harnesses simulate, by name (harness_common.h kFaultKinds: a test)
+HARNESS_FAULTS = ("dropout", "hang", "watchdog")
 ERR_NAMES = ("NONE", "NONFINITE", "AXIS_FAULT", "ENCODER", "STALE", "OVERRUN", "WATCHDOG",
              "FPGA_ID", "CONFIG")
 HAND_KINDS = {"none": 0, "spring": 1, "fixed": 2}
@@ -231,10 +232,10 @@ def run_config(scene: Any, q0: np.ndarray) -> str:
     for f in scene.faults:
         if f.kind == "link_garbage":
             continue                 # on the scripted PC's line (link_script), not a harness fault
-        if f.kind not in FAULT_KINDS:
+        if f.kind not in HARNESS_FAULTS:
             raise DeviceError(f"fault kind {f.kind!r} is not simulated by the virtual device yet")
         ax = -1 if getattr(f, "axis", None) is None else int(f.axis)
-        lines.append(f"fault = {f.at_s!r} {FAULT_KINDS[f.kind]} {max(ax, 0)}")
+        lines.append(f"fault = {f.at_s!r} {f.kind} {max(ax, 0)}")
     return "\n".join(lines) + "\n"
 
 

@@ -17,6 +17,7 @@ from ..base.paths import BUILD, TB
 
 SRC = TB / "native" / "device" / "plant.cpp"
 HDR = TB / "native" / "device" / "plant.h"
+DAC_HDR = TB / "native" / "device" / "dac_word.h"
 SO = "libhgplant.so"
 
 
@@ -33,7 +34,7 @@ def library() -> C.CDLL:
         cbuild.run(["g++", "-std=c++17", "-O2", "-Wall", "-Wextra", "-Werror", "-shared",
                     "-fPIC", str(SRC), "-o", str(bdir / SO)], bdir / "build.log", "plant library")
 
-    key = cache.digest(files=[SRC, HDR])
+    key = cache.digest(files=[SRC, HDR, DAC_HDR])
     so = cache.cached_dir(BUILD / "native", f"plant-{key}", build, done=SO) / SO
     lib = C.CDLL(str(so))
     d3 = C.POINTER(C.c_double)

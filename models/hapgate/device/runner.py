@@ -133,11 +133,13 @@ def build(clk_hz: int, mask: int = 7, trace: bool = False, test_limits: bool = F
         "device_harness", "hapgate_top", srcs, params, HARNESS,
         cflags=(f"-std=c++17 -DCLK_HZ={clk_hz} -DAXIS_MASK={mask} -DHG_TRACE={int(trace)} "
                 f"-DHG_SIM_GATE={int(gate)} "
-                f"-DHG_LOAD_CLOCKS={cfg.comm.load_clocks + 1} "
+                f"-DHG_LOAD_CLOCKS={cfg.comm.load_clocks + 1} -DHG_DAC_BITS={cfg.comm.dac_bits} "
+                f"-DHG_DAC_OFFSET_BINARY={int(cfg.comm.offset_binary)} "
                 f"-I{HERE} -I{FW / 'include'}" + "".join(f" -D{d}" for d in defs)),
         ldflags="fw/libhgfw.a -lm",
         inputs=[HERE / "plant.h", HERE / "uart_link.h", HERE / "view_link.h",
-                HERE / "harness_common.h", HERE / "stage_clocks.h", *fw_srcs],
+                HERE / "harness_common.h", HERE / "stage_clocks.h", HERE / "bus_hal.h",
+                HERE / "dac_word.h", *fw_srcs],
         prepare=functools.partial(cosim._fw_lib, defines=defs), vflags=vflags,
         train=functools.partial(_train, clk_hz, mask, test_limits, coarse, vel_obs)
         if pgo and not trace else None)

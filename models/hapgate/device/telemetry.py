@@ -22,7 +22,6 @@ import numpy as np
 
 ERR_NAMES = ("NONE", "NONFINITE", "AXIS_FAULT", "ENCODER", "STALE", "OVERRUN", "WATCHDOG",
              "FPGA_ID", "CONFIG")        # HG_ERR_* (runner.ERR_NAMES, dsp-fw/include/hg_servo.h)
-FAULT_NAMES = {1: "dropout", 2: "hang", 3: "watchdog"}
 PERIOD_S = 0.02          # telemetry period, simulated time (50 Hz at real time)
 HISTORY = 500            # telemetry frames kept for the scopes (10 s of simulated time)
 VECTORS = {"q": 3, "p": 3, "f": 3, "tau": 3, "i": 6, "dac": 6, "ffw": 3, "taufw": 3}
@@ -166,7 +165,7 @@ class Feed(_Base):
                 self._hist.append(d)
 
     def _event(self, d: dict[str, Any]) -> None:
-        ev = {"t_s": d["cause"], "kind": FAULT_NAMES.get(int(d["kind"]), str(d["kind"])),
+        ev = {"t_s": d["cause"], "kind": str(d["kind"]),
               "axis": None if int(d["axis"]) < 0 else int(d["axis"]),
               "reaction_us": d["react_us"], "zero_torque_s": d["zero"],
               "seen_t_s": d["zero"]}        # published at the load that zeroed the torque

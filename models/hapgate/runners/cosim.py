@@ -30,6 +30,7 @@ from ..golden.top import SOURCES, TopConfig
 from . import native
 
 HERE = TB / "native" / "cosim"
+DEVICE = TB / "native" / "device"     # the shared bus master and DAC word (bus_hal.h, dac_word.h)
 HARNESS = [HERE / "cosim_harness.cpp", HERE / "hal_cosim.cpp"]
 FW = ROOT / "dsp-fw"
 FW_WARN = ("-Wall -Wextra -Werror -Wconversion -Wdouble-promotion -Wshadow -Wstrict-prototypes "
@@ -78,9 +79,12 @@ def build(cfg: TopConfig | None = None) -> Path:
     return native.verilate_harness(
         "cosim_harness", "hapgate_top", [HERE / "public.vlt", *srcs], cfg.rtl_params(), HARNESS,
         cflags=(f"-std=c++17 -DCLK_HZ={cfg.clk_hz} -DHG_LOAD_CLOCKS={cfg.comm.load_clocks + 1} "
-                f"-DHG_WR_CYCLES={cfg.comm.wr_cycles} -I{HERE} -I{FW / 'include'}"),
+                f"-DHG_WR_CYCLES={cfg.comm.wr_cycles} -DHG_DAC_BITS={cfg.comm.dac_bits} "
+                f"-DHG_DAC_OFFSET_BINARY={int(cfg.comm.offset_binary)} "
+                f"-I{HERE} -I{DEVICE} -I{FW / 'include'}"),
         ldflags="fw/libhgfw.a -lm",          # relative to the build directory (make runs there)
-        inputs=[HERE / "cosim.h", *fw_srcs], prepare=_fw_lib)
+        inputs=[HERE / "cosim.h", DEVICE / "bus_hal.h", DEVICE / "dac_word.h", *fw_srcs],
+        prepare=_fw_lib)
 
 
 @dataclass

@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "Vhapgate_top.h"
+#include "bus_hal.h"
 #include "verilated.h"
 
 #ifndef CLK_HZ
@@ -18,19 +19,14 @@
 
 namespace cosim {
 
-// EMIF-like access timing in FPGA clocks (rtl/bus/README.md: strobe >= 5, recovery >= 3,
-// setup >= 0; or wait for ready).
-struct BusTiming {
-    int setup = 1;       // CE low and address/data valid before the strobe falls
-    int strobe = 5;      // strobe low (ignored when use_ready: then until ready is seen)
-    int hold = 2;        // after the strobe rises, before CE rises / the next setup
-    bool use_ready = false;
-};
+// EMIF-like access timing in FPGA clocks (bus_hal.h; rtl/bus/README.md: strobe >= 5, recovery
+// >= 3, setup >= 0; or wait for ready). Set from the command line, never on a grid.
+using BusTiming = hg_bus::Timing;
 
 struct DacLoad {
     uint64_t edge;  // clock edge at which dac_wr_n rose (the DAC load)
     int addr;       // channel 0..5 (m0a, m0b, m1a, m1b, m2a, m2b)
-    int code;       // signed DAC code (two's complement word decoded)
+    int code;       // signed DAC code (dac_word.h)
 };
 
 struct BusWrite {
@@ -47,6 +43,7 @@ public:
     ~Testbench();
     void reset();
     void tick();  // one full clock: posedge (monitors run) then negedge (stimulus presented)
+    void pins() { top->eval(); }   // a bus pin changed (bus_hal.h)
 
     std::unique_ptr<VerilatedContext> ctx;
     std::unique_ptr<Vhapgate_top> top;

@@ -26,6 +26,7 @@
 #include <string>
 
 #include "cosim.h"
+#include "dac_word.h"
 
 extern "C" {
 #include "hg_fpga_regs.h"
@@ -45,7 +46,7 @@ constexpr double kLines = 1024.0;        // encoder lines per revolution
 constexpr double kAdcR = 110.0;          // ADC amplitude (codes)
 constexpr int kPolePairs = 2;
 constexpr double kL = 0.05;              // arm lengths (docs/design/KINEMATICS.md default), m
-constexpr double kDacFs = 8191.0;        // DAC code at full scale (14-bit, symmetric)
+constexpr double kDacFs = hg_dac::kFullScale;   // DAC code at full scale (dac_word.h)
 #if !defined(HG_LOAD_CLOCKS) || !defined(HG_WR_CYCLES)
 #error "HG_LOAD_CLOCKS and HG_WR_CYCLES (from the top's configuration) must be defined"
 #endif

@@ -1,13 +1,14 @@
 // SPDX-License-Identifier: Apache-2.0
 // Co-simulation HAL: the firmware's fpga_read32/fpga_write32 drive the EMIF-like bus pins of the
-// Verilated hapgate_top with SETUP / STROBE / HOLD measured in FPGA clocks (or wait for ready),
-// ticking the clock as a real access takes time. The irq save/restore pair is a no-op: the
+// Verilated hapgate_top through the shared bus master (tb/native/device/bus_hal.h) with SETUP /
+// STROBE / HOLD measured in FPGA clocks (or wait for ready), counting accesses and writes. The irq save/restore pair is a no-op: the
 // runner is single-threaded and calls the ISR only between background steps.
 #include <cstdio>
 #include <cstdlib>
 
 #include "Vhapgate_top___024root.h"
 #include "cosim.h"
+#include "dac_word.h"
 
 extern "C" {
 #include "hg_hal.h"
@@ -56,9 +57,7 @@ void Testbench::tick() {
     // monitors (values right after the edge)
     const int wr_n = top->dac_wr_n;
     if (wr_n && !prev_wr_n_) {
-        int code = static_cast<int>(top->dac_data);
-        if (code >= 8192) code -= 16384;  // 14-bit two's complement (OFFSET_BINARY = 0)
-        loads.push_back({edge, static_cast<int>(top->dac_addr), code});
+        loads.push_back({edge, static_cast<int>(top->dac_addr), hg_dac::decode(top->dac_data)});
     }
     prev_wr_n_ = wr_n;
     if (top->irq && !prev_irq_) {
@@ -85,31 +84,18 @@ void Testbench::tick() {
 
 namespace {
 
-void check_timing() {
+const hg_bus::Timing& timing() {
     static bool checked = false;
-    if (checked) return;
+    const hg_bus::Timing& t = bus_timing;
+    if (checked) return t;
     checked = true;
-    const BusTiming& t = bus_timing;
-    if (t.setup < 0 || t.hold < 0 || t.hold + t.setup < 3 || (!t.use_ready && t.strobe < 5)) {
-        std::fprintf(stderr, "error: bus timing setup=%d strobe=%d hold=%d violates the "
-                     "documented minimums (strobe >= 5 or ready, recovery >= 3)\n",
-                     t.setup, t.strobe, t.hold);
+    const char* why = hg_bus::check(t);
+    if (*why) {
+        std::fprintf(stderr, "error: bus timing setup=%d strobe=%d hold=%d violates the documented minimums: %s\n",
+                     t.setup, t.strobe, t.hold, why);
         std::exit(2);
     }
-}
-
-// Strobe low until the access is done: STROBE clocks, or until ready (bounded).
-void strobe_phase() {
-    if (bus_timing.use_ready) {
-        for (int n = 0; n < 64; ++n) {
-            tb->tick();
-            if (tb->top->bus_ready) return;
-        }
-        std::fprintf(stderr, "error: bus_ready never came (edge %llu)\n",
-                     static_cast<unsigned long long>(tb->edge));
-        std::exit(3);
-    }
-    for (int n = 0; n < bus_timing.strobe; ++n) tb->tick();
+    return t;
 }
 
 }  // namespace
@@ -118,49 +104,22 @@ void strobe_phase() {
 using namespace cosim;
 
 extern "C" uint32_t fpga_read32(uint32_t addr) {
-    check_timing();
-    auto& t = *tb->top;
-    t.bus_addr = addr & 0xFFU;
-    t.bus_ce_n = 0;
-    t.eval();
-    for (int n = 0; n < bus_timing.setup; ++n) tb->tick();
-    t.bus_re_n = 0;
-    t.eval();
-    strobe_phase();
-    if (!t.bus_data_oe) ++bus_stats.not_oe;
-    const uint32_t v = t.bus_data_out;  // sampled just before the strobe rises
-    t.bus_re_n = 1;
-    t.eval();
-    for (int n = 0; n < bus_timing.hold; ++n) tb->tick();
-    t.bus_ce_n = 1;
-    t.eval();
+    bool oe = false;
+    const uint32_t v = hg_bus::read(*tb, timing(), addr, &oe);
+    if (!oe) ++bus_stats.not_oe;
     ++bus_stats.reads;
     return v;
 }
 
 extern "C" void fpga_write32(uint32_t addr, uint32_t v) {
-    check_timing();
+    const hg_bus::Timing t = timing();
     if (drop_enable && addr == drop_addr) {
         bus_writes.push_back({tb->edge, tb->edge, addr, v, true, current_isr});
         ++bus_stats.dropped;
         return;
     }
-    auto& t = *tb->top;
-    t.bus_addr = addr & 0xFFU;
-    t.bus_data_in = v;
-    t.bus_ce_n = 0;
-    t.eval();
-    for (int n = 0; n < bus_timing.setup; ++n) tb->tick();
-    t.bus_we_n = 0;
-    t.eval();
-    const uint64_t fall = tb->edge;  // the strobe falls after this edge
-    strobe_phase();
-    t.bus_we_n = 1;
-    t.eval();
-    const uint64_t rise = tb->edge;  // ... and rises after this one
-    for (int n = 0; n < bus_timing.hold; ++n) tb->tick();
-    t.bus_ce_n = 1;
-    t.eval();
+    uint64_t fall = 0, rise = 0;
+    hg_bus::write(*tb, t, addr, v, &fall, &rise);
     bus_writes.push_back({fall, rise, addr, v, false, current_isr});
     ++bus_stats.writes;
 }

@@ -23,6 +23,8 @@
 
 #include "Vhapgate_top.h"
 #include "Vhapgate_top___024root.h"
+#include "bus_hal.h"
+#include "dac_word.h"
 #include "harness_common.h"
 #include "plant.h"
 #include "stage_clocks.h"
@@ -90,7 +92,6 @@ inline double now_s() {
 using hg_dev::FrameRec;
 using hg_dev::LoadRec;
 using hg_dev::RunCfg;
-using hg_dev::TickRec;
 
 
 // ------------------------------------------------------------------ the testbench
@@ -140,16 +141,7 @@ struct Bench {
         if (frame_start && dynamic && (cfg->record & 3)) {
             hg_plant_out o;
             hg_plant_read(plant, &o);
-            FrameRec r{};
-            r.t = scene_t(g);
-            if (cfg->record & 1) {
-                for (int i = 0; i < 3; ++i) {
-                    r.q[i] = o.q[i]; r.p[i] = o.p[i]; r.f_hand[i] = o.f_hand[i]; r.tau[i] = o.tau[i];
-                }
-                for (int i = 0; i < 6; ++i) r.i_ab[i] = o.i_ab[i];
-                r.energy = o.energy;
-            }
-            frames.push(r);
+            frames.push(hg_dev::frame_record(o, scene_t(g), cfg->record));
         }
         if (view && frame_start && dynamic && view_link_want(view, scene_t(g))) {
             hg_plant_out o;
@@ -288,8 +280,7 @@ struct Bench {
 #endif
         const int wr_n = out->dac_wr_n;
         if (wr_n && !prev_wr_n) {
-            int code = static_cast<int>(out->dac_data);
-            if (code >= 8192) code -= 16384;
+            const int code = hg_dac::decode(out->dac_data);
             const int ch = static_cast<int>(out->dac_addr);
             if (cfg->record & 2) loads.push({static_cast<int64_t>(edge), ch, code});
             if (view) view_link_load(view, static_cast<double>(edge) / CLK_HZ - static_cast<double>(scene0_us) * 1e-6, ch, code);
@@ -323,67 +314,32 @@ struct Bench {
 };
 
 Bench* B = nullptr;
-
-bool drop_wdog = false;
-uint64_t last_key_edge = 0;
-
-void wait_grid() {
-    while (B->edge % D != 0) B->tick();
-}
+hg_dev::Scenario SC;   // the scene's faults, ISR records, enable (harness_common.h)
 
 }  // namespace
 
 // ------------------------------------------------------------------ the HAL: one access per 2 us
-// CE and address at a grid point g, strobe from g + 1 clock to the next grid point (D - 1 >= 5
-// clocks), hold 2 clocks; the next access starts at the grid point after. Read data are taken
-// just before the strobe rises.
+// The shared bus master (bus_hal.h) on the grid: CE and address at a grid point g, strobe from
+// g + 1 clock to the next grid point (D - 1 >= 5 clocks), hold 2 clocks; the next access starts
+// at the grid point after. Read data are taken just before the strobe rises.
 struct BusTimer {
     double t0 = 0;
     BusTimer() { if (g_profile && g_in_isr) t0 = now_s(); }
     ~BusTimer() { if (g_profile && g_in_isr) g_bus_in_isr_s += now_s() - t0; }
 };
+constexpr hg_bus::Timing kBus{1, 5, 2, false, D};
 
 extern "C" uint32_t fpga_read32(uint32_t addr) {
     BusTimer bt;
-    wait_grid();
-    auto& t = *B->top;
-    t.bus_addr = addr & 0xFFU;
-    t.bus_ce_n = 0;
-    B->pins();
-    B->tick();
-    t.bus_re_n = 0;
-    B->pins();
-    do B->tick(); while (B->edge % D != 0);
-    const uint32_t v = t.bus_data_out;
-    t.bus_re_n = 1;
-    B->pins();
-    B->tick();
-    B->tick();
-    t.bus_ce_n = 1;
-    B->pins();
-    return v;
+    return hg_bus::read(*B, kBus, addr);
 }
 
 extern "C" void fpga_write32(uint32_t addr, uint32_t v) {
-    if (drop_wdog && addr == HG_REG_WDOG) return;  // injected fault: the key write is lost
+    if (SC.write_lost(addr)) return;  // injected fault: the key write is lost
     BusTimer bt;
-    wait_grid();
-    auto& t = *B->top;
-    t.bus_addr = addr & 0xFFU;
-    t.bus_data_in = v;
-    t.bus_ce_n = 0;
-    B->pins();
-    B->tick();
-    t.bus_we_n = 0;
-    B->pins();
-    do B->tick(); while (B->edge % D != 0);
-    t.bus_we_n = 1;
-    B->pins();
-    if (addr == HG_REG_WDOG) last_key_edge = B->edge;
-    B->tick();
-    B->tick();
-    t.bus_ce_n = 1;
-    B->pins();
+    uint64_t rise = 0;
+    hg_bus::write(*B, kBus, addr, v, nullptr, &rise);
+    if (addr == HG_REG_WDOG) SC.key_written(static_cast<int64_t>(rise));
 }
 
 extern "C" uint32_t hg_hal_irq_save(void) { return 0; }
@@ -557,47 +513,29 @@ int main(int argc, char** argv) {
     const uint64_t end_us = static_cast<uint64_t>(bench.scene0_us) + static_cast<uint64_t>(std::llround(cfg.duration_s * 1e6));
     const bool scripted = link && uart_link_scripted(link);   // a scene's scripted PC
     if (scripted) uart_link_set_origin(link, static_cast<uint64_t>(bench.scene0_us));
-    std::vector<TickRec> ticks;
-    int64_t homed_isr = -1;
-    bool enabled = false, hang = false, resumed = false;
-    double enable_t = NAN;
-    uint64_t next_progress = static_cast<uint64_t>(bench.scene0_us);
-    // fault bookkeeping (scene times -> grid points)
-    std::vector<std::pair<uint64_t, RunCfg::Fault>> faults;
-    for (const auto& f : cfg.faults)
-        faults.push_back({static_cast<uint64_t>(bench.scene0_us + std::llround(f.at_s * 1e6)), f});
-    std::vector<bool> fault_on(faults.size(), false);
-    uint64_t hang_expiry_edge = 0;
+    SC.start(cfg, bench.scene0_us, D);
 
     while (bench.edge < end_us * D) {
         bench.tick();
         // Between grid points only an interrupt (or, while the DSP hangs, its resumption at an
         // edge of its own) has anything to do below: the release, the progress line, the faults
         // and the link all wait for the grid point (g_now changes only there).
-        if (bench.edge % D != 0 && !bench.irq_rose && !hang) continue;
+        if (bench.edge % D != 0 && !bench.irq_rose && !SC.hanging()) continue;
         const uint64_t g_now = bench.edge / D;
         if (!bench.dynamic && static_cast<int64_t>(g_now) >= bench.scene0_us) {
             hg_plant_hold(plant, 0);
             hg_plant_set_q(plant, cfg.q0, cfg.qd0);
             bench.dynamic = true;
         }
-        if (g_now >= next_progress) {
-            hg_dev::progress_line(bench.scene_t(g_now));
-            next_progress += static_cast<uint64_t>(cfg.progress_s * 1e6);
-        }
-        for (size_t k = 0; k < faults.size(); ++k) {
-            if (fault_on[k] || g_now < faults[k].first) continue;
-            fault_on[k] = true;
-            const auto& f = faults[k].second;
-            if (f.kind == 1) bench.dropout[f.axis] = true;
-            if (f.kind == 2) hang = true;
-            if (f.kind == 3) drop_wdog = true;
+        SC.at_grid(static_cast<int64_t>(g_now), [&](const RunCfg::Fault& f) {
+            const bool drop = f.kind == hg_dev::FaultKind::dropout;
+            if (drop) bench.dropout[f.axis] = true;
             if (bench.view) {   // the cause as runner.events times it
-                const double cause = f.kind == 1 ? f.at_s + 16e-6
-                    : static_cast<double>(last_key_edge) / CLK_HZ - static_cast<double>(bench.scene0_us) * 1e-6 + wdog_us * 1e-6;
-                view_link_fault(bench.view, f.kind, f.kind == 1 ? f.axis : -1, cause, f.kind == 1 ? 1 << f.axis : 7);
+                const double cause = drop ? f.at_s + 16e-6
+                    : static_cast<double>(SC.last_key_edge()) / CLK_HZ - static_cast<double>(bench.scene0_us) * 1e-6 + wdog_us * 1e-6;
+                view_link_fault(bench.view, hg_dev::fault_name(f.kind), drop ? f.axis : -1, cause, drop ? 1 << f.axis : 7);
             }
-        }
+        });
         if (bench.view && view_link_ready(bench.view)) {
             view_send(bench.view, s, vctl, link);
             view_link_poll(bench.view, vctl, 0);
@@ -613,19 +551,8 @@ int main(int argc, char** argv) {
         }
         const bool rose = bench.irq_rose;
         bench.irq_rose = false;
-        bool call = rose;
-        if (hang && !resumed) {
-            // the DSP hangs; 2 ms after the watchdog expiry it comes back and services the
-            // pending interrupt: the firmware must refuse to drive
-            call = false;
-            if (!hang_expiry_edge) hang_expiry_edge = (last_key_edge + static_cast<uint64_t>(wdog_us) * D);
-            if (bench.edge >= hang_expiry_edge + 2000 * D) {
-                resumed = true;
-                call = top.irq != 0;
-            }
-        }
-        if (!call) {
-            if (link && enabled && bench.edge % D == 0) uart_link_service(link, g_now);  // background loop
+        if (!SC.isr_due(rose, static_cast<int64_t>(bench.edge), top.irq != 0, wdog_us)) {
+            if (link && SC.is_enabled() && bench.edge % D == 0) uart_link_service(link, g_now);  // background loop
             continue;
         }
         const uint64_t tick_g = (rose ? bench.irq_edge : bench.edge) / D;
@@ -644,26 +571,18 @@ int main(int argc, char** argv) {
         // the snapshot holds the sample of grid point tick_g - 1 (the one visible at the tick)
         const uint64_t gs = tick_g - 1;
         guided_hand(plant, cfg, bu, s);
-        const TickRec r = hg_dev::tick_record(s, bench.scene_t(tick_g), &bench.qtrue_ring[(gs % Bench::kRing) * 3]);
-        ticks.push_back(r);
-        if (link && !scripted && ticks.size() >= 65536) ticks.clear();  // serving: runs until a signal
+        if (link && !scripted && SC.ticks.size() >= 65536) SC.ticks.clear();  // serving: runs until a signal
         // ---- background loop: homing, then the scene and enable at scene time 0
-        if (!enabled) {
-            const uint32_t homed = HG_STAT_HOMED(0) | HG_STAT_HOMED(1) | HG_STAT_HOMED(2);
-            if (homed_isr < 0 && (s.status & homed) == homed) {
-                homed_isr = static_cast<int64_t>(ticks.size()) - 1;
-            } else if (homed_isr >= 0 && static_cast<int64_t>(tick_g) >= bench.scene0_us - 1000000 / static_cast<int64_t>(cfg.servo_hz)) {
-                const int rc = hg_dev::fw_home_scene_enable(&s, cfg, !link && !vctl.forces_off);  // with a PC link: the PC enables
-                if (rc != 0) return rc;
-                enable_t = bench.scene_t(bench.edge / D);   // (before bring-up's bus reads)
-                // the joints rest in the scene's start pose: bring-up's reference pose
-                hg_bringup_cfg_t bc;
-                hg_dev::fw_bringup_config(cfg, &bc);
-                hg_bringup_init(&bu, &s, &bc, hg_servo_calibrated(&s) ? &s.cfg.cal : nullptr);
-                hg_bringup_isr_ctx = &bu;
-                if (link) uart_link_set_bringup(link, &bu);
-                enabled = true;
-            }
+        if (SC.after_isr(s, static_cast<int64_t>(tick_g), &bench.qtrue_ring[(gs % Bench::kRing) * 3])) {
+            const int rc = hg_dev::fw_home_scene_enable(&s, cfg, !link && !vctl.forces_off);  // with a PC link: the PC enables
+            if (rc != 0) return rc;
+            SC.enabled(bench.scene_t(bench.edge / D));   // (before bring-up's bus reads)
+            // the joints rest in the scene's start pose: bring-up's reference pose
+            hg_bringup_cfg_t bc;
+            hg_dev::fw_bringup_config(cfg, &bc);
+            hg_bringup_init(&bu, &s, &bc, hg_servo_calibrated(&s) ? &s.cfg.cal : nullptr);
+            hg_bringup_isr_ctx = &bu;
+            if (link) uart_link_set_bringup(link, &bu);
         }
     }
     const double wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - w0).count();
@@ -673,12 +592,13 @@ int main(int argc, char** argv) {
 #endif
     // ---------------------------------------------------------------- outputs
     bench.frames.close();
-    hg_dev::write_file(outdir, "ticks.bin", ticks.data(), ticks.size() * sizeof(TickRec));
+    SC.finish(outdir);
     bench.loads.close();
     bench.adc.close();
     const double sim_s = static_cast<double>(end_us - static_cast<uint64_t>(bench.scene0_us)) * 1e-6;
-    hg_dev::print_summary({CLK_HZ, AXIS_MASK, sim_s, wall_s, cpu_s, bench.edge, bench.frames.size(), ticks.size(),
-                           bench.loads.size(), init_err, s.err, s.err_axis, enable_t, wdog_us, last_key_edge,
+    hg_dev::print_summary({CLK_HZ, AXIS_MASK, sim_s, wall_s, cpu_s, bench.edge, bench.frames.size(), SC.ticks.size(),
+                           bench.loads.size(), init_err, s.err, s.err_axis, SC.enable_t(), wdog_us,
+                           static_cast<uint64_t>(SC.last_key_edge()),
                            bench.scene0_us, bench.skew, bench.frame, D});
     if (link) uart_link_summary(link, stdout);
     if (g_profile)

@@ -17,6 +17,20 @@ extern "C" {
 
 namespace hg_dev {
 
+// "fault = AT_S KIND AXIS" (KIND by name, kFaultKinds)
+static bool parse_fault(const std::string& rest, RunCfg& c, std::string& err) {
+    std::istringstream vs(rest);
+    double at = 0;
+    std::string name, extra;
+    int axis = 0;
+    FaultKind k{};
+    if (!(vs >> at >> name >> axis) || (vs >> extra)) err = "fault: expected AT_S KIND AXIS";
+    else if (!fault_kind_of(name, &k)) err = "fault: unknown kind " + name;
+    else if (axis < 0 || axis > 2) err = "fault: axis must be 0, 1 or 2";
+    else c.faults.push_back({at, k, axis});
+    return err.empty();
+}
+
 bool parse_run(const std::string& text, RunCfg& c, std::string& err, bool model_keys) {
     std::istringstream in(text);
     std::string line;
@@ -25,6 +39,10 @@ bool parse_run(const std::string& text, RunCfg& c, std::string& err, bool model_
         if (line.empty() || line[0] == '#' || eq == std::string::npos) continue;
         std::string key = line.substr(0, eq);
         key.erase(key.find_last_not_of(" \t") + 1);
+        if (key == "fault") {
+            if (!parse_fault(line.substr(eq + 1), c, err)) return false;
+            continue;
+        }
         std::istringstream vs(line.substr(eq + 1));
         std::vector<double> v;
         double x;
@@ -65,7 +83,6 @@ bool parse_run(const std::string& text, RunCfg& c, std::string& err, bool model_
         else if (key == "view_fd" && need(1)) c.view_fd = static_cast<int>(v[0]);
         else if (key == "ctl_fd" && need(1)) c.ctl_fd = static_cast<int>(v[0]);
         else if (key == "view_period_s" && need(1)) c.view_period_s = v[0];
-        else if (key == "fault" && need(3)) c.faults.push_back({v[0], static_cast<int>(v[1]), static_cast<int>(v[2])});
         else if (model_keys && key == "mech_us" && need(1)) c.mech_us = static_cast<int>(v[0]);
         else if (model_keys && key == "axis_mask" && need(1)) c.axis_mask = static_cast<int>(v[0]);
         else if (model_keys && key == "clk_hz" && need(1)) c.clk_hz = static_cast<uint32_t>(v[0]);
@@ -113,23 +130,37 @@ TickRec tick_record(const hg_servo_t& s, double t, const double q_true[3]) {
     return r;
 }
 
+FrameRec frame_record(const hg_plant_out& o, double t, uint32_t record) {
+    FrameRec r{};
+    r.t = t;
+    if (record & 1) {
+        for (int i = 0; i < 3; ++i) {
+            r.q[i] = o.q[i]; r.p[i] = o.p[i]; r.f_hand[i] = o.f_hand[i]; r.tau[i] = o.tau[i];
+        }
+        for (int i = 0; i < 6; ++i) r.i_ab[i] = o.i_ab[i];
+        r.energy = o.energy;
+    }
+    return r;
+}
+
+void Scenario::start(const RunCfg& cfg, int64_t scene0_us, int64_t d) {
+    cfg_ = &cfg;
+    d_ = d;
+    scene0_ = scene0_us;
+    next_progress_ = scene0_us;
+    for (const auto& f : cfg.faults) faults_.push_back({scene0_us + std::llround(f.at_s * 1e6), f, false});
+    ticks.reserve(static_cast<size_t>(std::min(cfg.duration_s * cfg.servo_hz, 1048576.0)) + 64);   // (served: a cap)
+}
+
+void Scenario::finish(const std::string& outdir) const {
+    write_file(outdir, "ticks.bin", ticks.data(), ticks.size() * sizeof(TickRec));
+}
+
 void write_file(const std::string& outdir, const std::string& name, const void* data, size_t bytes) {
     FILE* f = std::fopen((outdir + "/" + name).c_str(), "wb");
     if (!f) { std::fprintf(stderr, "error: cannot write %s/%s\n", outdir.c_str(), name.c_str()); std::exit(3); }
     if (bytes) std::fwrite(data, 1, bytes, f);
     if (std::fclose(f) != 0) { std::fprintf(stderr, "error: writing %s/%s failed\n", outdir.c_str(), name.c_str()); std::exit(3); }
-}
-
-void write_records(const std::string& outdir, const std::vector<FrameRec>& frames,
-                   const std::vector<TickRec>& ticks, const std::vector<LoadRec>& loads,
-                   const std::vector<int8_t>& adc) {
-    auto dump = [&](const std::string& name, const void* data, size_t bytes) {
-        write_file(outdir, name, data, bytes);
-    };
-    dump("frames.bin", frames.data(), frames.size() * sizeof(FrameRec));
-    dump("ticks.bin", ticks.data(), ticks.size() * sizeof(TickRec));
-    dump("loads.bin", loads.data(), loads.size() * sizeof(LoadRec));
-    dump("adc.bin", adc.data(), adc.size());
 }
 
 void homing_pose(const RunCfg& cfg, double t_sweep0, double t_abs, double q[3], double qd[3]) {

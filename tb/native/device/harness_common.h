@@ -1,10 +1,13 @@
 // SPDX-License-Identifier: Apache-2.0
 // What the two closed-loop harnesses share (device_harness.cpp: the Verilated gateware;
 // model_harness.cpp: the golden models in its place): the run configuration and its parser, the
-// record layouts (runner.FRAME_DT / TICK_DT / LOAD_DT), the firmware's bring-up and its
-// background steps (homing, scene, enable), and the output files. Description: README.md.
+// fault kinds, the record layouts (runner.FRAME_DT / TICK_DT / LOAD_DT), the scenario engine
+// (faults, the DSP's hang, ISR records, enable at scene time 0, progress, summary), the
+// firmware's bring-up and its background steps, and the output files. Description: README.md.
 #pragma once
 
+#include <algorithm>
+#include <cmath>
 #include <cstdint>
 #include <cstdio>
 #include <cstdlib>
@@ -13,12 +16,40 @@
 
 extern "C" {
 #include "hg_bringup.h"
+#include "hg_fpga_regs.h"
 #include "hg_servo.h"
 }
+#include "plant.h"
 
 namespace hg_dev {
 
 constexpr double kPi = 3.14159265358979323846;
+
+// ------------------------------------------------------------------ fault kinds
+// The scene's [[fault]] kinds a harness simulates, by the scene's own names: the run
+// configuration names them (`fault = AT_S NAME AXIS`), the live view reports them by name, and
+// tb/device/test_record_layout.py checks this list against hapgate.device.harness.HARNESS_FAULTS.
+enum class FaultKind : int { dropout, hang, watchdog };
+struct FaultKindName { FaultKind kind; const char* name; };
+constexpr FaultKindName kFaultKinds[] = {
+    {FaultKind::dropout, "dropout"},     // the axis's ADC codes are 0 from at_s on
+    {FaultKind::hang, "hang"},           // the DSP stops calling its ISR (README "Faults")
+    {FaultKind::watchdog, "watchdog"},   // every watchdog key write is lost
+};
+inline const char* fault_name(FaultKind k) {
+    for (const auto& f : kFaultKinds)
+        if (f.kind == k) return f.name;
+    return "?";
+}
+// The kind named `name`; false if there is none.
+inline bool fault_kind_of(const std::string& name, FaultKind* k) {
+    for (const auto& f : kFaultKinds)
+        if (name == f.name) {
+            *k = f.kind;
+            return true;
+        }
+    return false;
+}
 
 // ------------------------------------------------------------------ run configuration
 struct RunCfg {
@@ -46,8 +77,8 @@ struct RunCfg {
     double progress_s = 0.05;               // progress line every this much simulated time
     int view_fd = -1, ctl_fd = -1;          // the live view's pipes (view_link.h; device harness only)
     double view_period_s = 0.02;            // its telemetry period, simulated time
-    struct Fault { double at_s; int kind; int axis; };
-    std::vector<Fault> faults;              // kind: 1 dropout, 2 hang, 3 watchdog
+    struct Fault { double at_s; FaultKind kind; int axis; };
+    std::vector<Fault> faults;              // (the axis matters for a dropout only)
     // model fidelity only (model_harness.cpp); the Verilated harness refuses them
     int mech_us = 0;                        // mechanics step, us (0: the plant's own dt_s)
     int axis_mask = 7;                      // axes built (the RTL's AXIS_MASK)
@@ -91,6 +122,10 @@ struct LoadRec { int64_t edge; int32_t ch; int32_t code; };
 // The firmware's record of one ISR call at scene time t; q_true: the snapshot's true angles.
 TickRec tick_record(const hg_servo_t& s, double t, const double q_true[3]);
 
+// The plant's record of the DAC frame starting at scene time t (the plant fields only with record
+// bit 0; the codes are added when the frame's last channel loads).
+FrameRec frame_record(const hg_plant_out& o, double t, uint32_t record);
+
 // Write one file into outdir (exit 3 if it cannot be written).
 void write_file(const std::string& outdir, const std::string& name, const void* data, size_t bytes);
 
@@ -129,14 +164,101 @@ private:
     size_t n_ = 0;
 };
 
-// Write frames.bin, ticks.bin, loads.bin and adc.bin into outdir (exit 3 if one cannot be).
-void write_records(const std::string& outdir, const std::vector<FrameRec>& frames,
-                   const std::vector<TickRec>& ticks, const std::vector<LoadRec>& loads,
-                   const std::vector<int8_t>& adc);
-
 // The homing sweep (README "Homing"): every joint's pose t s after reset, a raised cosine that
 // starts at t_sweep0 and ends at rest on q0.
 void homing_pose(const RunCfg& cfg, double t_sweep0, double t, double q[3], double qd[3]);
+
+// A progress line on stderr (runner._progress_reader): scene time t, s.
+void progress_line(double t);
+
+// ------------------------------------------------------------------ the scenario engine
+// What a run does besides simulating the device, shared by both harnesses, each calling it at its
+// own granularity (the Verilated harness after clock edges, the model harness at the events
+// next_edge() names): the scene's faults, the DSP's hang and resumption, the lost watchdog key,
+// the ISR records, the firmware's background enable at scene time 0, progress lines and the
+// summary. Times are grid points (1 us) and clock edges since reset (d clocks per grid point).
+class Scenario {
+public:
+    void start(const RunCfg& cfg, int64_t scene0_us, int64_t d);
+    int64_t scene0() const { return scene0_; }
+    double scene_t(int64_t g) const { return (static_cast<double>(g) - static_cast<double>(scene0_)) * 1e-6; }
+
+    // At grid point g: a progress line when due, and every fault due that was not yet: the
+    // engine applies hang and watchdog itself, then calls apply(fault) (a dropout's signal, the
+    // live view's event).
+    template <typename F>
+    void at_grid(int64_t g, F&& apply) {
+        if (g >= next_progress_) {
+            progress_line(scene_t(g));
+            next_progress_ += static_cast<int64_t>(cfg_->progress_s * 1e6);
+        }
+        for (size_t k = 0; k < faults_.size(); ++k) {
+            if (faults_[k].on || g < faults_[k].g) continue;
+            faults_[k].on = true;
+            const RunCfg::Fault& f = faults_[k].f;
+            if (f.kind == FaultKind::hang) hang_ = true;
+            if (f.kind == FaultKind::watchdog) drop_wdog_ = true;
+            apply(f);
+        }
+    }
+    // The earliest edge, after none, at which at_grid() or isr_due() has something to do.
+    int64_t next_edge() const {
+        int64_t c = next_progress_ * d_;
+        for (const auto& f : faults_)
+            if (!f.on) c = std::min(c, f.g * d_);
+        if (hang_ && !resumed_ && hang_expiry_edge_) c = std::min(c, hang_expiry_edge_ + kResumeUs * d_);
+        return c;
+    }
+
+    // The HAL's side: a write the scene's watchdog fault loses, and the edge of each key write.
+    bool write_lost(uint32_t addr) const { return drop_wdog_ && addr == HG_REG_WDOG; }
+    void key_written(int64_t edge) { last_key_edge_ = edge; }
+    int64_t last_key_edge() const { return last_key_edge_; }
+    bool hanging() const { return hang_; }
+
+    // Does the firmware's ISR run at this edge? rose: the interrupt rose since the last call;
+    // irq: its level now. While the DSP hangs nothing runs; kResumeUs after the watchdog's
+    // expiry it comes back and services the pending interrupt (the firmware must refuse to drive).
+    bool isr_due(bool rose, int64_t edge, bool irq, uint32_t wdog_us) {
+        if (!hang_ || resumed_) return rose;
+        if (!hang_expiry_edge_) hang_expiry_edge_ = last_key_edge_ + static_cast<int64_t>(wdog_us) * d_;
+        if (edge >= hang_expiry_edge_ + kResumeUs * d_) {
+            resumed_ = true;
+            return irq;
+        }
+        return false;
+    }
+
+    // After an ISR call at grid point tick_g (the snapshot's true angles q_true): its record; true
+    // once, when the background loop's scene and enable are due (all axes homed, the tick before
+    // scene time 0): the harness does them and calls enabled().
+    bool after_isr(const hg_servo_t& s, int64_t tick_g, const double q_true[3]) {
+        ticks.push_back(tick_record(s, scene_t(tick_g), q_true));
+        if (enabled_) return false;
+        const uint32_t homed = HG_STAT_HOMED(0) | HG_STAT_HOMED(1) | HG_STAT_HOMED(2);
+        if (!homed_) {
+            homed_ = (s.status & homed) == homed;
+            return false;
+        }
+        return tick_g >= scene0_ - 1000000 / static_cast<int64_t>(cfg_->servo_hz);
+    }
+    void enabled(double t) { enabled_ = true; enable_t_ = t; }
+    bool is_enabled() const { return enabled_; }
+    double enable_t() const { return enable_t_; }
+
+    std::vector<TickRec> ticks;             // ticks.bin (finish())
+    void finish(const std::string& outdir) const;
+
+private:
+    static constexpr int64_t kResumeUs = 2000;   // the hung DSP resumes 2 ms after the expiry
+    struct Due { int64_t g; RunCfg::Fault f; bool on; };
+    const RunCfg* cfg_ = nullptr;
+    int64_t d_ = 6, scene0_ = 0, next_progress_ = 0;
+    std::vector<Due> faults_;
+    bool hang_ = false, resumed_ = false, drop_wdog_ = false, homed_ = false, enabled_ = false;
+    int64_t hang_expiry_edge_ = 0, last_key_edge_ = 0;
+    double enable_t_ = NAN;
+};
 
 // The run's summary lines on stdout (key=value, read by runner.simulate); cpu_s: the process's
 // CPU time of the run (std::clock, the machine is shared: the real-time factor on a free core).
@@ -147,8 +269,6 @@ struct Summary {
     uint64_t last_key_edge; int64_t scene0_us; uint32_t skew, frame; uint64_t d;
 };
 void print_summary(const Summary& s);
-// A progress line on stderr (runner._progress_reader): scene time t, s.
-void progress_line(double t);
 
 // ------------------------------------------------------------------ the firmware
 // Its configuration for this run (rate, clock, encoder zero at the index, commutation offset

@@ -19,6 +19,7 @@
 #include <string>
 #include <vector>
 
+#include "dac_word.h"
 #include "harness_common.h"
 #include "plant.h"
 
@@ -368,7 +369,9 @@ bool axis_en(int i) { return stored[HG_REG_CTRL] & HG_CTRL_AXIS_EN(i); }
 // ------------------------------------------------------------------ commutation (golden.commutation)
 std::vector<int64_t> sine_rom;
 // the shipped commutation configuration (CommutationConfig defaults; the runner refuses others)
-constexpr int kCB = 20, kAB = 10, kPolePairs = 2, kShift = 15, kMaxCode = 8191, kFS = 8191;
+// (the codes saturate at the DAC's full scale, dac_word.h; the ROM's full scale is the same, which
+// the runner checks: comm.rom.fs)
+constexpr int kCB = 20, kAB = 10, kPolePairs = 2, kShift = 15, kMaxCode = hg_dac::kFullScale, kFS = hg_dac::kFullScale;
 constexpr int kPhaseB = (1024 + 1) / 3;
 int64_t six_edges[6];
 const int kSixA[7] = {0, 1, 1, 0, -1, -1, 0}, kSixB[7] = {-1, -1, 0, 1, 1, 0, -1};
@@ -731,18 +734,7 @@ void grid_point(int64_t g) {
         hg_plant_amp(plant, 1);
         G.amp_g = g + 1;
     }
-    if (rec) {
-        FrameRec r{};
-        r.t = (static_cast<double>(g) - static_cast<double>(G.scene0)) * 1e-6;
-        if (cfg.record & 1) {
-            for (int i = 0; i < 3; ++i) {
-                r.q[i] = o.q[i]; r.p[i] = o.p[i]; r.f_hand[i] = o.f_hand[i]; r.tau[i] = o.tau[i];
-            }
-            for (int i = 0; i < 6; ++i) r.i_ab[i] = o.i_ab[i];
-            r.energy = o.energy;
-        }
-        G.frames.push(r);
-    }
+    if (rec) G.frames.push(frame_record(o, (static_cast<double>(g) - static_cast<double>(G.scene0)) * 1e-6, cfg.record));
     // the exact interpolator through the homing sweep: sample g - 1 is the ADC word of grid g
     if (!G.dynamic && g >= 1) {
         for (int i = 0; i < 3; ++i) {
@@ -768,8 +760,7 @@ void grid_point(int64_t g) {
 
 // ------------------------------------------------------------------ the HAL: one access per 2 us
 int64_t edge_now = 0;                             // the firmware's position on the clock-edge axis
-bool drop_wdog = false;
-int64_t last_key_edge = 0;
+Scenario SC;                                      // the scene's faults, ISR records, enable (harness_common.h)
 
 uint32_t reg_read(uint32_t w) {
     if (w >= 256 || !mapped[w]) return 0xDEADBEEFu;
@@ -823,12 +814,12 @@ extern "C" uint32_t fpga_read32(uint32_t addr) {
 }
 
 extern "C" void fpga_write32(uint32_t addr, uint32_t v) {
-    if (drop_wdog && addr == HG_REG_WDOG) return;  // injected fault: the key write is lost
+    if (SC.write_lost(addr)) return;  // injected fault: the key write is lost
     const int64_t g = access_grid();
     const uint32_t w = addr & 0xFFU;
     run_to(g * D + 4);
     reg_edge(g * D + 5, static_cast<int>(w), v, true);
-    if (w == HG_REG_WDOG) last_key_edge = (g + 1) * D;
+    if (w == HG_REG_WDOG) SC.key_written((g + 1) * D);
     edge_now = (g + 1) * D + 2;
 }
 
@@ -952,16 +943,7 @@ int main(int argc, char** argv) {
 
     G.scene0 = std::llround((kTSweep0 + cfg.t_sweep_s + cfg.t_settle_s) * 1e6);
     const int64_t end_us = G.scene0 + std::llround(cfg.duration_s * 1e6);
-    std::vector<TickRec> ticks;
-    ticks.reserve(static_cast<size_t>(cfg.duration_s * cfg.servo_hz) + 64);
-    int64_t homed_isr = -1;
-    bool enabled = false, hang = false, resumed = false;
-    double enable_t = NAN;
-    int64_t next_progress = G.scene0;
-    std::vector<std::pair<int64_t, RunCfg::Fault>> faults;
-    for (const auto& f : cfg.faults) faults.push_back({G.scene0 + std::llround(f.at_s * 1e6), f});
-    std::vector<bool> fault_on(faults.size(), false);
-    int64_t hang_expiry_edge = 0;
+    SC.start(cfg, G.scene0, D);
     const int64_t end_edge = end_us * D;
 
     // The main loop of device_harness.cpp at event granularity: its checks run after every clock
@@ -972,10 +954,7 @@ int main(int argc, char** argv) {
         if (!pending_rose) {
             int64_t c = std::min(end_edge, next_tick);
             if (!G.dynamic) c = std::min(c, G.scene0 * D);
-            c = std::min(c, next_progress * D);
-            for (size_t k = 0; k < faults.size(); ++k)
-                if (!fault_on[k]) c = std::min(c, faults[k].first * D);
-            if (hang && !resumed && hang_expiry_edge) c = std::min(c, hang_expiry_edge + 2000 * D);
+            c = std::min(c, SC.next_edge());
             e = std::max(e, c);
         }
         run_to(e);
@@ -993,60 +972,35 @@ int main(int argc, char** argv) {
                 AX[i].qm_ref = qm_of(i, AX[i].n_exact, q);
             }
         }
-        if (g_now >= next_progress) {
-            progress_line((static_cast<double>(g_now) - static_cast<double>(G.scene0)) * 1e-6);
-            next_progress += static_cast<int64_t>(cfg.progress_s * 1e6);
-        }
-        for (size_t k = 0; k < faults.size(); ++k) {
-            if (fault_on[k] || g_now < faults[k].first) continue;
-            fault_on[k] = true;
-            const auto& f = faults[k].second;
-            if (f.kind == 1) {   // A = B = 0 from the next grid point's word: sample g_now on
-                AX[f.axis].dropout_from = g_now;
-                if (AX[f.axis].built) { AX[f.axis].fault_ev.push_back({g_now + cfg.loss_samples - 1, 4}); AX[f.axis].update_simple(); }
-            }
-            if (f.kind == 2) hang = true;
-            if (f.kind == 3) drop_wdog = true;
-        }
+        SC.at_grid(g_now, [&](const RunCfg::Fault& f) {
+            if (f.kind != FaultKind::dropout) return;
+            // A = B = 0 from the next grid point's word: sample g_now on
+            AX[f.axis].dropout_from = g_now;
+            if (AX[f.axis].built) { AX[f.axis].fault_ev.push_back({g_now + cfg.loss_samples - 1, 4}); AX[f.axis].update_simple(); }
+        });
         const bool rose = pending_rose;
         pending_rose = false;
-        bool call = rose;
-        if (hang && !resumed) {
-            call = false;
-            if (!hang_expiry_edge) hang_expiry_edge = last_key_edge + static_cast<int64_t>(wdog_us) * D;
-            if (e >= hang_expiry_edge + 2000 * D) {
-                resumed = true;
-                call = (irq & 1) != 0;
-            }
-        }
-        if (!call) continue;
+        if (!SC.isr_due(rose, e, (irq & 1) != 0, wdog_us)) continue;
         const int64_t tick_g = (rose ? irq_edge : e) / D;
         hg_servo_isr();
         const int64_t gs = tick_g - 1;
         const double qs[3] = {G.qat(gs, 0), G.qat(gs, 1), G.qat(gs, 2)};
-        ticks.push_back(tick_record(s, (static_cast<double>(tick_g) - static_cast<double>(G.scene0)) * 1e-6, qs));
-        if (!enabled) {
-            const uint32_t homed = HG_STAT_HOMED(0) | HG_STAT_HOMED(1) | HG_STAT_HOMED(2);
-            if (homed_isr < 0 && (s.status & homed) == homed) {
-                homed_isr = static_cast<int64_t>(ticks.size()) - 1;
-            } else if (homed_isr >= 0 && tick_g >= G.scene0 - 1000000 / static_cast<int64_t>(cfg.servo_hz)) {
-                const int rc = fw_home_scene_enable(&s, cfg, true);
-                if (rc != 0) return rc;
-                enabled = true;
-                enable_t = (static_cast<double>(edge_now / D) - static_cast<double>(G.scene0)) * 1e-6;
-            }
+        if (SC.after_isr(s, tick_g, qs)) {
+            const int rc = fw_home_scene_enable(&s, cfg, true);
+            if (rc != 0) return rc;
+            SC.enabled((static_cast<double>(edge_now / D) - static_cast<double>(G.scene0)) * 1e-6);
         }
     }
     const double wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - w0).count();
     const double cpu_s = static_cast<double>(std::clock() - c0) / CLOCKS_PER_SEC;
     G.frames.close();
-    write_file(outdir, "ticks.bin", ticks.data(), ticks.size() * sizeof(TickRec));
+    SC.finish(outdir);
     loads.close();
     G.adc.close();
     const double sim_s = static_cast<double>(end_us - G.scene0) * 1e-6;
     print_summary({cfg.clk_hz, cfg.axis_mask, sim_s, wall_s, cpu_s, static_cast<uint64_t>(edge_now), G.frames.size(),
-                   ticks.size(), loads.size(), init_err, s.err, s.err_axis, enable_t, wdog_us,
-                   static_cast<uint64_t>(last_key_edge), G.scene0, skew, frame, static_cast<uint64_t>(D)});
+                   SC.ticks.size(), loads.size(), init_err, s.err, s.err_axis, SC.enable_t(), wdog_us,
+                   static_cast<uint64_t>(SC.last_key_edge()), G.scene0, skew, frame, static_cast<uint64_t>(D)});
     hg_plant_free(plant);
     return 0;
 }

@@ -2,6 +2,7 @@
 // The plant of the virtual device (see plant.h and README.md): motors + amplifiers, linkage
 // dynamics with a hand, encoder front end. Double precision throughout, no allocation in the
 // step, no dependence on the firmware (the firmware is what it tests).
+#include "dac_word.h"
 #include "plant.h"
 
 #include <cmath>
@@ -26,7 +27,7 @@ struct Params {
     double i_max = 8.0;               // A, amplifier limit
     double bw_hz = 2000.0;            // current-loop bandwidth (first-order lag)
     double i_fs = 8.0;                // A at DAC code dac_fs (10 V x 0.8 A/V)
-    double dac_fs = 8191.0;
+    double dac_fs = hg_dac::kFullScale;   // (dac_word.h)
     double arm = 0.05;                // m, L_beta = L_gamma (docs/design/KINEMATICS.md)
     double m_link = 0.02, m_handle = 0.01;  // kg, lumped at the endpoint
     double b_visc[3] = {2e-4, 2e-4, 2e-4};  // N m s / rad

@@ -3,7 +3,8 @@
 // "<record> <field> <offset> <size> <kind><item size>", and "<record> . 0 <sizeof> -". tb/device/test_record_layout.py
 // builds this against harness_common.h and compares every line with the numpy dtypes of
 // hapgate.device.harness (FRAME_DT, TICK_DT, LOAD_DT): the layout is written in two languages,
-// and this is the check that they agree.
+// and this is the check that they agree. Then the fault kinds, "FaultKind <name> <value> <found by name> -" in
+// the order of kFaultKinds, checked against hapgate.device.harness.HARNESS_FAULTS.
 #include <cstddef>
 #include <cstdio>
 
@@ -32,5 +33,10 @@ int main() {
     FIELD(TickRec, status); FIELD(TickRec, err); FIELD(TickRec, err_axis); FIELD(TickRec, drive);
     FIELD(TickRec, pad); TOTAL(TickRec);
     FIELD(LoadRec, edge); FIELD(LoadRec, ch); FIELD(LoadRec, code); TOTAL(LoadRec);
+    for (const auto& f : hg_dev::kFaultKinds) {
+        hg_dev::FaultKind k{};
+        const bool found = hg_dev::fault_kind_of(f.name, &k) && k == f.kind;
+        std::printf("FaultKind %s %d %d -\n", f.name, static_cast<int>(f.kind), found);
+    }
     return 0;
 }

@@ -19,7 +19,8 @@ constexpr int kBurstAdc = 4096;      // 4.1 ms of ADC words (1 MSPS)
 constexpr int kFrameDoubles = 16;    // t, dac[6], i_ab[6], tau[3]
 
 struct Event {
-    int kind, axis, motors;
+    const char* kind;   // the fault kind's name (hg_dev::kFaultKinds)
+    int axis, motors;
     double cause, zero;
 };
 }  // namespace
@@ -185,7 +186,7 @@ void view_link_send(ViewLink* v, const ViewFw& fw, const ViewCtl& ctl) {
     else ++v->dropped;
 }
 
-void view_link_fault(ViewLink* v, int kind, int axis, double cause_s, int motor_mask) {
+void view_link_fault(ViewLink* v, const char* kind, int axis, double cause_s, int motor_mask) {
     v->events.push_back({kind, axis, motor_mask, cause_s, NAN});
     if (!v->burst_frames_on && !v->burst_adc_on) v->burst_armed = true;   // triggered capture
 }
@@ -199,7 +200,7 @@ void view_link_load(ViewLink* v, double t_s, int ch, int code) {
         } else if (std::isnan(e.zero)) {
             e.zero = t_s;
             char b[200];
-            std::snprintf(b, sizeof b, "E n=%zu kind=%d axis=%d cause=%.9f zero=%.9f react_us=%.4f\n", k, e.kind,
+            std::snprintf(b, sizeof b, "E n=%zu kind=%s axis=%d cause=%.9f zero=%.9f react_us=%.4f\n", k, e.kind,
                           e.axis, e.cause, e.zero, (e.zero - e.cause) * 1e6);
             put_reliable(v, b);
         }

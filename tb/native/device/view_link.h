@@ -49,7 +49,7 @@ void view_link_send(ViewLink* v, const ViewFw& fw, const ViewCtl& ctl);
 void view_link_again(ViewLink* v);
 // A fault became active: its safety event is timed from cause_s (scene time) to the first DAC
 // load from which every channel of the motors in motor_mask stays zero (runner.events' rule).
-void view_link_fault(ViewLink* v, int kind, int axis, double cause_s, int motor_mask);
+void view_link_fault(ViewLink* v, const char* kind, int axis, double cause_s, int motor_mask);
 void view_link_load(ViewLink* v, double t_s, int ch, int code);
 // Read pending commands into ctl; with wait_s > 0 block up to that long for one.
 void view_link_poll(ViewLink* v, ViewCtl& ctl, double wait_s);
