@@ -156,3 +156,35 @@ def test_unsupported_combinations_exit_2(tmp_path, capsys):
         err = capsys.readouterr().err
         assert str(bad) in err and key in err, err
         assert not out.exists() or not any(out.iterdir())
+
+
+def test_fault_kinds_are_named_in_the_run_configuration(tmp_path):
+    """The harnesses read a fault's kind by the scene's name (harness_common.h kFaultKinds): a
+    named kind runs and takes effect, an unknown name or a number is refused with exit 2,
+    naming the file and the key, before anything is written."""
+    import subprocess
+
+    from hapgate.device import harness
+
+    s = _short()
+    q0 = harness.start_pose(s)
+    exe = model.build()
+    base = model.run_config(s, q0, harness.choose_clock(s), harness.axis_mask(s), model.MECH_US)
+    assert "\nfault = " not in base
+    (tmp_path / "plant.cfg").write_text(harness.plant_config(s, q0))
+    results = {}
+    for line in ("fault = 0.002 watchdog 0", "fault = 0.002 meltdown 0", "fault = 0.002 3 0"):
+        out = tmp_path / line.split()[3]
+        out.mkdir()
+        (out / "run.cfg").write_text(base + line + "\n")
+        p = subprocess.run([str(exe), str(tmp_path / "plant.cfg"), str(out / "run.cfg"), str(out)],
+                           capture_output=True, text=True, timeout=120)
+        results[line.split()[3]] = (p, sorted(x.name for x in out.iterdir()))
+    ok, files = results["watchdog"]
+    assert ok.returncode == 0, ok.stderr
+    assert "fw_err=6 " in ok.stdout                   # HG_ERR_WATCHDOG: the key writes were lost
+    for name in ("meltdown", "3"):
+        p, files = results[name]
+        assert p.returncode == 2
+        assert str(tmp_path / name / "run.cfg") in p.stderr and "fault: unknown kind" in p.stderr
+        assert files == ["run.cfg"]

@@ -30,8 +30,8 @@ from ..golden.top import SOURCES, TopConfig
 from . import native
 
 HERE = TB / "native" / "cosim"
-DEVICE = TB / "native" / "device"     # the shared bus master and DAC word (bus_hal.h, dac_word.h)
-HARNESS = [HERE / "cosim_harness.cpp", HERE / "hal_cosim.cpp"]
+DEVICE = TB / "native" / "device"     # the shared bus master, DAC word and plant
+HARNESS = [HERE / "cosim_harness.cpp", HERE / "hal_cosim.cpp", DEVICE / "plant.cpp"]
 FW = ROOT / "dsp-fw"
 FW_WARN = ("-Wall -Wextra -Werror -Wconversion -Wdouble-promotion -Wshadow -Wstrict-prototypes "
            "-Wmissing-prototypes -Wcast-qual -Wvla").split()   # dsp-fw/Makefile's WARN
@@ -83,7 +83,8 @@ def build(cfg: TopConfig | None = None) -> Path:
                 f"-DHG_DAC_OFFSET_BINARY={int(cfg.comm.offset_binary)} "
                 f"-I{HERE} -I{DEVICE} -I{FW / 'include'}"),
         ldflags="fw/libhgfw.a -lm",          # relative to the build directory (make runs there)
-        inputs=[HERE / "cosim.h", DEVICE / "bus_hal.h", DEVICE / "dac_word.h", *fw_srcs],
+        inputs=[HERE / "cosim.h", DEVICE / "bus_hal.h", DEVICE / "dac_word.h", DEVICE / "plant.h",
+                *fw_srcs],
         prepare=_fw_lib)
 
 

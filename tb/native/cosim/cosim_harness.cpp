@@ -27,6 +27,7 @@
 
 #include "cosim.h"
 #include "dac_word.h"
+#include "plant.h"
 
 extern "C" {
 #include "hg_fpga_regs.h"
@@ -43,9 +44,8 @@ namespace {
 // ------------------------------------------------------------------ plant constants
 constexpr double kPi = 3.14159265358979323846;
 constexpr double kLines = 1024.0;        // encoder lines per revolution
-constexpr double kAdcR = 110.0;          // ADC amplitude (codes)
+constexpr double kAdcR = 110.0;          // ADC amplitude (codes): the plant's enc_amplitude
 constexpr int kPolePairs = 2;
-constexpr double kL = 0.05;              // arm lengths (docs/design/KINEMATICS.md default), m
 constexpr double kDacFs = hg_dac::kFullScale;   // DAC code at full scale (dac_word.h)
 #if !defined(HG_LOAD_CLOCKS) || !defined(HG_WR_CYCLES)
 #error "HG_LOAD_CLOCKS and HG_WR_CYCLES (from the top's configuration) must be defined"
@@ -57,31 +57,25 @@ constexpr double kWallK = 2000.0;        // N/m (20 N/cm)
 
 double deg(double x) { return x * kPi / 180.0; }
 
-// ------------------------------------------------------------------ kinematics (independent
-// double implementation of docs/design/KINEMATICS.md, h = 0; the firmware's is the code under test)
+// ------------------------------------------------------------------ the plant's encoders and geometry
+// The virtual device's plant (tb/native/device/plant.cpp) serves as the encoder front end
+// (noise-free, amplitude kAdcR) and as the independent reference kinematics of the force check
+// (a double implementation of docs/design/KINEMATICS.md, h = 0, apart from the firmware's, which
+// is the code under test). Its joints are not simulated here: the hand trajectory sets them.
+hg_plant* g_plant = nullptr;
+
 Vec3 fk(const Vec3& q) {
-    const double ca = std::cos(q[0]), sa = std::sin(q[0]);
-    const double cb = std::cos(q[1]), sb = std::sin(q[1]), cg = std::cos(q[2]), sg = std::sin(q[2]);
-    const double db = std::sqrt(cb * cb + ca * ca * sb * sb), dg = std::sqrt(cg * cg + ca * ca * sg * sg);
-    const double rho = kL * cb / db + kL * cg / dg;
-    return {-rho * sa, rho * ca, ca * (-kL * sb / db + kL * sg / dg)};
+    Vec3 p{};
+    hg_plant_fk(g_plant, q.data(), p.data());
+    return p;
 }
 
-Mat3 jac(const Vec3& q) {
-    const double ca = std::cos(q[0]), sa = std::sin(q[0]);
-    const double cb = std::cos(q[1]), sb = std::sin(q[1]), cg = std::cos(q[2]), sg = std::sin(q[2]);
-    const double kb = kL / std::pow(std::sqrt(cb * cb + ca * ca * sb * sb), 3);
-    const double kg = kL / std::pow(std::sqrt(cg * cg + ca * ca * sg * sg), 3);
-    const Vec3 da = {kb * -ca * cb + kg * -ca * cg, kb * -sa * cb * cb * cb + kg * -sa * cg * cg * cg,
-                     kb * sa * sb * cb * cb + kg * -sa * sg * cg * cg};
-    const Vec3 dbv = {kb * ca * sa * ca * sb, kb * ca * -ca * ca * sb, kb * ca * -cb};
-    const Vec3 dgv = {kg * ca * sa * ca * sg, kg * ca * -ca * ca * sg, kg * ca * cg};
+Mat3 jac(const Vec3& q) {   // m[row][col] = d p_row / d q_col
+    double m9[9];
+    hg_plant_jac(g_plant, q.data(), m9);
     Mat3 m{};
-    for (int i = 0; i < 3; ++i) {
-        m[i][0] = da[i];
-        m[i][1] = dbv[i];
-        m[i][2] = dgv[i];
-    }
+    for (int i = 0; i < 3; ++i)
+        for (int j = 0; j < 3; ++j) m[i][j] = m9[3 * i + j];
     return m;
 }
 
@@ -210,7 +204,6 @@ struct Frame {
     int n = 0;
 };
 
-int8_t adc_code(double x) { return static_cast<int8_t>(std::clamp(std::floor(x + 0.5), -128.0, 127.0)); }
 
 }  // namespace
 
@@ -266,6 +259,15 @@ int main(int argc, char** argv) {
     const char* seed_env = std::getenv("HG_COSIM_SEED");
     const uint64_t seed = seed_env ? std::strtoull(seed_env, nullptr, 10) : 1;
     Trajectory tr(seed);
+    {
+        char text[96], err[256] = {0};
+        std::snprintf(text, sizeof text, "enc_amplitude = %.17g %.17g %.17g\n", kAdcR, kAdcR, kAdcR);
+        g_plant = hg_plant_new(text, err, sizeof err);
+        if (!g_plant) {
+            std::fprintf(stderr, "error: plant: %s\n", err);
+            return 3;
+        }
+    }
     const double t_fault = tr.t_push + 60e-3 + 0.5 / rate;  // mid-tick, while in the wall
     if (!s_wall) tr.t_end = t_fault + 14e-3;                // wdog timeout is 10 ms
     const int drop_axis = 1;
@@ -290,8 +292,8 @@ int main(int argc, char** argv) {
         const double t = edge_time(cap);
         for (int i = 0; i < 3; ++i) {
             const double x = tr.lines(t, i);
-            const double phi = 2 * kPi * x;
-            int8_t ca = adc_code(kAdcR * std::sin(phi)), cb = adc_code(kAdcR * std::cos(phi));
+            int8_t ca = 0, cb = 0;
+            hg_plant_encode1(g_plant, i, x, 0.0, 0.0, &ca, &cb);
             if (dropout_on && i == drop_axis) ca = cb = 0;
             a |= static_cast<uint32_t>(static_cast<uint8_t>(ca)) << (8 * i);
             b |= static_cast<uint32_t>(static_cast<uint8_t>(cb)) << (8 * i);

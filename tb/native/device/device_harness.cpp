@@ -514,13 +514,14 @@ int main(int argc, char** argv) {
     const bool scripted = link && uart_link_scripted(link);   // a scene's scripted PC
     if (scripted) uart_link_set_origin(link, static_cast<uint64_t>(bench.scene0_us));
     SC.start(cfg, bench.scene0_us, D);
+    bool hang = false;   // (SC.hanging(), kept here for the clock loop's test)
 
     while (bench.edge < end_us * D) {
         bench.tick();
         // Between grid points only an interrupt (or, while the DSP hangs, its resumption at an
         // edge of its own) has anything to do below: the release, the progress line, the faults
         // and the link all wait for the grid point (g_now changes only there).
-        if (bench.edge % D != 0 && !bench.irq_rose && !SC.hanging()) continue;
+        if (bench.edge % D != 0 && !bench.irq_rose && !hang) continue;
         const uint64_t g_now = bench.edge / D;
         if (!bench.dynamic && static_cast<int64_t>(g_now) >= bench.scene0_us) {
             hg_plant_hold(plant, 0);
@@ -536,6 +537,7 @@ int main(int argc, char** argv) {
                 view_link_fault(bench.view, hg_dev::fault_name(f.kind), drop ? f.axis : -1, cause, drop ? 1 << f.axis : 7);
             }
         });
+        hang = SC.hanging();
         if (bench.view && view_link_ready(bench.view)) {
             view_send(bench.view, s, vctl, link);
             view_link_poll(bench.view, vctl, 0);
