@@ -31,7 +31,8 @@ from . import native
 
 HERE = TB / "native" / "cosim"
 DEVICE = TB / "native" / "device"     # the shared bus master, DAC word and plant
-HARNESS = [HERE / "cosim_harness.cpp", HERE / "hal_cosim.cpp", DEVICE / "plant.cpp"]
+HARNESS = [HERE / "cosim_harness.cpp", HERE / "hal_cosim.cpp", DEVICE / "plant.cpp",
+           DEVICE / "harness_common.cpp"]
 FW = ROOT / "dsp-fw"
 FW_WARN = ("-Wall -Wextra -Werror -Wconversion -Wdouble-promotion -Wshadow -Wstrict-prototypes "
            "-Wmissing-prototypes -Wcast-qual -Wvla").split()   # dsp-fw/Makefile's WARN
@@ -84,7 +85,7 @@ def build(cfg: TopConfig | None = None) -> Path:
                 f"-I{HERE} -I{DEVICE} -I{FW / 'include'}"),
         ldflags="fw/libhgfw.a -lm",          # relative to the build directory (make runs there)
         inputs=[HERE / "cosim.h", DEVICE / "bus_hal.h", DEVICE / "dac_word.h", DEVICE / "plant.h",
-                *fw_srcs],
+                DEVICE / "harness_common.h", *fw_srcs],
         prepare=_fw_lib)
 
 

@@ -11,6 +11,7 @@
 
 #include "Vhapgate_top.h"
 #include "bus_hal.h"
+#include "harness_common.h"
 #include "verilated.h"
 
 #ifndef CLK_HZ
@@ -74,8 +75,7 @@ extern BusTiming bus_timing;
 extern BusStats bus_stats;
 extern std::vector<BusWrite> bus_writes;
 extern int64_t current_isr;
-// fault injection: drop writes to this word address (e.g. WDOG) when set
-extern bool drop_enable;
-extern uint32_t drop_addr;
+// the scenario engine (harness_common.h; null: none): the writes its faults lose, the key writes
+extern hg_dev::Scenario* scenario;
 
 }  // namespace cosim

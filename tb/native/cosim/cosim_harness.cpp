@@ -318,6 +318,7 @@ int main(int argc, char** argv) {
     const uint32_t dac_skew = fpga_read32(HG_WORD(offsetof(hapgate_t, DAC_SKEW))),
                    dac_frame = fpga_read32(HG_WORD(offsetof(hapgate_t, DAC_FRAME)));
     const uint32_t clk_khz = fpga_read32(HG_REG_CLK_KHZ);
+    const uint32_t wdog_us = fpga_read32(HG_REG_WDOG_TIMEOUT);
     fpga_write32(HG_REG_CTRL, HG_CTRL_HOME_ARM);  // arm homing of all three axes
     hg_servo_isr_ctx = &s;
 
@@ -325,35 +326,41 @@ int main(int argc, char** argv) {
     int64_t homed_isr = -1;
     uint64_t enable_edge = 0, fault_edge_cmd = 0;
     uint32_t idx_pos[3] = {0, 0, 0}, status_after = 0;
-    bool enabled_once = false, resumed = false;
+    bool enabled_once = false;
     const uint64_t end_edge = static_cast<uint64_t>(tr.t_end * CLK_HZ);
-    const uint64_t fault_edge_at = static_cast<uint64_t>(t_fault * CLK_HZ);
     uint64_t post_hang_status_edge = 0;
+    // the scenario's fault, run by the shared engine (harness_common.h) on the 1 us grid from
+    // reset release: every watchdog key write lost, the DSP hung (it resumes 2 ms after the
+    // expiry), or axis 1's signal gone
+    constexpr uint64_t kD = CLK_HZ / 1000000;
+    static_assert(CLK_HZ % 1000000 == 0, "CLK_HZ must be a whole number of MHz");
+    hg_dev::RunCfg run;
+    run.servo_hz = rate;
+    run.duration_s = tr.t_end;
+    run.progress_s = 0;   // no progress lines
+    if (!s_wall)
+        run.faults.push_back({t_fault, s_wdog ? hg_dev::FaultKind::watchdog
+                                       : s_hang ? hg_dev::FaultKind::hang : hg_dev::FaultKind::dropout, drop_axis});
+    static hg_dev::Scenario sc;
+    sc.start(run, 0, static_cast<int64_t>(kD));
+    cosim::scenario = &sc;
 
     while (bench.edge < end_edge) {
         bench.tick();
-        const bool after_fault = bench.edge >= fault_edge_at && !s_wall;
-        if (after_fault && !fault_edge_cmd) {
-            fault_edge_cmd = bench.edge;
-            if (s_wdog) {
-                drop_enable = true;
-                drop_addr = HG_REG_WDOG;
-            }
-            if (s_drop) dropout_on = true;
-        }
+        if (bench.edge % kD == 0)
+            sc.at_grid(static_cast<int64_t>(bench.edge / kD), [&](const hg_dev::RunCfg::Fault& f) {
+                fault_edge_cmd = bench.edge;
+                if (f.kind == hg_dev::FaultKind::dropout) dropout_on = true;
+            });
         const bool rose = bench.irq_rose;
         bench.irq_rose = false;
-        bool call = rose;
-        if (s_hang && after_fault && !resumed) {
-            // the DSP hangs; 2 ms after the watchdog expiry it comes back: a "debugger" reads
-            // STATUS, then the pending interrupt is serviced and the firmware must refuse to drive
-            call = false;
-            if (bench.wdog_expired_edge && bench.edge >= bench.wdog_expired_edge + CLK_HZ / 500) {
-                status_after = fpga_read32(HG_REG_STATUS);
-                post_hang_status_edge = bench.edge;
-                resumed = true;
-                call = bench.top->irq != 0;
-            }
+        const bool hung = sc.hanging() && !sc.resumed();
+        const bool call = sc.isr_due(rose, static_cast<int64_t>(bench.edge), bench.top->irq != 0, wdog_us);
+        if (hung && sc.resumed()) {
+            // the DSP is back: a "debugger" reads STATUS, then the pending interrupt is serviced
+            // and the firmware must refuse to drive
+            status_after = fpga_read32(HG_REG_STATUS);
+            post_hang_status_edge = bench.edge;
         }
         if (!call) continue;
         IsrRec r{};

@@ -11,6 +11,7 @@
 #include "dac_word.h"
 
 extern "C" {
+#include "hg_fpga_regs.h"
 #include "hg_hal.h"
 }
 
@@ -21,8 +22,7 @@ BusTiming bus_timing;
 BusStats bus_stats;
 std::vector<BusWrite> bus_writes;
 int64_t current_isr = -1;
-bool drop_enable = false;
-uint32_t drop_addr = 0;
+hg_dev::Scenario* scenario = nullptr;
 
 Testbench::Testbench() : ctx(new VerilatedContext), top(new Vhapgate_top(ctx.get())) {
     top->clk = 0;
@@ -113,7 +113,7 @@ extern "C" uint32_t fpga_read32(uint32_t addr) {
 
 extern "C" void fpga_write32(uint32_t addr, uint32_t v) {
     const hg_bus::Timing t = timing();
-    if (drop_enable && addr == drop_addr) {
+    if (scenario && scenario->write_lost(addr)) {
         bus_writes.push_back({tb->edge, tb->edge, addr, v, true, current_isr});
         ++bus_stats.dropped;
         return;
@@ -121,6 +121,7 @@ extern "C" void fpga_write32(uint32_t addr, uint32_t v) {
     uint64_t fall = 0, rise = 0;
     hg_bus::write(*tb, t, addr, v, &fall, &rise);
     bus_writes.push_back({fall, rise, addr, v, false, current_isr});
+    if (scenario && addr == HG_REG_WDOG) scenario->key_written(static_cast<int64_t>(rise));
     ++bus_stats.writes;
 }
 

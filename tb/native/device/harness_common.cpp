@@ -147,7 +147,7 @@ void Scenario::start(const RunCfg& cfg, int64_t scene0_us, int64_t d) {
     cfg_ = &cfg;
     d_ = d;
     scene0_ = scene0_us;
-    next_progress_ = scene0_us;
+    next_progress_ = cfg.progress_s > 0 ? scene0_us : kNoProgress;
     for (const auto& f : cfg.faults) faults_.push_back({scene0_us + std::llround(f.at_s * 1e6), f, false});
     ticks.reserve(static_cast<size_t>(std::min(cfg.duration_s * cfg.servo_hz, 1048576.0)) + 64);   // (served: a cap)
 }

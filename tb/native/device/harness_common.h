@@ -215,6 +215,7 @@ public:
     void key_written(int64_t edge) { last_key_edge_ = edge; }
     int64_t last_key_edge() const { return last_key_edge_; }
     bool hanging() const { return hang_; }
+    bool resumed() const { return resumed_; }
 
     // Does the firmware's ISR run at this edge? rose: the interrupt rose since the last call;
     // irq: its level now. While the DSP hangs nothing runs; kResumeUs after the watchdog's
@@ -251,6 +252,7 @@ public:
 
 private:
     static constexpr int64_t kResumeUs = 2000;   // the hung DSP resumes 2 ms after the expiry
+    static constexpr int64_t kNoProgress = int64_t(1) << 50;   // grid point (progress_s <= 0: none)
     struct Due { int64_t g; RunCfg::Fault f; bool on; };
     const RunCfg* cfg_ = nullptr;
     int64_t d_ = 6, scene0_ = 0, next_progress_ = 0;
