@@ -192,3 +192,19 @@ def test_power_up_anywhere(seed: int) -> None:
     d = np.degrees(np.angle(np.exp(1j * CFG.comm.pole_pairs * (2 * np.pi - up))))
     assert np.abs(d).max() > 30.0, d
     assert np.all(np.abs(cosim.home_error(r)) <= cosim.interp_budget_counts())
+
+
+@pytest.mark.parametrize("setup, strobe, hold, why", [
+    (1, 4, 2, "strobe must be >= 5"), (0, 5, 2, "recovery (setup + hold) must be >= 3"),
+    (1, 5, 1, "recovery (setup + hold) must be >= 3")])
+def test_bus_timing_below_the_minimums_is_refused(tmp_path, setup, strobe, hold, why) -> None:
+    """rtl/bus/README.md: strobe >= 5 clocks (or ready), recovery >= 3. The shared bus master
+    (tb/native/device/bus_hal.h) refuses one clock less of either before the first access:
+    exit 2 and the reason; the minimums themselves run (test_bus_throughput_and_integrity)."""
+    import subprocess
+
+    p = subprocess.run([str(cosim.build()), "bus", "1000", str(tmp_path), str(setup), str(strobe),
+                        str(hold), "0"], capture_output=True, text=True, timeout=60)
+    assert p.returncode == 2, p.stdout[-300:]
+    assert f"setup={setup} strobe={strobe} hold={hold}" in p.stderr and why in p.stderr, p.stderr
+    assert "result=" not in p.stdout
