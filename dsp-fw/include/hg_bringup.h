@@ -176,7 +176,8 @@ typedef struct {
     /* ENCODER (at home_speed, home_tau) */
     hg_real enc_lines;       /* encoder lines the capture spans (>= 4: hapgate.golden.encquality) */
     hg_real enc_settle_s;    /* s     of sweep before the capture is armed (the rotor settles)   */
-    hg_real enc_damp_s;      /* s     the rest point leads by -enc_damp_s x the speed error: damping */
+    hg_real enc_damp_s;      /* s     the rest point moves by -enc_damp_s x the speed error (damping;
+                              *       the speed low-passed over one line period)               */
     hg_real enc_sample_hz;   /* Hz    the FPGA's ADC sample rate (the paper's 1 MSPS)            */
 } hg_bringup_cfg_t;
 
@@ -228,6 +229,8 @@ typedef struct {
     double id_xmax;                       /* IDENT: largest |x| seen (rad)               */
     uint32_t id_seed;                     /* IDENT: hg_bringup_start's seed              */
     bool enc_armed;                       /* ENCODER: the capture was armed              */
+    int32_t enc_prev;                     /* ENCODER: last tick's count                   */
+    double enc_vf;                        /* ENCODER: low-passed speed, counts/s         */
 } hg_bringup_t;
 
 void hg_bringup_default_cfg(hg_bringup_cfg_t *c);

@@ -774,6 +774,9 @@ static void ident_tick(hg_bringup_t *b)
  * target, as in HOME, current home_tau). The ALIGN field alone is a spring with almost no
  * damping, and a ringing rotor does not turn at the steady speed the signal-quality fit needs
  * (hapgate.golden.encquality), so the rest point is moved back by enc_damp_s x the speed error.
+ * The speed is the count's tick differences low-passed over one line period: the interpolator's
+ * angle error repeats every line (harmonics, a weak channel), and a damping fed with it would
+ * move the rotor in step with the line, which the fit reads as signal shape.
  * After enc_settle_s the capture buffer is armed on this axis (from the next sample, one in
  * decim + 1, decim chosen so that the full buffer spans enc_lines lines at home_speed). When the
  * buffer is full the axis's CAL_* registers are read, and the rotor walks back to the reference
@@ -802,6 +805,8 @@ static void encoder_enter(hg_bringup_t *b)
     b->torque = tau_code(b, (double)b->cfg.home_tau);
     b->target = 0.0;
     b->enc_armed = false;
+    b->enc_prev = b->pos[b->axis];
+    b->enc_vf = 0.0;
     b->state = HG_BU_ENC_SWEEP;
     fpga_write32(AX(b->axis, HG_AX_TQ_LIMIT), (uint32_t)b->torque);
     field_at_count(b, (double)b->p_start[b->axis]);
@@ -818,6 +823,9 @@ static void encoder_tick(hg_bringup_t *b)
     if (!rotor_follows(b))
         return;
     const double v = (double)b->cfg.home_speed * counts_per_rad(b); /* counts/s */
+    const double tau = 1.0 / enc_lines_per_s(b, a), dt = 1.0 / rate(b);
+    b->enc_vf += dt / (tau + dt) * ((double)cdiff(b->pos[a], b->enc_prev) / dt - b->enc_vf);
+    b->enc_prev = b->pos[a];
     if (b->ticks > secs_to_ticks(b, (double)b->cfg.enc_settle_s)) {
         if (!b->enc_armed) {
             const hg_cap_cfg_t cc = { a, false, 0u, r->enc_decim };
@@ -847,7 +855,7 @@ static void encoder_tick(hg_bringup_t *b)
         }
     }
     b->target += v / rate(b);
-    const double lead = -(double)b->cfg.enc_damp_s * ((double)b->vel[a] - v);
+    const double lead = -(double)b->cfg.enc_damp_s * (b->enc_vf - v);
     field_at_count(b, (double)b->p_start[a] + b->target + lead);
 }
 

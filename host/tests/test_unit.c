@@ -262,6 +262,56 @@ static void test_requests(void)
     fake_stop(&f);
 }
 
+/* SET_CALIB / GET_CALIB round trip, the device's refusals, CAP_READ over several requests,
+ * and BU_ABORT refused by a device without bring-up. */
+static void test_calib_and_capture(void)
+{
+    fake_t f;
+    hg_dev_t *d = open_fake(&f, 1000000, 2.0);
+    hg_axis_calib_t c = { HG_CAL_HOMED | HG_CAL_ALIGNED | HG_CAL_DIR_SEEN, -1, 1, 2, -123456,
+                          777 }, got;
+    CHECK_EQ(hg_set_calib(d, 1, &c), HG_OK);
+    memset(&got, 0xA5, sizeof got);
+    CHECK_EQ(hg_get_calib(d, 1, &got), HG_OK);
+    CHECK(got.flags == c.flags && got.enc_dir == -1 && got.phases_swapped == 1);
+    CHECK(got.pole_pairs == 2 && got.index_to_zero == -123456 && got.comm_offset == 777);
+    pthread_mutex_lock(&f.mu);
+    CHECK(f.s.cfg.cal.axis[1].index_to_zero == -123456 && f.s.cfg.cal.axis[1].enc_dir == -1);
+    pthread_mutex_unlock(&f.mu);
+    CHECK_EQ(hg_get_calib(d, 0, &got), HG_OK); /* the default configuration's */
+    CHECK(got.flags == (HG_CAL_HOMED | HG_CAL_ALIGNED) && got.enc_dir == 1);
+    CHECK_EQ(hg_get_calib(d, 3, &got), HG_E_ARG);
+    CHECK_EQ(hg_set_calib(d, 3, &c), HG_E_ARG);
+    CHECK_EQ(hg_set_calib(d, 0, NULL), HG_E_ARG);
+    hg_axis_calib_t bad = c;
+    bad.pole_pairs = 3;                              /* not the FPGA's: NAK 1 */
+    CHECK_EQ(hg_set_calib(d, 0, &bad), HG_E_REFUSED);
+    bad = c;
+    bad.enc_dir = 2;                                 /* NAK 1 */
+    CHECK_EQ(hg_set_calib(d, 0, &bad), HG_E_REFUSED);
+    CHECK_EQ(hg_set_scene(d, HG_SCENE_PC_FORCE, NULL, NULL, 0, 0, 0), HG_OK);
+    CHECK_EQ(hg_enable(d, 1), HG_OK);
+    CHECK_EQ(hg_set_calib(d, 1, &c), HG_E_REFUSED); /* NAK 5: enabled */
+    CHECK_EQ(hg_enable(d, 0), HG_OK);
+    /* the capture buffer (the host HAL's, 1024 entries) read in 30-entry requests */
+    for (unsigned j = 0; j < 1024u; j++)
+        hal_sim_cap[j] = (uint16_t)(j * 41u + 3u);
+    uint16_t w[70];
+    CHECK_EQ(hg_read_capture(d, 900, 70, w), HG_OK);
+    int same = 1;
+    for (unsigned j = 0; j < 70u; j++)
+        same = same && w[j] == (uint16_t)((900u + j) * 41u + 3u);
+    CHECK(same);
+    CHECK_EQ(hg_read_capture(d, 1000, 25, w), HG_E_REFUSED); /* past the end */
+    CHECK_EQ(hg_read_capture(d, 0, 1, NULL), HG_E_ARG);
+    CHECK_EQ(hg_bu_abort(d), HG_E_REFUSED);            /* NAK 6: no bring-up */
+    hg_dev_stats_t st;
+    CHECK_EQ(hg_get_stats(d, &st), HG_OK);
+    CHECK_EQ(st.rejected, 5); /* pole pairs, enc_dir, enabled, past the end, BU_ABORT */
+    CHECK_EQ(hg_close(d), HG_OK);
+    fake_stop(&f);
+}
+
 typedef struct {
     int calls, stop_at;
     long sleep_ms;
@@ -425,6 +475,7 @@ static const struct {
     { "garbage_from_device", test_garbage_from_device },
     { "link_lost", test_link_lost },
     { "stream_silence", test_stream_silence },
+    { "calib_and_capture", test_calib_and_capture },
 };
 
 int main(int argc, char **argv)

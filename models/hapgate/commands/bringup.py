@@ -487,6 +487,10 @@ def main(args: argparse.Namespace) -> int:
             out.mkdir(parents=True, exist_ok=True)
             (out / "bringup.json").write_text(json.dumps(doc, indent=1) + "\n", encoding="utf-8")
             (out / "calibration.toml").write_text(calib.dumps(cals), encoding="utf-8")
+            if any(sm is not None for sm in samples):
+                np.savez(out / "encoder_capture.npz", **{
+                    f"{ch}{i}": sm[k] for i, sm in enumerate(samples) if sm is not None
+                    for k, ch in enumerate("ab")})
             plots = write_plots(out, axes)
             plots += write_lissajous(out, [
                 {"a": sm[0], "b": sm[1], "quality": encquality.Quality(
