@@ -537,6 +537,55 @@ int hg_read_capture(hg_dev_t *d, unsigned start, unsigned n, uint16_t *words)
     return HG_OK;
 }
 
+int hg_bu_start(hg_dev_t *d, unsigned step, unsigned axis, const int expect[3], uint32_t seed,
+                int *result, double *value, double *limit)
+{
+    uint8_t q[HG_BU_START_LEN], b[HG_BU_START_ACK_LEN];
+    if (!d || step > 255u || axis > 255u)
+        return HG_E_ARG;
+    q[0] = (uint8_t)step;
+    q[1] = (uint8_t)axis;
+    for (int i = 0; i < 3; i++) {
+        const int e = expect ? expect[i] : 0;
+        if (e < -1 || e > 1)
+            return HG_E_ARG;
+        q[2 + i] = (uint8_t)(int8_t)e;
+    }
+    hg_put_u32(q + 5, seed);
+    const int r = request(d, HG_MSG_BU_START, q, sizeof q, b, HG_BU_START_ACK_LEN, d->timeout_s);
+    if (r != HG_OK)
+        return r;
+    if (result)
+        *result = b[0];
+    if (value)
+        *value = get_f32(b + 1);
+    if (limit)
+        *limit = get_f32(b + 5);
+    return HG_OK;
+}
+
+int hg_bu_progress(hg_dev_t *d, hg_bu_progress_t *out)
+{
+    uint8_t b[HG_BU_PROGRESS_LEN];
+    if (!d || !out)
+        return HG_E_ARG;
+    const int r = request(d, HG_MSG_BU_PROGRESS, NULL, 0, b, HG_BU_PROGRESS_LEN, d->timeout_s);
+    if (r != HG_OK)
+        return r;
+    out->state = b[0];
+    out->step = b[1];
+    out->axis = b[2];
+    out->err = b[3];
+    out->ticks = hg_get_u32(b + 4);
+    out->tick_limit = hg_get_u32(b + 8);
+    out->value = get_f32(b + 12);
+    out->limit = get_f32(b + 16);
+    out->seq = hg_get_u32(b + 20);
+    out->servo_hz = hg_get_u16(b + 24);
+    out->t_s = out->servo_hz ? (double)out->ticks / out->servo_hz : 0.0;
+    return HG_OK;
+}
+
 int hg_bu_abort(hg_dev_t *d)
 {
     return d ? request(d, HG_MSG_BU_ABORT, NULL, 0, NULL, 0, d->timeout_s) : HG_E_ARG;
