@@ -868,7 +868,7 @@ void test_bringup_link_align(void)
     CHECK(n == HG_CALIB_LEN);
     CHECK(raw[3] == 1 && raw[4] == B.calib.axis[1].flags && raw[6] == 1);
     CHECK(hg_get_u16(raw + 12) == B.calib.axis[1].comm_offset);
-    d[1] = 4;
+    d[1] = 5;
     CHECK(link_req(HG_MSG_BU_RESULT, d, 2, raw, &n) == HG_MSG_NAK && raw[4] == HG_NAK_RANGE);
     /* a check, self-describing */
     d[1] = HG_BU_CHK_ALIGN_MOVE;
@@ -1052,10 +1052,12 @@ void test_bringup_encoder(void)
         CHECK(r->enc_cal[i] == cal[i]);
     CHECK(fabs(SIM.ax[0].q - q_back) < 2.0 * PI_D / 2.0 / 64.0); /* back within 1/64 cycle */
     check_zero_torque_now();
-    /* page 3 */
-    const uint8_t d[2] = { 0, 3 };
+    /* page 4 (page 3 is not this step's) */
+    const uint8_t d3[2] = { 0, 3 };
+    CHECK(link_req(HG_MSG_BU_RESULT, d3, 2, raw, &n) == HG_MSG_NAK && raw[4] == HG_NAK_RANGE);
+    const uint8_t d[2] = { 0, 4 };
     CHECK(link_req(HG_MSG_BU_RESULT, d, 2, raw, &n) == (HG_MSG_BU_RESULT | HG_MSG_REPLY));
-    CHECK(n == HG_BU_RESULT3_LEN && raw[3] == 0 && raw[4] == 3 && raw[5] == 1);
+    CHECK(n == HG_BU_RESULT4_LEN && raw[3] == 0 && raw[4] == 4 && raw[5] == 1);
     CHECK(f32_at(raw + 7) == r->duration_s[HG_BU_STEP_ENCODER]);
     CHECK(fabs((double)r->duration_s[HG_BU_STEP_ENCODER] - (double)k * 1e-3) < 2e-3);
     CHECK(hg_get_u32(raw + 11) == decim && hg_get_u32(raw + 15) == 1024u);

@@ -163,7 +163,7 @@ def test_unaligned_encoder_signals_pass(unaligned_run: dict[str, Any]) -> None:
 
 
 class _CaptureDevice:
-    """A device that has run the ENCODER step on a capture made here (BU_RESULT page 3 and
+    """A device that has run the ENCODER step on a capture made here (BU_RESULT page 4 and
     CAP_READ as the firmware answers them): for the host side alone."""
 
     def __init__(self, spec: encsig.SignalSpec, axis: int) -> None:
@@ -173,8 +173,8 @@ class _CaptureDevice:
         self.axis = axis
 
     def bu_result(self, axis: int, page: int) -> tuple[Any, ...]:
-        assert (axis, page) == (self.axis, 3)
-        return (axis, 3, 1, 0, 0.87, 95, 1024, 0.5, 1e6, 0, 0, 0, 0x40004000, 0)
+        assert (axis, page) == (self.axis, 4)
+        return (axis, 4, 1, 0, 0.87, 95, 1024, 0.5, 1e6, 0, 0, 0, 0x40004000, 0)
 
     def cap_read(self, start: int, n: int) -> list[int]:
         return self.words[start:start + n]

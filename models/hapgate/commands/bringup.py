@@ -96,7 +96,7 @@ def run_step(dev: api.Device, step: str, axis: int, expect: tuple[int, ...] = (0
         if p["state"] == "IDLE":
             break
         time.sleep(POLL_S)
-    dur = (dev.bu_result(axis, 3)[4] if step == "encoder"
+    dur = (dev.bu_result(axis, 4)[4] if step == "encoder"
            else dev.bu_result(axis, 1)[4 + 6 + pclink.BU_STEPS[step]])
     return {"step": step, "axis": axis, "err": p["err"], "value": p["value"],
             "limit": p["limit"], "started": True, "duration_s": float(dur)}
@@ -240,10 +240,10 @@ def encoder_result(dev: api.Device, axis: int, rec: dict[str, Any]) -> dict[str,
     """After an ENCODER step: read its capture over the link (CAP_READ), compute the signal
     quality (hapgate.golden.encquality) and the checks; None (the step's error set) when the
     capture cannot be analysed."""
-    r3 = dev.bu_result(axis, 3)
-    captured, decim, entries, speed, sample_hz = bool(r3[2]), r3[5], r3[6], r3[7], r3[8]
+    r4 = dev.bu_result(axis, 4)
+    captured, decim, entries, speed, sample_hz = bool(r4[2]), r4[5], r4[6], r4[7], r4[8]
     info = {"decim": int(decim), "entries": int(entries), "speed_rad_s": float(speed),
-            "sample_hz": float(sample_hz), "fpga_cal": fpga_cal(tuple(r3[9:14]))}
+            "sample_hz": float(sample_hz), "fpga_cal": fpga_cal(tuple(r4[9:14]))}
     if not captured:
         rec["err"] = "CAPTURE"
         return None

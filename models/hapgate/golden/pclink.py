@@ -39,7 +39,7 @@ BU_START_ACK_FMT = "<Bff"     # result, value, limit
 BU_PROGRESS_FMT = "<BBBBIIffIH"   # state, step, axis, err, ticks, tick_limit, value, limit, SEQ, Hz
 BU_RESULT0_FMT = "<BBBbbB6f3i3f"  # axis, page, flags, scan_sign, dir_base, 0, ... (README table)
 BU_RESULT1_FMT = "<BBBB12f"       # axis, page, 0, 0, J, b, c, g, kt_amp, resid, durations[6]
-BU_RESULT3_FMT = "<BBBBfIIff5I"   # axis, page, captured, 0, duration s, decim, entries, speed
+BU_RESULT4_FMT = "<BBBBfIIff5I"   # axis, page, captured, 0, duration s, decim, entries, speed
 #                                  rad/s, sample Hz, CAL_CTRL, _STAT, _OFS, _GAIN, _PHASE
 BU_CHECK_FMT = "<BBBBff32s12s"    # axis, check, count, flags, value, limit, name, unit
 CALIB_FMT = "<BBbBBiH"     # axis, flags, enc_dir, phases_swapped, pole_pairs, index_to_zero,
