@@ -96,6 +96,11 @@ REGRESS: dict[str, str] = {
         "bring-up's refusals end to end on the virtual device; tier 1 keeps the same refusals "
         "in the firmware's C unit tests (bringup_guided_timeout, bringup_align_held, "
         "bringup_align_pole_pairs) and unaligned.toml end to end",
+    r"^tb/bringup/test_bringup\.py::test_encoder_weak_channel_and_h2_end_to_end":
+        "a weak channel and a 2nd harmonic through the served device (align, homing and the "
+        "encoder step on three axes, 25 s of device time); tier 1 keeps the encoder step "
+        "end to end on unaligned.toml's healthy encoders and the same fields and bands on "
+        "captures of the same signals (test_encoder_result_fields_and_bands)",
     r"^tb/bus/test_hg_bus\.py::test_random_accesses_16mhz":
         "random bus accesses at a second FPGA clock (16 MHz, no board's); tier 1 keeps them at "
         "the bus tests' own clock",

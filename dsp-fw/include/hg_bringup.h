@@ -6,6 +6,8 @@
  *   RESTART the paper's restart in the reference pose: no search, angles from the calibration
  *   GUIDED  the operator moves the handle along a named direction: the encoder's direction
  *   IDENT   dynamics identification: multisine excitation, least-squares fit
+ *   ENCODER a slow bounded sweep while the FPGA's capture buffer records the axis's raw A/B
+ *           words (the PC reads them with CAP_READ and computes the signal quality)
  * The background loop starts a step (hg_bringup_start) and reads progress and results; the servo
  * ISR (hg_bringup_isr) steps the machine once per tick while it is active, in place of
  * hg_servo_step, and hands the FPGA back to the servo when the step ends. README.md, "Bring-up". */
@@ -26,7 +28,9 @@ enum {
     HG_BU_STEP_RESTART = 3,
     HG_BU_STEP_GUIDED = 4,
     HG_BU_STEP_IDENT = 5,
+    HG_BU_STEP_ENCODER = 6,
 };
+#define HG_BU_NSTEPS 7
 
 /* Named states of the machine (hg_bringup_t.state). */
 typedef enum {
@@ -40,6 +44,8 @@ typedef enum {
     HG_BU_GUIDED_WAIT,    /* zero torque, waiting for the operator's move                   */
     HG_BU_IDENT_RUN,      /* excitation running, normal equations accumulating              */
     HG_BU_IDENT_SETTLE,   /* excitation off, position hold until at rest                    */
+    HG_BU_ENC_SWEEP,      /* ENCODER: the rotor's rest walks at home_speed; the capture is
+                           * armed after enc_settle_s and runs until the buffer is full     */
 } hg_bu_state_t;
 
 /* Why a step ended (hg_bringup_t.err); err_value / err_limit carry the figures. */
@@ -63,6 +69,8 @@ enum {
     HG_BU_ERR_NO_INDEX = 16,  /* HOME: no index within the range (value: travel covered, rad) */
     HG_BU_ERR_GUIDED_TIMEOUT = 17, /* GUIDED: move not seen (value: waited s, limit: timeout) */
     HG_BU_ERR_CONFIG = 18,    /* the step's plan exceeds a bound (value: planned, limit)     */
+    HG_BU_ERR_CAPTURE = 19,   /* ENCODER: no capture buffer (value 0, limit 1), or the buffer
+                               * not full within the sweep (value: entries, limit: needed)   */
 };
 
 /* Checks: every measured figure beside its limit. pass = (value <= limit) for HG_BU_LE checks,
@@ -126,7 +134,14 @@ typedef struct {
     float tau_gravity;       /* N m at the pose, joint sign  */
     float kt_amp;            /* N m per V of DAC: the nominal kt * amp_gain the fit is scaled by */
     float ident_resid;       /* relative rms residual        */
-    float duration_s[6];     /* device time each step took, by HG_BU_STEP_*   */
+    /* ENCODER: the capture (the PC reads its entries with CAP_READ) and the FPGA's online
+     * calibration registers of the axis at its end */
+    bool enc_captured;       /* the buffer filled during the sweep                          */
+    uint32_t enc_decim;      /* CAP_CTRL.DECIM: one ADC sample in decim + 1                  */
+    uint32_t enc_entries;    /* entries recorded (the axis alone: one per sample)            */
+    float enc_speed;         /* rad/s the rest point walked at                                */
+    uint32_t enc_cal[5];     /* CAL_CTRL, CAL_STAT, CAL_OFS, CAL_GAIN, CAL_PHASE as read       */
+    float duration_s[HG_BU_NSTEPS]; /* device time each step took, by HG_BU_STEP_*   */
     hg_bu_check_t chk[HG_BU_NCHECKS];
 } hg_bu_axis_t;
 
@@ -158,6 +173,12 @@ typedef struct {
     hg_real id_kp, id_kd;    /* N m/rad, N m s/rad: the weak hold that keeps the axis in place */
     hg_real id_resid_max;    /* relative rms residual                                           */
     hg_real id_settle_s;     /* s     hold after the excitation                                 */
+    /* ENCODER (at home_speed, home_tau) */
+    hg_real enc_lines;       /* encoder lines the capture spans (>= 4: hapgate.golden.encquality) */
+    hg_real enc_settle_s;    /* s     of sweep before the capture is armed (the rotor settles)   */
+    hg_real enc_damp_s;      /* s     the rest point moves by -enc_damp_s x the speed error (damping;
+                              *       the speed low-passed over one line period)               */
+    hg_real enc_sample_hz;   /* Hz    the FPGA's ADC sample rate (the paper's 1 MSPS)            */
 } hg_bringup_cfg_t;
 
 #define HG_BU_ID_N 4 /* unknowns: inertia, viscous, Coulomb, constant (gravity residual) */
@@ -207,6 +228,9 @@ typedef struct {
     double id_tau_prev;                   /* IDENT: torque written the tick before       */
     double id_xmax;                       /* IDENT: largest |x| seen (rad)               */
     uint32_t id_seed;                     /* IDENT: hg_bringup_start's seed              */
+    bool enc_armed;                       /* ENCODER: the capture was armed              */
+    int32_t enc_prev;                     /* ENCODER: last tick's count                   */
+    double enc_vf;                        /* ENCODER: low-passed speed, counts/s         */
 } hg_bringup_t;
 
 void hg_bringup_default_cfg(hg_bringup_cfg_t *c);
@@ -214,8 +238,8 @@ void hg_bringup_default_cfg(hg_bringup_cfg_t *c);
  * the reference pose: this is the power-up snapshot). known: a stored calibration or NULL. */
 void hg_bringup_init(hg_bringup_t *b, hg_servo_t *s, const hg_bringup_cfg_t *cfg,
                      const hg_calib_t *known);
-/* Start a step on axis (ALIGN, HOME, RESTART, IDENT) or on the axes expect[] names (GUIDED,
- * expect[i] = +1/-1 the joint sign the named direction gives, 0 not watched). seed: IDENT's
+/* Start a step on axis (ALIGN, HOME, RESTART, IDENT, ENCODER) or on the axes expect[] names
+ * (GUIDED, expect[i] = +1/-1 the joint sign the named direction gives, 0 not watched). seed: IDENT's
  * excitation phases. Returns HG_BU_OK or the refusal (nothing started, torque untouched). */
 int hg_bringup_start(hg_bringup_t *b, uint8_t step, uint8_t axis, const int8_t expect[3],
                      uint32_t seed);

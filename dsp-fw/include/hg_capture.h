@@ -49,5 +49,7 @@ int hg_cap_poll(uint32_t *count);
 /* n entries from entry start (wrapping at the depth) into a[] and b[] (the ADC codes as the
  * interpolator takes them). Not for the servo ISR: one write and n reads. */
 int hg_cap_read(uint32_t start, int8_t *a, int8_t *b, uint32_t n);
+/* The same as the raw 16-bit entries {B, A} (the PC link's CAP_READ). */
+int hg_cap_read_words(uint32_t start, uint16_t *w, uint32_t n);
 
 #endif /* HG_CAPTURE_H */

@@ -86,6 +86,12 @@
 #define HG_AX_OFFSET    HG_WORD(offsetof(hapgate__axis_t__stride40_t, OFFSET))  /* 1/1024 electrical cycle */
 #define HG_AX_MODE      HG_WORD(offsetof(hapgate__axis_t__stride40_t, MODE))
 #define HG_AX_TQ_LIMIT  HG_WORD(offsetof(hapgate__axis_t__stride40_t, TQ_LIMIT)) /* |torque| clamp */
+/* the online encoder calibration (enc_interp CAL = 1; without it the estimates read the identity) */
+#define HG_AX_CAL_CTRL  HG_WORD(offsetof(hapgate__axis_t__stride40_t, CAL_CTRL))
+#define HG_AX_CAL_STAT  HG_WORD(offsetof(hapgate__axis_t__stride40_t, CAL_STAT))
+#define HG_AX_CAL_OFS   HG_WORD(offsetof(hapgate__axis_t__stride40_t, CAL_OFS))   /* 1/16 LSB x2 */
+#define HG_AX_CAL_GAIN  HG_WORD(offsetof(hapgate__axis_t__stride40_t, CAL_GAIN))  /* 2^-14 x2 */
+#define HG_AX_CAL_PHASE HG_WORD(offsetof(hapgate__axis_t__stride40_t, CAL_PHASE)) /* 2^-14 */
 /* MODE values (RDL: AXIS.MODE description; reset = OFF). */
 #define HG_MODE_SINE         0u
 #define HG_MODE_SIX_STEP     1u

@@ -31,6 +31,7 @@ enum {
     HG_MSG_BU_RESULT = 0x0F, /* v2: one page of an axis's bring-up results                 */
     HG_MSG_BU_CHECK = 0x10,  /* v2: one check {name, value, limit, unit, pass} of an axis  */
     HG_MSG_BU_ABORT = 0x11,  /* v2: stop the running step at once (zero torque)            */
+    HG_MSG_CAP_READ = 0x12,  /* v2: entries of the FPGA's capture buffer (hg_capture.h)     */
     HG_MSG_STATE_PUSH = 0x8A, /* v2, device -> PC only: the compact streamed state       */
     HG_MSG_REPLY = 0x80,     /* reply bit                                          */
     HG_MSG_NAK = 0xFF,       /* reply refusing a good frame: data = type, reason   */
@@ -61,6 +62,8 @@ enum {
 #define HG_BU_RESULT0_LEN 54u   /* page 0: ALIGN, HOME, GUIDED */
 #define HG_BU_RESULT1_LEN 52u   /* page 1: IDENT and the step durations */
 #define HG_BU_RESULT2_LEN HG_CALIB_LEN /* page 2: the calibration bring-up found (SET_CALIB's) */
+#define HG_BU_RESULT4_LEN 44u   /* page 4: ENCODER's capture and the CAL_* registers */
+#define HG_CAP_READ_MAX 30u     /* CAP_READ: entries per reply (u16 each, after 4 bytes) */
 #define HG_BU_CHECK_LEN 56u
 #define HG_BU_NAME_LEN 32u      /* BU_CHECK: NUL-padded name */
 #define HG_BU_UNIT_LEN 12u      /* BU_CHECK: NUL-padded unit */
@@ -73,6 +76,7 @@ enum {
 #define HG_BU_START_LEN 9u     /* u8 step, u8 axis, i8 expect[3], u32 seed */
 #define HG_BU_RESULT_LEN 2u    /* u8 axis, u8 page */
 #define HG_BU_CHECK_REQ_LEN 2u /* u8 axis, u8 check */
+#define HG_CAP_READ_LEN 3u     /* u16 first entry, u8 entries */
 #define HG_STREAM_MAX_PERIOD 1000u  /* ticks */
 #define HG_LINK_TIMEOUT_MS 250u     /* default link-silence timeout */
 

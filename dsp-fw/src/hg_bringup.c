@@ -16,6 +16,7 @@
  * Sums of the fits are kept in double (the C67x has double-precision hardware): counts reach
  * 2^20 and their squares summed over thousands of samples are beyond float. */
 #include "hg_bringup.h"
+#include "hg_capture.h"
 #include "hg_fpga_regs.h"
 #include "hg_hal.h"
 
@@ -71,6 +72,10 @@ void hg_bringup_default_cfg(hg_bringup_cfg_t *c)
     c->id_kd = HG_C(0.002);
     c->id_resid_max = HG_C(0.05);
     c->id_settle_s = HG_C(0.5);
+    c->enc_lines = HG_C(8.0);
+    c->enc_settle_s = HG_C(0.3);
+    c->enc_damp_s = HG_C(0.03);
+    c->enc_sample_hz = HG_C(1e6);
 }
 
 /* ---------------------------------------------------------------- small helpers */
@@ -764,6 +769,96 @@ static void ident_tick(hg_bringup_t *b)
     b->id_tau_now = (double)b->torque / code_per_nm(&b->servo->cfg.motor[b->axis]);
 }
 
+/* ---------------------------------------------------------------- ENCODER */
+/* The rotor's rest walks toward increasing counts at home_speed (field = lambda + s * u of the
+ * target, as in HOME, current home_tau). The ALIGN field alone is a spring with almost no
+ * damping, and a ringing rotor does not turn at the steady speed the signal-quality fit needs
+ * (hapgate.golden.encquality), so the rest point is moved back by enc_damp_s x the speed error.
+ * The speed is the count's tick differences low-passed over one line period: the interpolator's
+ * angle error repeats every line (harmonics, a weak channel), and a damping fed with it would
+ * move the rotor in step with the line, which the fit reads as signal shape.
+ * After enc_settle_s the capture buffer is armed on this axis (from the next sample, one in
+ * decim + 1, decim chosen so that the full buffer spans enc_lines lines at home_speed). When the
+ * buffer is full the axis's CAL_* registers are read, and the rotor walks back to the reference
+ * pose (RETURN). The PC reads the entries afterwards (CAP_READ). */
+
+static double enc_lines_per_s(const hg_bringup_t *b, unsigned axis)
+{
+    const double cpl = (double)HG_ENC_COUNTS_PER_REV / 1024.0; /* counts per line */
+    return (double)b->cfg.home_speed * (double)b->servo->cfg.enc[axis].counts_per_rev
+           / TWO_PI_D / cpl;
+}
+
+/* One sample in decim + 1 so that `entries` samples span enc_lines lines (HG_CAP ceiling: the
+ * DECIM field's 16 bits, checked by the caller). */
+static double enc_decim_for(const hg_bringup_t *b, unsigned axis, uint32_t entries)
+{
+    const double t = (double)b->cfg.enc_lines / enc_lines_per_s(b, axis);
+    const double d = ceil(t * (double)b->cfg.enc_sample_hz / (double)entries) - 1.0;
+    return d < 0.0 ? 0.0 : d;
+}
+
+static void encoder_enter(hg_bringup_t *b)
+{
+    b->mode = HG_MODE_ALIGN;
+    b->drive = true;
+    b->torque = tau_code(b, (double)b->cfg.home_tau);
+    b->target = 0.0;
+    b->enc_armed = false;
+    b->enc_prev = b->pos[b->axis];
+    b->enc_vf = 0.0;
+    b->state = HG_BU_ENC_SWEEP;
+    fpga_write32(AX(b->axis, HG_AX_TQ_LIMIT), (uint32_t)b->torque);
+    field_at_count(b, (double)b->p_start[b->axis]);
+}
+
+static void encoder_tick(hg_bringup_t *b)
+{
+    const unsigned a = b->axis;
+    hg_bu_axis_t *r = &b->res[a];
+    if (b->state == HG_BU_RETURN) {
+        return_tick(b);
+        return;
+    }
+    if (!rotor_follows(b))
+        return;
+    const double v = (double)b->cfg.home_speed * counts_per_rad(b); /* counts/s */
+    const double tau = 1.0 / enc_lines_per_s(b, a), dt = 1.0 / rate(b);
+    b->enc_vf += dt / (tau + dt) * ((double)cdiff(b->pos[a], b->enc_prev) / dt - b->enc_vf);
+    b->enc_prev = b->pos[a];
+    if (b->ticks > secs_to_ticks(b, (double)b->cfg.enc_settle_s)) {
+        if (!b->enc_armed) {
+            const hg_cap_cfg_t cc = { a, false, 0u, r->enc_decim };
+            if (hg_cap_arm(&cc) != HG_CAP_OK) {
+                fail(b, HG_BU_ERR_CAPTURE, 0.0, 1.0);
+                return;
+            }
+            b->enc_armed = true;
+        } else {
+            uint32_t n = 0;
+            const int st = hg_cap_poll(&n);
+            r->enc_entries = n;
+            if (st == HG_CAP_OK) {
+                r->enc_captured = true;
+                r->enc_cal[0] = fpga_read32(AX(a, HG_AX_CAL_CTRL));
+                r->enc_cal[1] = fpga_read32(AX(a, HG_AX_CAL_STAT));
+                r->enc_cal[2] = fpga_read32(AX(a, HG_AX_CAL_OFS));
+                r->enc_cal[3] = fpga_read32(AX(a, HG_AX_CAL_GAIN));
+                r->enc_cal[4] = fpga_read32(AX(a, HG_AX_CAL_PHASE));
+                b->state = HG_BU_RETURN; /* the field stays where it is this tick */
+                return;
+            }
+            if (st != HG_CAP_PENDING) {
+                fail(b, HG_BU_ERR_CAPTURE, (double)n, (double)hg_cap_limit(a));
+                return;
+            }
+        }
+    }
+    b->target += v / rate(b);
+    const double lead = -(double)b->cfg.enc_damp_s * (b->enc_vf - v);
+    field_at_count(b, (double)b->p_start[a] + b->target + lead);
+}
+
 /* ---------------------------------------------------------------- the tick */
 
 static bool read_snapshot(hg_bringup_t *b)
@@ -843,6 +938,7 @@ void hg_bringup_step(hg_bringup_t *b)
         case HG_BU_STEP_ALIGN: align_enter(b); break;
         case HG_BU_STEP_HOME: home_enter(b); break;
         case HG_BU_STEP_IDENT: ident_enter(b); break;
+        case HG_BU_STEP_ENCODER: encoder_enter(b); break;
         default: b->drive = false; b->mode = HG_MODE_OFF; b->state = HG_BU_GUIDED_WAIT; break;
         }
     }
@@ -851,6 +947,7 @@ void hg_bringup_step(hg_bringup_t *b)
     case HG_BU_STEP_ALIGN: align_tick(b); break;
     case HG_BU_STEP_HOME: home_tick(b, &ctrl_extra); break;
     case HG_BU_STEP_IDENT: ident_tick(b); break;
+    case HG_BU_STEP_ENCODER: encoder_tick(b); break;
     default: guided_tick(b); break;
     }
     if (b->state != HG_BU_IDLE)
@@ -929,7 +1026,7 @@ int hg_bringup_start(hg_bringup_t *b, uint8_t step, uint8_t axis, const int8_t e
         return HG_BU_ERR_BUSY;
     if (b->servo->err != HG_ERR_NONE)
         return HG_BU_ERR_SERVO;
-    if (axis >= HG_NAXES || step == HG_BU_STEP_NONE || step > HG_BU_STEP_IDENT)
+    if (axis >= HG_NAXES || step == HG_BU_STEP_NONE || step > HG_BU_STEP_ENCODER)
         return HG_BU_ERR_ARG;
     if (c->pole_pairs == 0)
         return HG_BU_ERR_CONFIG;
@@ -992,6 +1089,42 @@ int hg_bringup_start(hg_bringup_t *b, uint8_t step, uint8_t axis, const int8_t e
         limit_s = (uint32_t)c->guided_timeout_s + 2u;
         break;
     }
+    case HG_BU_STEP_ENCODER: {
+        hg_bu_axis_t *r = &b->res[axis];
+        if (!r->aligned) /* the field must be placed: lambda of this power-up */
+            return HG_BU_ERR_NOT_READY;
+        if (!(c->home_speed > HG_C(0.0) && c->home_tau > HG_C(0.0) && c->enc_lines > HG_C(0.0)
+              && c->enc_settle_s >= HG_C(0.0) && c->enc_damp_s >= HG_C(0.0)
+              && c->enc_sample_hz > HG_C(0.0)))
+            return HG_BU_ERR_ARG;
+        const uint32_t entries = hg_cap_limit(axis);
+        if (entries == 0) { /* an FPGA built without the capture buffer */
+            b->err_value = 0.0f;
+            b->err_limit = 1.0f;
+            return HG_BU_ERR_CAPTURE;
+        }
+        const double decim = enc_decim_for(b, axis, entries);
+        const double cap_s = (double)entries * (decim + 1.0) / (double)c->enc_sample_hz;
+        /* the sweep until the buffer is full (two ticks of polling), a quarter cycle of lag */
+        const double sweep_s = (double)c->enc_settle_s + cap_s + 2.0 / (double)b->servo->cfg.rate_hz;
+        const double sweep_plan = (double)c->home_speed * sweep_s
+                          + TWO_PI_D / 4.0 / (double)c->pole_pairs;
+        if (decim > 65535.0 || sweep_plan > (double)c->travel_max) {
+            b->err_value = (float)(decim > 65535.0 ? decim : sweep_plan);
+            b->err_limit = (float)(decim > 65535.0 ? 65535.0 : (double)c->travel_max);
+            return HG_BU_ERR_CONFIG;
+        }
+        /* the sweep, then the walk back over the same travel */
+        limit_s = (uint32_t)(2.0 * sweep_s + TWO_PI_D / 4.0 / (double)c->pole_pairs
+                                                 / (double)c->home_speed) + 3u;
+        r->enc_decim = (uint32_t)decim;
+        r->enc_entries = 0;
+        r->enc_captured = false;
+        r->enc_speed = (float)c->home_speed;
+        for (unsigned k = 0; k < 5; k++)
+            r->enc_cal[k] = 0;
+        break;
+    }
     default: /* IDENT */
         if (!b->res[axis].aligned)
             return HG_BU_ERR_NOT_READY;
@@ -1023,7 +1156,8 @@ int hg_bringup_start(hg_bringup_t *b, uint8_t step, uint8_t axis, const int8_t e
     b->offset = 0;
     b->state = step == HG_BU_STEP_ALIGN ? HG_BU_ALIGN_LOCK
              : step == HG_BU_STEP_HOME ? HG_BU_HOME_SEARCH
-             : step == HG_BU_STEP_GUIDED ? HG_BU_GUIDED_WAIT : HG_BU_IDENT_RUN;
+             : step == HG_BU_STEP_GUIDED ? HG_BU_GUIDED_WAIT
+             : step == HG_BU_STEP_ENCODER ? HG_BU_ENC_SWEEP : HG_BU_IDENT_RUN;
     hg_hal_irq_restore(t);
     return HG_BU_OK;
 }

@@ -76,3 +76,16 @@ int hg_cap_read(uint32_t start, int8_t *a, int8_t *b, uint32_t n)
     }
     return HG_CAP_OK;
 }
+
+int hg_cap_read_words(uint32_t start, uint16_t *w, uint32_t n)
+{
+    const uint32_t depth = hg_cap_depth();
+    if (depth == 0)
+        return HG_CAP_ERR_NONE;
+    if (w == 0 || start >= depth || n > depth)
+        return HG_CAP_ERR_ARG;
+    fpga_write32(HG_REG_CAP_ADDR, start);
+    for (uint32_t j = 0; j < n; j++)
+        w[j] = (uint16_t)(fpga_read32(HG_REG_CAP_DATA) & 0xFFFFu);
+    return HG_CAP_OK;
+}

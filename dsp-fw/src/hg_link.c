@@ -1,5 +1,6 @@
 /* SPDX-License-Identifier: Apache-2.0 */
 /* PC link: byte-stream parser, frame checks, message dispatch. */
+#include "hg_capture.h"
 #include "hg_frame.h"
 #include "hg_hal.h"
 #include "hg_link.h"
@@ -316,18 +317,32 @@ static int h_bu_progress(hg_link_t *l, const uint8_t *req, uint8_t *out, size_t 
 
 static void put_calib(uint8_t *d, uint8_t axis, const hg_axis_calib_t *c);
 
-/* u8 axis, u8 page -> page 0 (ALIGN, HOME, GUIDED), 1 (IDENT, durations), 2 (calibration). */
+/* u8 axis, u8 page -> page 0 (ALIGN, HOME, GUIDED), 1 (IDENT, durations), 2 (calibration),
+ * 4 (ENCODER). */
 static int h_bu_result(hg_link_t *l, const uint8_t *req, uint8_t *out, size_t *n)
 {
     const hg_bringup_t *b = l->bu;
     const uint8_t a = req[0];
     if (!b)
         return HG_NAK_BRINGUP;
-    if (a >= 3u || req[1] > 2u)
+    if (a >= 3u || req[1] > 4u || req[1] == 3u) /* page 3: reserved for IDENT */
         return HG_NAK_RANGE;
     const hg_bu_axis_t *r = &b->res[a];
     const uint32_t t = hg_hal_irq_save();
-    if (req[1] == 2u) {
+    if (req[1] == 4u) {
+        out[0] = a;
+        out[1] = 4;
+        out[2] = r->enc_captured ? 1u : 0u;
+        out[3] = 0;
+        hg_put_f32(out + 4, r->duration_s[HG_BU_STEP_ENCODER]);
+        hg_put_u32(out + 8, r->enc_decim);
+        hg_put_u32(out + 12, r->enc_entries);
+        hg_put_f32(out + 16, r->enc_speed);
+        hg_put_f32(out + 20, (float)b->cfg.enc_sample_hz);
+        for (int i = 0; i < 5; i++)
+            hg_put_u32(out + 24 + 4 * i, r->enc_cal[i]);
+        *n = HG_BU_RESULT4_LEN;
+    } else if (req[1] == 2u) {
         put_calib(out, a, &b->calib.axis[a]);
         *n = HG_BU_RESULT2_LEN;
     } else if (req[1] == 1u) {
@@ -411,6 +426,29 @@ static int h_bu_abort(hg_link_t *l, const uint8_t *req, uint8_t *out, size_t *n)
     return 0;
 }
 
+/* u16 first entry, u8 entries (1..HG_CAP_READ_MAX) -> u16 first, u8 entries, u8 0, the raw
+ * entries {B, A} as u16. Not while a bring-up step runs (its ISR polls the buffer). */
+static int h_cap_read(hg_link_t *l, const uint8_t *req, uint8_t *out, size_t *n)
+{
+    const uint32_t start = hg_get_u16(req);
+    const uint32_t cnt = req[2];
+    if (l->bu && hg_bringup_active(l->bu))
+        return HG_NAK_BRINGUP;
+    const uint32_t depth = hg_cap_depth();
+    if (cnt == 0 || cnt > HG_CAP_READ_MAX || start + cnt > depth)
+        return HG_NAK_RANGE;
+    uint16_t w[HG_CAP_READ_MAX];
+    if (hg_cap_read_words(start, w, cnt) != HG_CAP_OK)
+        return HG_NAK_RANGE;
+    hg_put_u16(out, (uint16_t)start);
+    out[2] = (uint8_t)cnt;
+    out[3] = 0;
+    for (uint32_t j = 0; j < cnt; j++)
+        hg_put_u16(out + 4 + 2 * j, w[j]);
+    *n = 4u + 2u * cnt;
+    return 0;
+}
+
 static int h_clear_error(hg_link_t *l, const uint8_t *req, uint8_t *out, size_t *n)
 {
     (void)req;
@@ -439,6 +477,7 @@ static const struct {
     { HG_MSG_BU_RESULT, HG_BU_RESULT_LEN, 2, h_bu_result },
     { HG_MSG_BU_CHECK, HG_BU_CHECK_REQ_LEN, 2, h_bu_check },
     { HG_MSG_BU_ABORT, 0, 2, h_bu_abort },
+    { HG_MSG_CAP_READ, HG_CAP_READ_LEN, 2, h_cap_read },
 };
 
 void hg_link_init(hg_link_t *l, hg_servo_t *servo)

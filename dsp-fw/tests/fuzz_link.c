@@ -30,10 +30,10 @@ static uint32_t rnd(void) /* xorshift64* */
 /* request data length per type and version, from the protocol table; -1 = unknown type */
 static int ref_len(uint8_t version, uint8_t type)
 {
-    static const int len[18] = { -1, 0, 0, 12, 37, 1, 0, 0, 0, 2, 20, 11, 1, 9, 0, 2, 2, 0 };
+    static const int len[19] = { -1, 0, 0, 12, 37, 1, 0, 0, 0, 2, 20, 11, 1, 9, 0, 2, 2, 0, 3 };
     if (version == 1 && type >= 8)
         return -1; /* the version-2 messages do not exist in version 1 */
-    return type < 18 ? len[type] : -1;
+    return type < 19 ? len[type] : -1;
 }
 
 static int ref_classify(const uint8_t *e, size_t n, uint8_t *seq, uint8_t *type)
@@ -71,9 +71,10 @@ static int ref_classify(const uint8_t *e, size_t n, uint8_t *seq, uint8_t *type)
  * knows. Returns the encoded length (delimiter not included). */
 static size_t make_chunk(uint8_t *out, int *want)
 {
-    static const uint8_t types[] = { 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15, 16, 17 };
+    static const uint8_t types[] = { 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15, 16, 17,
+                                     18 };
     uint8_t raw[HG_LINK_MAX_RAW + 8];
-    const uint8_t type = types[rnd() % 17];
+    const uint8_t type = types[rnd() % 18];
     const uint8_t ver = type >= 8 ? 2 : (uint8_t)(1 + rnd() % 2);
     size_t n = 3 + (size_t)ref_len(ver, type);
     raw[0] = ver;
@@ -109,6 +110,11 @@ static size_t make_chunk(uint8_t *out, int *want)
         raw[3] = (uint8_t)(rnd() % 4);
         raw[4] = (uint8_t)(rnd() % (type == 15 ? 4 : 11));
     }
+    if (type == 18) { /* CAP_READ: a range inside a small buffer often */
+        raw[3] = (uint8_t)(rnd() % 40);
+        raw[4] = (uint8_t)(rnd() % 2 ? 0 : rnd());
+        raw[5] = (uint8_t)(rnd() % 33);
+    }
     if (type == 9) /* stream period: mostly in range */
         raw[4] = (uint8_t)(rnd() % 5);
     if (type == 10 && rnd() % 2) { /* FORCE: a valid TTL and a newer counter half the time */
@@ -127,7 +133,7 @@ static size_t make_chunk(uint8_t *out, int *want)
             raw[0] = (uint8_t)(3 + rnd() % 253); /* versions 3..255; 0 comes with garbage */
             *want = VERSION;
         } else if (w == 1) {
-            raw[1] = (uint8_t)(18 + rnd() % 238);
+            raw[1] = (uint8_t)(19 + rnd() % 237);
             *want = TYPE;
         } else {
             size_t nn;

@@ -7,11 +7,14 @@
  * models/hapgate/golden/commutation.py describes it: angle code k stands for k + 1/2), the
  * torque clamp, the enables, HOME_ARM and the index latch, the snapshot. Every expected value
  * is computed here from the plant's parameters. */
+#include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 #include "hal_sim.h"
 #include "hg_frame.h"
 #include "hg_bringup.h"
+#include "hg_capture.h"
+#include "hg_hal.h"
 #include "hg_fpga_regs.h"
 #include "hg_test.h"
 
@@ -865,7 +868,7 @@ void test_bringup_link_align(void)
     CHECK(n == HG_CALIB_LEN);
     CHECK(raw[3] == 1 && raw[4] == B.calib.axis[1].flags && raw[6] == 1);
     CHECK(hg_get_u16(raw + 12) == B.calib.axis[1].comm_offset);
-    d[1] = 3;
+    d[1] = 5;
     CHECK(link_req(HG_MSG_BU_RESULT, d, 2, raw, &n) == HG_MSG_NAK && raw[4] == HG_NAK_RANGE);
     /* a check, self-describing */
     d[1] = HG_BU_CHK_ALIGN_MOVE;
@@ -890,7 +893,7 @@ void test_bringup_link_align(void)
     /* refusals carry their figures */
     CHECK(link_start(HG_BU_STEP_ALIGN, 3, 0, 0, 0, raw) == HG_BU_ERR_ARG);
     CHECK(f32_at(raw + 4) == 0.0f && f32_at(raw + 8) == 0.0f);
-    CHECK(link_start(HG_BU_STEP_IDENT + 1, 0, 0, 0, 0, raw) == HG_BU_ERR_ARG);
+    CHECK(link_start(HG_BU_STEP_ENCODER + 1, 0, 0, 0, 0, raw) == HG_BU_ERR_ARG);
     CHECK(link_start(HG_BU_STEP_IDENT, 1, 0, 0, 0, raw) == HG_BU_ERR_NOT_READY);
     CHECK(f32_at(raw + 4) == -1.0f && f32_at(raw + 8) == 1.0f); /* scan sign, needed */
     /* the same refusal again: its figures again (not those of the last step) */
@@ -968,4 +971,128 @@ void test_bringup_link_abort(void)
     const uint8_t d[HG_BU_START_LEN] = { HG_BU_STEP_ALIGN, 0 };
     CHECK(link_req(HG_MSG_BU_START, d, sizeof d, raw, &n) == HG_MSG_NAK);
     CHECK(link_req(HG_MSG_BU_ABORT, NULL, 0, raw, &n) == HG_MSG_NAK);
+}
+
+/* ENCODER: after ALIGN, the rest point walks at home_speed; after enc_settle_s the capture is
+ * armed on the axis with the decimation that makes the full buffer span enc_lines lines; the
+ * buffer fills (here: the test sets DONE when the FPGA would, from the samples the armed time
+ * holds); the CAL_* registers are read; the rotor walks back to the reference pose. Over the
+ * capture the rotor turns at the walk's speed, steadily (the damping of the rest point). Then
+ * the page-3 result and CAP_READ over the link, and the refusals. */
+void test_bringup_encoder(void)
+{
+    uint8_t raw[HG_LINK_MAX_RAW];
+    size_t n = 0;
+    setup_sim();
+    hal_sim_cap_log2 = 10;
+    setup_fw(NULL, NULL);
+    setup_link();
+    CHECK(start(HG_BU_STEP_ENCODER, 0) == HG_BU_ERR_NOT_READY); /* not aligned */
+    CHECK(start(HG_BU_STEP_ALIGN, 0) == HG_BU_OK);
+    run_step();
+    CHECK(B.err == HG_BU_OK && B.res[0].aligned);
+    const double q_back = SIM.ax[0].q;
+    const uint32_t cal[5] = { 0x61u, 0x00120034u, 0xFFF00020u, 0x3F004100u, 0x0000FFE0u };
+    hal_sim_regs[HG_REG_AXIS(0, HG_AX_CAL_CTRL)] = cal[0];
+    hal_sim_regs[HG_REG_AXIS(0, HG_AX_CAL_STAT)] = cal[1];
+    hal_sim_regs[HG_REG_AXIS(0, HG_AX_CAL_OFS)] = cal[2];
+    hal_sim_regs[HG_REG_AXIS(0, HG_AX_CAL_GAIN)] = cal[3];
+    hal_sim_regs[HG_REG_AXIS(0, HG_AX_CAL_PHASE)] = cal[4];
+    /* the decimation from the specification: 8 lines at 0.5 rad/s (1024 lines per turn) in
+     * 1024 samples of the 1 MSPS stream: 98.2 ms, one sample in 96 */
+    const double lines_s = 0.5 * 1024.0 / (2.0 * PI_D);
+    const uint32_t decim = (uint32_t)ceil(8.0 / lines_s * 1e6 / 1024.0) - 1u;
+    CHECK(decim == 95u);
+    const double cap_s = 1024.0 * (decim + 1.0) * 1e-6;
+    CHECK(link_start(HG_BU_STEP_ENCODER, 0, 0, 0, 0, raw) == HG_BU_OK);
+    const uint8_t rd[HG_CAP_READ_LEN] = { 0, 0, 8 };
+    CHECK(link_req(HG_MSG_CAP_READ, rd, sizeof rd, raw, &n) == HG_MSG_NAK
+          && raw[4] == HG_NAK_BRINGUP);
+    uint32_t arm_tick = 0, done_tick = 0, k = 0;
+    double q_arm = 0.0, vmin = 1e9, vmax = -1e9;
+    const uint32_t max = B.tick_limit + 1000u;
+    for (; k < max && hg_bringup_active(&B); k++) {
+        const uint32_t st = hal_sim_regs[HG_REG_CAP_STAT];
+        if (arm_tick == 0 && (st & HAPGATE__CAP_STAT__ARMED_bm)) {
+            arm_tick = k;
+            q_arm = SIM.ax[0].q;
+        }
+        if (arm_tick && !done_tick && (double)(k - arm_tick) * 1e-3 >= cap_s) {
+            hal_sim_regs[HG_REG_CAP_STAT] = (st & (uint32_t)HAPGATE__CAP_STAT__DEPTH_LOG2_bm)
+                                          | (1024u << HAPGATE__CAP_STAT__COUNT_bp)
+                                          | HAPGATE__CAP_STAT__DONE_bm;
+            done_tick = k;
+            /* the rotor's mean speed over the capture: the walk's */
+            CHECK(fabs((SIM.ax[0].q - q_arm) / ((double)(k - arm_tick) * 1e-3) - 0.5) < 0.01);
+        }
+        if (arm_tick && !done_tick) {
+            vmin = fmin(vmin, SIM.ax[0].v);
+            vmax = fmax(vmax, SIM.ax[0].v);
+        }
+        tick_polled();
+        if (k % 100 == 0) /* the host keeps the step alive */
+            CHECK(link_req(HG_MSG_BU_PROGRESS, NULL, 0, raw, &n)
+                  == (HG_MSG_BU_PROGRESS | HG_MSG_REPLY));
+    }
+    if (B.err != HG_BU_OK || arm_tick == 0)
+        printf("encoder: err %u value %g limit %g at tick %u, armed %u, v %g..%g\n", B.err,
+               (double)B.err_value, (double)B.err_limit, k, arm_tick, vmin, vmax);
+    CHECK(!hg_bringup_active(&B) && B.err == HG_BU_OK);
+    /* armed after the settling time, with the axis, the first sample and the decimation */
+    CHECK(arm_tick >= 300u && arm_tick <= 302u);
+    const uint32_t ctrl = hal_sim_regs[HG_REG_CAP_CTRL];
+    CHECK(((ctrl & HAPGATE__CAP_CTRL__SEL_bm) >> HAPGATE__CAP_CTRL__SEL_bp) == 0u);
+    CHECK((ctrl & HAPGATE__CAP_CTRL__TRIG_bm) == 0u);
+    CHECK(((ctrl & HAPGATE__CAP_CTRL__DECIM_bm) >> HAPGATE__CAP_CTRL__DECIM_bp) == decim);
+    /* steady: the speed stays within 5 % of the walk's while the buffer records */
+    CHECK(vmin > 0.475 && vmax < 0.525);
+    const hg_bu_axis_t *r = &B.res[0];
+    CHECK(r->enc_captured && r->enc_entries == 1024u && r->enc_decim == decim);
+    for (int i = 0; i < 5; i++)
+        CHECK(r->enc_cal[i] == cal[i]);
+    CHECK(fabs(SIM.ax[0].q - q_back) < 2.0 * PI_D / 2.0 / 64.0); /* back within 1/64 cycle */
+    check_zero_torque_now();
+    /* page 4 (page 3 is not this step's) */
+    const uint8_t d3[2] = { 0, 3 };
+    CHECK(link_req(HG_MSG_BU_RESULT, d3, 2, raw, &n) == HG_MSG_NAK && raw[4] == HG_NAK_RANGE);
+    const uint8_t d[2] = { 0, 4 };
+    CHECK(link_req(HG_MSG_BU_RESULT, d, 2, raw, &n) == (HG_MSG_BU_RESULT | HG_MSG_REPLY));
+    CHECK(n == HG_BU_RESULT4_LEN && raw[3] == 0 && raw[4] == 4 && raw[5] == 1);
+    CHECK(f32_at(raw + 7) == r->duration_s[HG_BU_STEP_ENCODER]);
+    CHECK(fabs((double)r->duration_s[HG_BU_STEP_ENCODER] - (double)k * 1e-3) < 2e-3);
+    CHECK(hg_get_u32(raw + 11) == decim && hg_get_u32(raw + 15) == 1024u);
+    CHECK(f32_at(raw + 19) == 0.5f && f32_at(raw + 23) == 1e6f);
+    for (int i = 0; i < 5; i++)
+        CHECK(hg_get_u32(raw + 27 + 4 * i) == cal[i]);
+    /* CAP_READ: the raw entries, 30 at most, inside the buffer */
+    for (uint32_t j = 0; j < 1024u; j++)
+        hal_sim_cap[j] = (uint16_t)(j * 37u + 5u);
+    const uint8_t rd2[HG_CAP_READ_LEN] = { 0xF2, 0x03, 14 }; /* entries 1010..1023 */
+    CHECK(link_req(HG_MSG_CAP_READ, rd2, sizeof rd2, raw, &n) == (HG_MSG_CAP_READ | HG_MSG_REPLY));
+    CHECK(n == 4u + 2u * 14u && hg_get_u16(raw + 3) == 1010u && raw[5] == 14 && raw[6] == 0);
+    for (uint32_t j = 0; j < 14u; j++)
+        CHECK(hg_get_u16(raw + 7 + 2 * j) == (uint16_t)((1010u + j) * 37u + 5u));
+    const uint8_t past[HG_CAP_READ_LEN] = { 0xF3, 0x03, 14 }, many[HG_CAP_READ_LEN] = { 0, 0, 31 },
+                  none[HG_CAP_READ_LEN] = { 0, 0, 0 };
+    CHECK(link_req(HG_MSG_CAP_READ, past, 3, raw, &n) == HG_MSG_NAK && raw[4] == HG_NAK_RANGE);
+    CHECK(link_req(HG_MSG_CAP_READ, many, 3, raw, &n) == HG_MSG_NAK && raw[4] == HG_NAK_RANGE);
+    CHECK(link_req(HG_MSG_CAP_READ, none, 3, raw, &n) == HG_MSG_NAK && raw[4] == HG_NAK_RANGE);
+    /* a capture stopped before it is full (someone else wrote CAP_CTRL) ends the step */
+    CHECK(start(HG_BU_STEP_ENCODER, 0) == HG_BU_OK);
+    run_ticks(400);
+    CHECK(hg_bringup_active(&B));
+    fpga_write32(HG_REG_CAP_CTRL, 0);
+    run_ticks(2);
+    CHECK(!hg_bringup_active(&B) && B.err == HG_BU_ERR_CAPTURE && B.err_limit == 1024.0f);
+    CHECK(!B.res[0].enc_captured);
+    check_zero_torque_now();
+    /* a plan beyond the travel bound, and an FPGA without the buffer */
+    B.cfg.travel_max = 0.2f;
+    CHECK(start(HG_BU_STEP_ENCODER, 0) == HG_BU_ERR_CONFIG && B.err_limit == 0.2f);
+    B.cfg.travel_max = 8.0f;
+    hal_sim_cap_log2 = 0;
+    hal_sim_reset();
+    hal_sim_cap_log2 = 10;
+    CHECK(start(HG_BU_STEP_ENCODER, 0) == HG_BU_ERR_CAPTURE);
+    CHECK(link_req(HG_MSG_CAP_READ, rd, sizeof rd, raw, &n) == HG_MSG_NAK && raw[4] == HG_NAK_RANGE);
 }

@@ -26,6 +26,7 @@
 
 #include <stddef.h>
 #include <stdint.h>
+#include "hg_calib.h" /* hg_axis_calib_t and the HG_CAL_* flags, shared with the firmware */
 #include "hg_proto.h" /* the protocol constants, shared with the firmware */
 
 #ifdef __cplusplus
@@ -137,6 +138,40 @@ int hg_get_stats(hg_dev_t *dev, hg_dev_stats_t *out);
  * NULL removes it. */
 typedef void (*hg_push_hook)(const hg_dev_state_t *s, void *user);
 int hg_set_push_hook(hg_dev_t *dev, hg_push_hook hook, void *user);
+/* ---------------------------------------------------------------- calibration and bring-up
+ * One axis's calibration (SET_CALIB / GET_CALIB; dsp-fw/README.md, "Calibration"): flags
+ * HG_CAL_HOMED | HG_CAL_ALIGNED (| HG_CAL_DIR_SEEN), enc_dir +1/-1, phases_swapped 0/1,
+ * pole_pairs, index_to_zero counts, comm_offset the FPGA's OFFSET code 0..1023. The device
+ * applies it at once; it refuses (HG_E_REFUSED) a field out of range, pole pairs other than
+ * the FPGA's, or any SET_CALIB while the forces are enabled or a bring-up step runs. An axis
+ * other than 0..2, or a field that does not fit its byte, is HG_E_ARG and nothing is sent. */
+int hg_set_calib(hg_dev_t *dev, unsigned axis, const hg_axis_calib_t *cal);
+int hg_get_calib(hg_dev_t *dev, unsigned axis, hg_axis_calib_t *out);
+/* n raw entries {B, A} (A in bits 7:0, B in 15:8, signed codes) of the FPGA's capture buffer
+ * from entry `start` (CAP_READ, HG_CAP_READ_MAX per request). HG_E_REFUSED past the buffer's
+ * end (or without one) and while a bring-up step runs. */
+int hg_read_capture(hg_dev_t *dev, unsigned start, unsigned n, uint16_t *words);
+/* Start a bring-up step (BU_START; `hapgate bringup` drives the whole sequence): step 1 ALIGN,
+ * 2 HOME, 3 RESTART, 4 GUIDED, 5 IDENT, 6 ENCODER (dsp-fw/README.md, "Bring-up"); expect (may
+ * be NULL: zeros) the joint signs GUIDED watches; seed IDENT's. *result gets 0 (started) or the
+ * firmware's refusal (HG_BU_ERR_*), *value and *limit its figures (each may be NULL). The step
+ * runs on the device; ask hg_bu_progress at least every 250 ms (silence aborts it). */
+int hg_bu_start(hg_dev_t *dev, unsigned step, unsigned axis, const int expect[3], uint32_t seed,
+                int *result, double *value, double *limit);
+typedef struct {
+    int state;               /* hg_bu_state_t: 0 idle (the last step has ended)             */
+    int step, axis;
+    int err;                 /* HG_BU_* of the last step (0 OK)                             */
+    uint32_t ticks, tick_limit; /* servo ticks into the step, and its bound                 */
+    double value, limit;     /* the error's figures                                        */
+    uint32_t seq;            /* FPGA SEQ of the step's last snapshot                       */
+    unsigned servo_hz;
+    double t_s;              /* device time into the step: ticks / servo_hz                */
+} hg_bu_progress_t;
+int hg_bu_progress(hg_dev_t *dev, hg_bu_progress_t *out);
+/* Stop a running bring-up step at once (BU_ABORT: zero torque before the reply);
+ * HG_E_REFUSED from a device without bring-up. */
+int hg_bu_abort(hg_dev_t *dev);
 /* Bytes written as they are, for tests of the device's frame checks. */
 int hg_write_raw(hg_dev_t *dev, const void *bytes, size_t n);
 

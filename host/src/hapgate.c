@@ -478,6 +478,119 @@ int hg_enable(hg_dev_t *d, int on)
     return d ? request(d, HG_MSG_ENABLE, &b, HG_ENABLE_LEN, NULL, 0, d->timeout_s) : HG_E_ARG;
 }
 
+int hg_set_calib(hg_dev_t *d, unsigned axis, const hg_axis_calib_t *c)
+{
+    uint8_t q[HG_CALIB_LEN];
+    if (!d || !c || axis > 2u || c->comm_offset > 0xFFFFu)
+        return HG_E_ARG;
+    q[0] = (uint8_t)axis;
+    q[1] = c->flags;
+    q[2] = (uint8_t)c->enc_dir;
+    q[3] = c->phases_swapped;
+    q[4] = c->pole_pairs;
+    hg_put_u32(q + 5, (uint32_t)c->index_to_zero);
+    hg_put_u16(q + 9, c->comm_offset);
+    return request(d, HG_MSG_SET_CALIB, q, sizeof q, NULL, 0, d->timeout_s);
+}
+
+int hg_get_calib(hg_dev_t *d, unsigned axis, hg_axis_calib_t *out)
+{
+    uint8_t b[HG_CALIB_LEN];
+    if (!d || !out || axis > 2u)
+        return HG_E_ARG;
+    const uint8_t a = (uint8_t)axis;
+    const int r = request(d, HG_MSG_GET_CALIB, &a, HG_GET_CALIB_LEN, b, HG_CALIB_LEN,
+                          d->timeout_s);
+    if (r != HG_OK)
+        return r;
+    if (b[0] != a)
+        return HG_E_PROTOCOL;
+    memset(out, 0, sizeof *out);
+    out->flags = b[1];
+    out->enc_dir = (int8_t)b[2];
+    out->phases_swapped = b[3];
+    out->pole_pairs = b[4];
+    out->index_to_zero = (int32_t)hg_get_u32(b + 5);
+    out->comm_offset = hg_get_u16(b + 9);
+    return HG_OK;
+}
+
+int hg_read_capture(hg_dev_t *d, unsigned start, unsigned n, uint16_t *words)
+{
+    if (!d || (!words && n) || start > 0xFFFFu || n > 0x10000u - start)
+        return HG_E_ARG;
+    for (unsigned got = 0; got < n;) {
+        const unsigned k = n - got < HG_CAP_READ_MAX ? n - got : HG_CAP_READ_MAX;
+        uint8_t q[HG_CAP_READ_LEN], b[4u + 2u * HG_CAP_READ_MAX];
+        hg_put_u16(q, start + got);
+        q[2] = (uint8_t)k;
+        const int r = request(d, HG_MSG_CAP_READ, q, sizeof q, b, (int)(4u + 2u * k),
+                              d->timeout_s);
+        if (r != HG_OK)
+            return r;
+        if (hg_get_u16(b) != start + got || b[2] != k)
+            return HG_E_PROTOCOL;
+        for (unsigned j = 0; j < k; j++)
+            words[got + j] = (uint16_t)hg_get_u16(b + 4 + 2 * j);
+        got += k;
+    }
+    return HG_OK;
+}
+
+int hg_bu_start(hg_dev_t *d, unsigned step, unsigned axis, const int expect[3], uint32_t seed,
+                int *result, double *value, double *limit)
+{
+    uint8_t q[HG_BU_START_LEN], b[HG_BU_START_ACK_LEN];
+    if (!d || step > 255u || axis > 255u)
+        return HG_E_ARG;
+    q[0] = (uint8_t)step;
+    q[1] = (uint8_t)axis;
+    for (int i = 0; i < 3; i++) {
+        const int e = expect ? expect[i] : 0;
+        if (e < -1 || e > 1)
+            return HG_E_ARG;
+        q[2 + i] = (uint8_t)(int8_t)e;
+    }
+    hg_put_u32(q + 5, seed);
+    const int r = request(d, HG_MSG_BU_START, q, sizeof q, b, HG_BU_START_ACK_LEN, d->timeout_s);
+    if (r != HG_OK)
+        return r;
+    if (result)
+        *result = b[0];
+    if (value)
+        *value = get_f32(b + 1);
+    if (limit)
+        *limit = get_f32(b + 5);
+    return HG_OK;
+}
+
+int hg_bu_progress(hg_dev_t *d, hg_bu_progress_t *out)
+{
+    uint8_t b[HG_BU_PROGRESS_LEN];
+    if (!d || !out)
+        return HG_E_ARG;
+    const int r = request(d, HG_MSG_BU_PROGRESS, NULL, 0, b, HG_BU_PROGRESS_LEN, d->timeout_s);
+    if (r != HG_OK)
+        return r;
+    out->state = b[0];
+    out->step = b[1];
+    out->axis = b[2];
+    out->err = b[3];
+    out->ticks = hg_get_u32(b + 4);
+    out->tick_limit = hg_get_u32(b + 8);
+    out->value = get_f32(b + 12);
+    out->limit = get_f32(b + 16);
+    out->seq = hg_get_u32(b + 20);
+    out->servo_hz = hg_get_u16(b + 24);
+    out->t_s = out->servo_hz ? (double)out->ticks / out->servo_hz : 0.0;
+    return HG_OK;
+}
+
+int hg_bu_abort(hg_dev_t *d)
+{
+    return d ? request(d, HG_MSG_BU_ABORT, NULL, 0, NULL, 0, d->timeout_s) : HG_E_ARG;
+}
+
 int hg_clear_error(hg_dev_t *d)
 {
     return d ? request(d, HG_MSG_CLEAR_ERROR, NULL, 0, NULL, 0, d->timeout_s) : HG_E_ARG;

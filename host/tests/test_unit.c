@@ -18,6 +18,7 @@
 
 #include "hal_sim.h"
 #include "hapgate.h"
+#include "hg_bringup.h"
 #include "hg_frame.h"
 #include "hg_link.h"
 
@@ -48,6 +49,8 @@ typedef struct {
     int stop, hang, hangup, junk; /* requests to the device thread */
     hg_servo_t s;
     hg_link_t l;
+    int with_bu;  /* set before the thread starts: the link has bring-up (l.bu) */
+    hg_bringup_t bu;
     int16_t torque[3];
     int enabled;
 } fake_t;
@@ -73,6 +76,12 @@ static void *fake_main(void *arg)
     hg_servo_init(&f->s, &cfg);
     hg_link_init(&f->l, &f->s);
     f->l.cfg.baud = 0; /* unknown: the loop may run at the servo rate */
+    if (f->with_bu) {
+        hg_bringup_cfg_t bc;
+        hg_bringup_default_cfg(&bc);
+        hg_bringup_init(&f->bu, &f->s, &bc, NULL);
+        f->l.bu = &f->bu;
+    }
     struct timespec next;
     clock_gettime(CLOCK_MONOTONIC, &next);
     int hung_up = 0;
@@ -93,7 +102,10 @@ static void *fake_main(void *arg)
         if (hang)
             continue;
         hal_sim_snapshot(pos, vel);
-        hg_servo_step(&f->s);
+        if (f->with_bu && hg_bringup_active(&f->bu))
+            hg_bringup_step(&f->bu);
+        else
+            hg_servo_step(&f->s);
         uint8_t buf[512], tx[HG_LINK_MAX_FRAME];
         ssize_t n;
         while ((n = read(f->master, buf, sizeof buf)) > 0)
@@ -126,15 +138,21 @@ static void *fake_main(void *arg)
     return NULL;
 }
 
-static void fake_start(fake_t *f)
+static void fake_start_bu(fake_t *f, int with_bu)
 {
     memset(f, 0, sizeof *f);
+    f->with_bu = with_bu;
     pthread_mutex_init(&f->mu, NULL);
     f->master = posix_openpt(O_RDWR | O_NOCTTY);
     CHECK(f->master >= 0 && grantpt(f->master) == 0 && unlockpt(f->master) == 0);
     snprintf(f->slave, sizeof f->slave, "%s", ptsname(f->master));
     fcntl(f->master, F_SETFL, fcntl(f->master, F_GETFL) | O_NONBLOCK);
     pthread_create(&f->th, NULL, fake_main, f);
+}
+
+static void fake_start(fake_t *f)
+{
+    fake_start_bu(f, 0);
 }
 
 static void fake_set(fake_t *f, int *field)
@@ -259,6 +277,105 @@ static void test_requests(void)
     pthread_mutex_lock(&f.mu);
     CHECK(!f.enabled && f.torque[0] == 0 && f.torque[1] == 0 && f.torque[2] == 0);
     pthread_mutex_unlock(&f.mu);
+    fake_stop(&f);
+}
+
+/* SET_CALIB / GET_CALIB round trip, the device's refusals, CAP_READ over several requests,
+ * and BU_ABORT refused by a device without bring-up. */
+static void test_calib_and_capture(void)
+{
+    fake_t f;
+    hg_dev_t *d = open_fake(&f, 1000000, 2.0);
+    hg_axis_calib_t c = { HG_CAL_HOMED | HG_CAL_ALIGNED | HG_CAL_DIR_SEEN, -1, 1, 2, -123456,
+                          777 }, got;
+    CHECK_EQ(hg_set_calib(d, 1, &c), HG_OK);
+    memset(&got, 0xA5, sizeof got);
+    CHECK_EQ(hg_get_calib(d, 1, &got), HG_OK);
+    CHECK(got.flags == c.flags && got.enc_dir == -1 && got.phases_swapped == 1);
+    CHECK(got.pole_pairs == 2 && got.index_to_zero == -123456 && got.comm_offset == 777);
+    pthread_mutex_lock(&f.mu);
+    CHECK(f.s.cfg.cal.axis[1].index_to_zero == -123456 && f.s.cfg.cal.axis[1].enc_dir == -1);
+    pthread_mutex_unlock(&f.mu);
+    CHECK_EQ(hg_get_calib(d, 0, &got), HG_OK); /* the default configuration's */
+    CHECK(got.flags == (HG_CAL_HOMED | HG_CAL_ALIGNED) && got.enc_dir == 1);
+    CHECK_EQ(hg_get_calib(d, 3, &got), HG_E_ARG);
+    CHECK_EQ(hg_set_calib(d, 3, &c), HG_E_ARG);
+    CHECK_EQ(hg_set_calib(d, 0, NULL), HG_E_ARG);
+    hg_axis_calib_t bad = c;
+    bad.pole_pairs = 3;                              /* not the FPGA's: NAK 1 */
+    CHECK_EQ(hg_set_calib(d, 0, &bad), HG_E_REFUSED);
+    bad = c;
+    bad.enc_dir = 2;                                 /* NAK 1 */
+    CHECK_EQ(hg_set_calib(d, 0, &bad), HG_E_REFUSED);
+    CHECK_EQ(hg_set_scene(d, HG_SCENE_PC_FORCE, NULL, NULL, 0, 0, 0), HG_OK);
+    CHECK_EQ(hg_enable(d, 1), HG_OK);
+    CHECK_EQ(hg_set_calib(d, 1, &c), HG_E_REFUSED); /* NAK 5: enabled */
+    CHECK_EQ(hg_enable(d, 0), HG_OK);
+    /* the capture buffer (the host HAL's, 1024 entries) read in 30-entry requests */
+    for (unsigned j = 0; j < 1024u; j++)
+        hal_sim_cap[j] = (uint16_t)(j * 41u + 3u);
+    uint16_t w[70];
+    CHECK_EQ(hg_read_capture(d, 900, 70, w), HG_OK);
+    int same = 1;
+    for (unsigned j = 0; j < 70u; j++)
+        same = same && w[j] == (uint16_t)((900u + j) * 41u + 3u);
+    CHECK(same);
+    CHECK_EQ(hg_read_capture(d, 1000, 25, w), HG_E_REFUSED); /* past the end */
+    CHECK_EQ(hg_read_capture(d, 0, 1, NULL), HG_E_ARG);
+    CHECK_EQ(hg_bu_abort(d), HG_E_REFUSED);            /* NAK 6: no bring-up */
+    hg_dev_stats_t st;
+    CHECK_EQ(hg_get_stats(d, &st), HG_OK);
+    CHECK_EQ(st.rejected, 5); /* pole pairs, enc_dir, enabled, past the end, BU_ABORT */
+    CHECK_EQ(hg_close(d), HG_OK);
+    fake_stop(&f);
+}
+
+/* BU_START, BU_PROGRESS and BU_ABORT against the firmware's bring-up: a refusal with its
+ * figures, an ALIGN followed while it runs (SET_CALIB refused meanwhile), aborted to zero
+ * torque. */
+static void test_bringup_messages(void)
+{
+    fake_t f;
+    hg_dev_t *d = NULL;
+    fake_start_bu(&f, 1);
+    CHECK_EQ(hg_open(&d, f.slave, 1000000, 2.0), HG_OK);
+    int rc = -1;
+    double v = -1.0, lim = -1.0;
+    const int bad[3] = { 0, 2, 0 };
+    CHECK_EQ(hg_bu_start(d, HG_BU_STEP_GUIDED, 0, bad, 1, &rc, &v, &lim), HG_E_ARG);
+    CHECK_EQ(hg_bu_start(d, HG_BU_STEP_HOME, 0, NULL, 1, &rc, &v, &lim), HG_OK);
+    CHECK_EQ(rc, HG_BU_ERR_NOT_READY); /* not aligned */
+    CHECK_EQ(hg_bu_start(d, HG_BU_STEP_ALIGN, 3, NULL, 1, &rc, &v, &lim), HG_OK);
+    CHECK(rc == HG_BU_ERR_ARG && v == 0.0 && lim == 0.0);
+    CHECK_EQ(hg_bu_start(d, HG_BU_STEP_ALIGN, 1, NULL, 1, &rc, NULL, NULL), HG_OK);
+    CHECK_EQ(rc, HG_BU_OK);
+    hg_bu_progress_t p;
+    memset(&p, 0xA5, sizeof p);
+    uint32_t t0 = 0;
+    for (int k = 0; k < 100; k++) { /* until the device has stepped it twice */
+        CHECK_EQ(hg_bu_progress(d, &p), HG_OK);
+        if (k == 0)
+            t0 = p.ticks;
+        if (p.ticks >= t0 + 2)
+            break;
+        nap_ms(5);
+    }
+    CHECK(p.state == HG_BU_ALIGN_LOCK && p.step == HG_BU_STEP_ALIGN && p.axis == 1);
+    CHECK(p.err == HG_BU_OK && p.servo_hz == 1000 && p.ticks >= t0 + 2);
+    CHECK(p.tick_limit > p.ticks && p.t_s == p.ticks / 1000.0);
+    CHECK_EQ(hg_bu_start(d, HG_BU_STEP_ALIGN, 0, NULL, 1, &rc, NULL, NULL), HG_OK);
+    CHECK_EQ(rc, HG_BU_ERR_BUSY);
+    hg_axis_calib_t c = { HG_CAL_HOMED | HG_CAL_ALIGNED, 1, 0, 2, 0, 0 };
+    CHECK_EQ(hg_set_calib(d, 0, &c), HG_E_REFUSED); /* NAK 6: a step runs */
+    uint16_t w[4];
+    CHECK_EQ(hg_read_capture(d, 0, 4, w), HG_E_REFUSED);
+    CHECK_EQ(hg_bu_abort(d), HG_OK);
+    CHECK_EQ(hg_bu_progress(d, &p), HG_OK);
+    CHECK(p.state == HG_BU_IDLE && p.err == HG_BU_ERR_ABORT);
+    pthread_mutex_lock(&f.mu);
+    CHECK(f.torque[0] == 0 && f.torque[1] == 0 && f.torque[2] == 0);
+    pthread_mutex_unlock(&f.mu);
+    CHECK_EQ(hg_close(d), HG_OK);
     fake_stop(&f);
 }
 
@@ -425,6 +542,8 @@ static const struct {
     { "garbage_from_device", test_garbage_from_device },
     { "link_lost", test_link_lost },
     { "stream_silence", test_stream_silence },
+    { "calib_and_capture", test_calib_and_capture },
+    { "bringup_messages", test_bringup_messages },
 };
 
 int main(int argc, char **argv)

@@ -15,11 +15,12 @@ from typing import Any
 import numpy as np
 import pytest
 from hapgate.base.paths import ROOT
+from hapgate.commands import bringup as bu
 from hapgate.commands import cli
 from hapgate.commands.device import Server
 from hapgate.device import harness, runner
 from hapgate.device import scene as sc
-from hapgate.golden import calib, pclink
+from hapgate.golden import calib, capture, encquality, encsig, pclink
 from hapgate.host import Device
 
 SCENES = ROOT / "scenes"
@@ -95,11 +96,12 @@ def assert_found(doc: dict[str, Any], scene: sc.Scene) -> None:
 
 @pytest.fixture(scope="module")
 def unaligned_run(tmp_path_factory: pytest.TempPathFactory) -> Iterator[dict[str, Any]]:
-    """unaligned.toml served; `hapgate bringup --steps align,homing,guided --apply` on it."""
+    """unaligned.toml served; `hapgate bringup --steps align,homing,guided,encoder --apply`
+    on it."""
     out = tmp_path_factory.mktemp("bringup")
     with serve(sc.load(UNALIGNED)) as srv:
         rc = cli.main(["bringup", srv.port, "--out", str(out), "--steps",
-                       "align,homing,guided", "--apply"])
+                       "align,homing,guided,encoder", "--apply"])
         with Device.open(srv.port) as dev:
             words = [dev.get_calib(a).words() for a in range(3)]
         yield {"rc": rc, "out": out, "doc": json.loads((out / "bringup.json").read_text()),
@@ -124,6 +126,103 @@ def test_unaligned_finds_every_error(unaligned_run: dict[str, Any]) -> None:
             assert s["duration_s"] >= 2.0 + 2 * 0.5 / 0.25, s
     for f in ("calibration.toml", "report.html", "alignment_scan.png", "identification.png"):
         assert (out / f).stat().st_size > 0, f
+
+
+ENC_KEYS = {"amp_a", "amp_b", "ratio", "offset_a", "offset_b", "phase_deg", "h2_pct", "h3_pct",
+            "radius_spread_pct"}
+ENC_BANDS = {"enc_" + k for k in ENC_KEYS}
+AMP_SCENE = 110.0           # scenes/README.md: [encoder] amplitude's default, ADC codes
+AMP_TOL = 0.02              # fraction: the fit over 8 lines with the plant's rounding
+
+
+def test_unaligned_encoder_signals_pass(unaligned_run: dict[str, Any]) -> None:
+    """The encoder step on the healthy encoders of unaligned.toml: per axis exactly the nine
+    metrics, each with its check, all PASS; the amplitude is the scene's; the capture spans
+    at least encquality's 4 lines; the FPGA's calibration registers beside them; a Lissajous
+    PNG per axis and the report's encoder table."""
+    doc, out = unaligned_run["doc"], unaligned_run["out"]
+    for i, a in enumerate(doc["axes"]):
+        assert set(a["encoder"]) == ENC_KEYS, a["encoder"]
+        got = {c["name"]: c for c in a["checks"] if c["name"].startswith("enc_")}
+        assert set(got) == ENC_BANDS and all(c["result"] == "PASS" for c in got.values()), got
+        for ch in ("amp_a", "amp_b"):
+            assert abs(a["encoder"][ch] / AMP_SCENE - 1) <= AMP_TOL, (i, a["encoder"])
+        cap = a["encoder_capture"]
+        assert cap["lines"] >= encquality.MIN_CYCLES and cap["entries"] == 1024, cap
+        assert set(cap["fpga_cal"]) >= {"en", "offset_a", "offset_b", "gain_a", "gain_b",
+                                        "phase_share"}
+        assert (out / f"lissajous_axis{i}.png").stat().st_size > 0
+    steps = [s for s in doc["steps"] if s["step"] == "encoder"]
+    assert [s["axis"] for s in steps] == [0, 1, 2]
+    # the sweep: 0.3 s settling + 1024 samples at one in 96 (98 ms), then the walk back
+    assert all(s["err"] == "OK" and s["duration_s"] >= 0.3 + 0.098 for s in steps), steps
+    assert "Encoder signals" in (out / "report.html").read_text()
+    with np.load(out / "encoder_capture.npz") as z:
+        assert sorted(z.files) == ["a0", "a1", "a2", "b0", "b1", "b2"]
+        assert z["a0"].shape == (1024,)
+
+
+class _CaptureDevice:
+    """A device that has run the ENCODER step on a capture made here (BU_RESULT page 4 and
+    CAP_READ as the firmware answers them): for the host side alone."""
+
+    def __init__(self, spec: encsig.SignalSpec, axis: int) -> None:
+        lines = np.linspace(0.0, 8.0, 1024)           # a steady sweep over 8 lines
+        a, b = encsig.adc_codes(lines, spec)
+        self.words = [int(w) for w in capture.words(a, b)]
+        self.axis = axis
+
+    def bu_result(self, axis: int, page: int) -> tuple[Any, ...]:
+        assert (axis, page) == (self.axis, 4)
+        return (axis, 4, 1, 0, 0.87, 95, 1024, 0.5, 1e6, 0, 0, 0, 0x40004000, 0)
+
+    def cap_read(self, start: int, n: int) -> list[int]:
+        return self.words[start:start + n]
+
+
+@pytest.mark.parametrize("spec, failing", [
+    (encsig.SignalSpec(amplitude=AMP_SCENE), set()),
+    # a weak channel: A at half the amplitude. It fails its amplitude band, and the two bands
+    # a half-size channel cannot pass (ratio 0.5 < 0.8; spread (1 - 0.5) / 0.75 = 67 % > 25 %)
+    (encsig.SignalSpec(amplitude=AMP_SCENE, gain_a=0.5), {"amp_a", "ratio", "radius_spread_pct"}),
+    # 3 % 2nd harmonic on both channels: h2 alone (the spread it adds, ~6 %, is inside 25 %)
+    (encsig.SignalSpec(amplitude=AMP_SCENE, h2=0.03), {"h2_pct"}),
+], ids=["healthy", "weak_a", "h2_3pct"])
+def test_encoder_result_fields_and_bands(spec: encsig.SignalSpec, failing: set[str]) -> None:
+    """The host side of the encoder step (tier 1's cheap check of the end-to-end test below):
+    the capture read over CAP_READ lands in the right field, and exactly the bands named
+    fail; the FPGA's registers are decoded beside them."""
+    rec: dict[str, Any] = {"err": "OK"}
+    e = bu.encoder_result(_CaptureDevice(spec, 1), 1, rec)  # type: ignore[arg-type]
+    assert rec["err"] == "OK" and e is not None
+    q = e["quality"]
+    if spec.gain_a != 1.0:
+        assert abs(q.amp_a / (AMP_SCENE * spec.gain_a) - 1) <= AMP_TOL, q
+    if spec.h2:
+        assert abs(q.h2_pct - 100 * spec.h2) <= 0.1, q
+    bad = {c["name"].removeprefix("enc_") for c in rec["enc_checks"] if c["result"] == "FAIL"}
+    assert bad == failing, rec["enc_checks"]
+    assert e["fpga_cal"]["gain_a"] == 1.0 and e["fpga_cal"]["amp_a"] == encquality.FULL_SCALE
+
+
+def test_encoder_weak_channel_and_h2_end_to_end(tmp_path: Path, capsys: Any) -> None:
+    """unaligned.toml with axis 0's channel A at 50 % and 3 % 2nd harmonic on axis 1's
+    encoder ([encoder.N] keys), axis 2 healthy: `hapgate bringup --steps align,homing,encoder`
+    reports each in its field and fails its band (the weak channel also the ratio and spread
+    bands it cannot pass), every other band passes; exit 1."""
+    scene = variant({"encoder.0.gain_a": 0.5, "encoder.1.h2": 0.03})
+    with serve(scene) as srv:
+        rc, text, doc = bringup(srv.port, tmp_path, capsys, "--steps", "align,homing,encoder")
+    assert rc == 1 and doc["result"] == "FAIL", text
+    want = [{"amp_a", "ratio", "radius_spread_pct"}, {"h2_pct"}, set()]
+    for i, a in enumerate(doc["axes"]):
+        bad = {c["name"].removeprefix("enc_") for c in a["checks"] if c["result"] == "FAIL"}
+        assert bad == want[i], (i, a["checks"])
+    e0, e1 = doc["axes"][0]["encoder"], doc["axes"][1]["encoder"]
+    assert abs(e0["amp_a"] / (0.5 * AMP_SCENE) - 1) <= AMP_TOL, e0
+    assert abs(e0["amp_b"] / AMP_SCENE - 1) <= AMP_TOL, e0
+    assert abs(e1["h2_pct"] - 3.0) <= 0.3, e1
+    assert "enc_h2_pct" in text and "FAIL" in text
 
 
 def test_apply_sends_the_calibration(unaligned_run: dict[str, Any]) -> None:

@@ -38,7 +38,9 @@ def test_firmware_header_matches_rdl() -> None:
               "CLK_KHZ")}
     fw_ax = {"POS": "POS", "VEL": "VEL", "IDX_POS": "IDX_POS", "FAULT_CNT": "COUNTS",
              "POS_HOMED": "POS_HOMED", "FLAGS": "FLAGS", "TORQUE": "TORQUE", "OFFSET": "OFFSET",
-             "MODE": "MODE", "TQ_LIMIT": "TQ_LIMIT"}
+             "MODE": "MODE", "TQ_LIMIT": "TQ_LIMIT", "CAL_CTRL": "CAL_CTRL",
+             "CAL_STAT": "CAL_STAT", "CAL_OFS": "CAL_OFS", "CAL_GAIN": "CAL_GAIN",
+             "CAL_PHASE": "CAL_PHASE"}
     for i in range(3):
         for fw, rdl in fw_ax.items():
             exprs[f"AXIS[{i}].{rdl}"] = f"HG_REG_AXIS({i}, HG_AX_{fw})"

@@ -21,10 +21,10 @@ from typing import Any
 import numpy as np
 
 from ..base.paths import BUILD
-from ..golden import calib, kinematics, pclink
+from ..golden import calib, capture, encquality, kinematics, pclink
 from ..host import api
 
-STEPS = ("align", "homing", "guided", "dynamics")
+STEPS = ("align", "homing", "guided", "encoder", "dynamics")
 DEFAULT_DIRECTION = (1.0, -1.0, 0.0)     # +x -y: every joint turns (docs/bringup.md)
 DEFAULT_REF_POSE_DEG = (4.0, 46.0, 43.0)  # the linkage's rest pose (hapgate.device.scene)
 AMP_A_PER_V = 0.8                         # amplifier gain (dsp-fw README: 8 A at 10 V)
@@ -96,7 +96,8 @@ def run_step(dev: api.Device, step: str, axis: int, expect: tuple[int, ...] = (0
         if p["state"] == "IDLE":
             break
         time.sleep(POLL_S)
-    dur = dev.bu_result(axis, 1)[4 + 6 + pclink.BU_STEPS[step]]
+    dur = (dev.bu_result(axis, 4)[4] if step == "encoder"
+           else dev.bu_result(axis, 1)[4 + 6 + pclink.BU_STEPS[step]])
     return {"step": step, "axis": axis, "err": p["err"], "value": p["value"],
             "limit": p["limit"], "started": True, "duration_s": float(dur)}
 
@@ -148,7 +149,7 @@ def _axis_record(dev: api.Device, axis: int) -> dict[str, Any]:
                  "counts_per_elec_cfg": r0[7], "pole_pairs_measured": r0[8],
                  "movement_elec_deg": r0[11], "home_travel_rad": r0[15],
                  "guided_move_rad": r0[16], "guided_wait_s": r0[17]},
-        "encoder": None,   # the capture step is not wired in yet (docs/bringup.md)
+        "encoder": None,   # the encoder step fills it (bringup())
         "dynamics": ({"inertia_kg_m2": r1[4], "b_visc_nms": r1[5], "tau_coulomb_nm": r1[6],
                       "tau_gravity_nm": r1[7], "kt_nm_per_a": r1[8] / AMP_A_PER_V,
                       "residual": r1[9]} if any(c["name"] == "ident_residual" for c in checks)
@@ -158,8 +159,8 @@ def _axis_record(dev: api.Device, axis: int) -> dict[str, Any]:
     }
 
 
-def _fmt(v: float) -> str:
-    return f"{v:.4g}"
+def _fmt(v: float | str) -> str:
+    return v if isinstance(v, str) else f"{v:.4g}"
 
 
 def print_step(rec: dict[str, Any], checks: list[dict[str, Any]], out: Any) -> None:
@@ -182,7 +183,21 @@ def print_step(rec: dict[str, Any], checks: list[dict[str, Any]], out: Any) -> N
               f"{_fmt(c['limit']):<8} {c['result']}", file=out)
 
 
+def print_fpga_cal(e: dict[str, Any], out: Any) -> None:
+    c = e["fpga_cal"]
+    amp = ("-" if c["amp_a"] is None else f"{c['amp_a']:.4g}/{c['amp_b']:.4g}")
+    print(f"    capture: {e['entries']} samples, one in {e['decim'] + 1} at "
+          f"{e['sample_hz']:.4g} Hz, {e['lines']:.2f} lines at {e['speed_rad_s']:.3g} rad/s",
+          file=out)
+    print(f"    FPGA online calibration: EN {int(c['en'])} FREEZE {int(c['freeze'])} "
+          f"GEAR {c['gear']}: offsets {c['offset_a']:.4g}/{c['offset_b']:.4g} codes, "
+          f"gains {c['gain_a']:.4g}/{c['gain_b']:.4g} (amp {amp} codes), "
+          f"phase share {c['phase_share']:.4g}", file=out)
+
+
 def _step_checks(dev: api.Device, rec: dict[str, Any]) -> list[dict[str, Any]]:
+    if rec["step"] == "encoder":
+        return rec.get("enc_checks", [])
     prefix = {"align": "align_", "homing": "home_", "guided": "guided_",
               "dynamics": "ident_"}[rec["step"]]
     axes = range(3) if rec["step"] == "guided" else [rec["axis"]]
@@ -197,6 +212,121 @@ def _step_checks(dev: api.Device, rec: dict[str, Any]) -> list[dict[str, Any]]:
                             "op": ">=" if c["ge"] else "<=",
                             "result": "PASS" if c["pass"] else "FAIL"})
     return out
+
+
+# ---------------------------------------------------------------- the encoder step
+ENC_PREFIX = "enc_"
+
+
+def fpga_cal(words: tuple[int, ...]) -> dict[str, Any]:
+    """The axis's online encoder calibration registers (rtl/regs/REGISTERS.md, CAL_*), decoded:
+    EN, FREEZE, MU, GEAR, UPDATES; the offsets in ADC codes, the gains, the phase share, and
+    the amplitude the gain implies (the corrected amplitude is 127 codes)."""
+    ctrl, stat, ofs, gain, phase = words
+
+    def s16(x: int) -> int:
+        return x - (1 << 16) if x & 0x8000 else x
+
+    ga, gb = (gain & 0xFFFF) / 2 ** 14, (gain >> 16) / 2 ** 14
+    return {"en": bool(ctrl & 1), "freeze": bool(ctrl & 2), "mu": (ctrl >> 4) & 0xF,
+            "gear": stat & 0xFF, "updates": stat >> 16,
+            "offset_a": s16(ofs & 0xFFFF) / 16, "offset_b": s16(ofs >> 16) / 16,
+            "gain_a": ga, "gain_b": gb, "phase_share": s16(phase & 0xFFFF) / 2 ** 14,
+            "amp_a": encquality.FULL_SCALE / ga if ga else None,
+            "amp_b": encquality.FULL_SCALE / gb if gb else None}
+
+
+def encoder_result(dev: api.Device, axis: int, rec: dict[str, Any]) -> dict[str, Any] | None:
+    """After an ENCODER step: read its capture over the link (CAP_READ), compute the signal
+    quality (hapgate.golden.encquality) and the checks; None (the step's error set) when the
+    capture cannot be analysed."""
+    r4 = dev.bu_result(axis, 4)
+    captured, decim, entries, speed, sample_hz = bool(r4[2]), r4[5], r4[6], r4[7], r4[8]
+    info = {"decim": int(decim), "entries": int(entries), "speed_rad_s": float(speed),
+            "sample_hz": float(sample_hz), "fpga_cal": fpga_cal(tuple(r4[9:14]))}
+    if not captured:
+        rec["err"] = "CAPTURE"
+        return None
+    words = np.asarray(dev.cap_read(0, int(entries)), np.int64)
+    a, b = capture.unpack(words, axis)
+    info["a"], info["b"] = a, b
+    try:
+        q = encquality.analyse(a, b)
+    except ValueError as exc:
+        rec["err"] = "ANALYSIS"
+        rec["why"] = str(exc)
+        return None
+    info["quality"] = q
+    info["lines"] = q.cycles
+    rec["enc_checks"] = [{"name": ENC_PREFIX + c.name, "value": c.value, "limit": c.limit,
+                          "unit": c.unit, "op": "in", "result": c.result}
+                         for c in encquality.checks(q)]
+    return info
+
+
+def write_lissajous(out: Path, encs: list[dict[str, Any] | None]) -> list[str]:
+    """Per captured axis, lissajous_axisN.png: B against A (ADC codes), the fitted offsets and
+    the fundamental's ellipse."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    names = []
+    for i, e in enumerate(encs):
+        if not e or "quality" not in e:
+            continue
+        q = e["quality"]
+        fig, ax = plt.subplots(figsize=(4.2, 4.2))
+        ax.plot(e["a"], e["b"], ".", ms=2, label="captured")
+        t = np.linspace(0.0, 2 * np.pi, 200)
+        d = np.deg2rad(q.phase_deg)
+        ax.plot(q.offset_a + q.amp_a * np.sin(t), q.offset_b + q.amp_b * np.cos(t + d), "-",
+                lw=1, label="fundamental")
+        ax.plot([q.offset_a], [q.offset_b], "+", ms=10, label="offsets")
+        ax.set_aspect("equal")
+        ax.set_xlim(-128, 127)
+        ax.set_ylim(-128, 127)
+        ax.set_xlabel("A (ADC codes)")
+        ax.set_ylabel("B (ADC codes)")
+        ax.set_title(f"axis {i}: amp {q.amp_a:.1f}/{q.amp_b:.1f}, h2 {q.h2_pct:.2f} %, "
+                     f"h3 {q.h3_pct:.2f} %", fontsize=8)
+        ax.legend(fontsize=7, loc="lower right")
+        fig.tight_layout()
+        name = f"lissajous_axis{i}.png"
+        fig.savefig(out / name, dpi=90)
+        plt.close(fig)
+        names.append(name)
+    return names
+
+
+def _encoder_html(doc: dict[str, Any]) -> str:
+    """The encoder table: each metric per axis, the FPGA's online calibration beside it."""
+    axes = doc["axes"]
+    if not any(a.get("encoder") for a in axes):
+        return ""
+    rows = []
+    beside = {"amp_a": "amp_a", "amp_b": "amp_b", "offset_a": "offset_a", "offset_b": "offset_b"}
+    for k in ("amp_a", "amp_b", "ratio", "offset_a", "offset_b", "phase_deg", "h2_pct", "h3_pct",
+              "radius_spread_pct"):
+        cells = []
+        for a in axes:
+            e, c = a.get("encoder"), a.get("encoder_capture")
+            if not e:
+                cells.append("<td>-</td><td></td>")
+                continue
+            f = c["fpga_cal"].get(beside.get(k, ""), None) if c else None
+            cells.append(f"<td>{e[k]:.4g}</td><td>{'' if f is None else f'{f:.4g}'}</td>")
+        rows.append(f"<tr><th>{k}</th>{''.join(cells)}</tr>")
+    extra = "".join(
+        f"<tr><th>FPGA CAL {k}</th>" + "".join(
+            f"<td colspan=2>{html.escape(str(a['encoder_capture']['fpga_cal'][k]))}</td>"
+            if a.get("encoder_capture") else "<td colspan=2>-</td>" for a in axes) + "</tr>"
+        for k in ("en", "freeze", "mu", "gear", "updates", "gain_a", "gain_b", "phase_share"))
+    head = "".join(f"<th>axis {i}</th><th>FPGA CAL</th>" for i in range(len(axes)))
+    return (f"<h2>Encoder signals</h2><table><tr><th></th>{head}</tr>{''.join(rows)}{extra}"
+            "</table>")
+
 
 
 def write_plots(out: Path, axes: list[dict[str, Any]]) -> list[str]:
@@ -250,7 +380,8 @@ def write_report(out: Path, doc: dict[str, Any], plots: list[str]) -> None:
     for i, a in enumerate(doc["axes"]):
         for c in a["checks"]:
             rows.append(f"<tr><td>{i}</td><td>{html.escape(c['name'])}</td><td>{c['value']:.4g}"
-                        f"</td><td>{c['op']} {c['limit']:.4g}</td><td>{html.escape(c['unit'])}"
+                        f"</td><td>{c['op']} {html.escape(_fmt(c['limit']))}</td>"
+                        f"<td>{html.escape(c['unit'])}"
                         f"</td><td class={c['result']}>{c['result']}</td></tr>")
     keys = ("homed", "index_q_deg", "index_to_zero_counts", "comm_offset_elec_deg",
             "phases_swapped", "encoder_dir", "dir_confirmed", "pole_pairs")
@@ -268,7 +399,7 @@ td,th{{padding:1px 6px;border-bottom:1px solid #ddd}}.PASS{{color:#080}}.FAIL{{c
 <h2>Found</h2><table><tr><th></th><th>axis 0</th><th>axis 1</th><th>axis 2</th></tr>{vals}</table>
 <h2>Steps</h2><table><tr><th>axis</th><th>step</th><th>device s</th><th>end</th></tr>{steps}</table>
 <h2>Checks</h2><table><tr><th>axis</th><th>check</th><th>value</th><th>limit</th><th>unit</th>
-<th></th></tr>{''.join(rows)}</table>{imgs}</body></html>
+<th></th></tr>{''.join(rows)}</table>{_encoder_html(doc)}{imgs}</body></html>
 """, encoding="utf-8")
 
 
@@ -277,6 +408,7 @@ def bringup(dev: api.Device, steps: tuple[str, ...], expect: tuple[int, ...], se
     """Run the steps, printing to out (default stdout); (step records, axis records)."""
     out = sys.stdout if out is None else out
     recs = []
+    encs: list[dict[str, Any] | None] = [None, None, None]
     # The guided move first, while the handle still rests in the reference pose: there the
     # named direction turns each joint by the signs `expect` gives (the firmware needs nothing
     # before it, and the later steps use the direction it found). Then alignment and homing
@@ -284,7 +416,7 @@ def bringup(dev: api.Device, steps: tuple[str, ...], expect: tuple[int, ...], se
     # them), so each axis homes right after its scan walked it back to the reference pose,
     # where the search window is centred.
     plan = [("guided", -1, expect)] if "guided" in steps else []
-    plan += [(step, a, (0, 0, 0)) for a in range(3) for step in ("align", "homing")
+    plan += [(step, a, (0, 0, 0)) for a in range(3) for step in ("align", "homing", "encoder")
              if step in steps]
     plan += [("dynamics", a, (0, 0, 0)) for a in range(3) if "dynamics" in steps]
     for step, axis, ex in plan:
@@ -294,16 +426,31 @@ def bringup(dev: api.Device, steps: tuple[str, ...], expect: tuple[int, ...], se
         rec = run_step(dev, step, max(axis, 0), ex, seed)
         if step == "guided":
             rec["axis"] = "all"
+        if step == "encoder":
+            encs[axis] = encoder_result(dev, axis, rec) if rec["started"] else None
         rec["checks"] = _step_checks(dev, {**rec, "axis": max(axis, 0)})
         if rec["err"] == "POLE_PAIRS":
             r0 = dev.bu_result(rec["axis"], 0)
             rec["scan"] = {"counts_per_elec": r0[6], "counts_per_elec_cfg": r0[7],
                            "pole_pairs_measured": r0[8]}
         print_step(rec, rec["checks"], out)
+        if step == "encoder" and encs[axis]:
+            print_fpga_cal(encs[axis], out)
+        elif step == "encoder" and rec.get("why"):
+            print(f"    the capture cannot be analysed: {rec['why']}", file=out)
         recs.append(rec)
         if step == "guided" and rec["started"]:
             wait_at_rest(dev, out)
-    return recs, [_axis_record(dev, a) for a in range(3)]
+    axes = [_axis_record(dev, a) for a in range(3)]
+    for i, (a, e) in enumerate(zip(axes, encs)):
+        if e and "quality" in e:
+            a["encoder"] = e["quality"].as_dict()
+            a["encoder_capture"] = {k: e[k] for k in ("decim", "entries", "lines", "speed_rad_s",
+                                                      "sample_hz", "fpga_cal")}
+            a["encoder_samples"] = (e["a"], e["b"])
+            a["checks"] += next(r["checks"] for r in recs
+                                if r["step"] == "encoder" and r["axis"] == i)
+    return recs, axes
 
 
 def main(args: argparse.Namespace) -> int:
@@ -325,6 +472,7 @@ def main(args: argparse.Namespace) -> int:
         with dev:
             recs, axes = bringup(dev, steps, expect, args.seed)
             cals = [a.pop("calib") for a in axes]
+            samples = [a.pop("encoder_samples", None) for a in axes]
             # identification needs a commutation the FPGA runs as it is (scan sign +1): an axis
             # with swapped phases or a reversed encoder is not identified (shown, not failed)
             steps_ok = all(r["err"] == "OK" or (r["step"] == "dynamics" and not r["started"]
@@ -339,7 +487,15 @@ def main(args: argparse.Namespace) -> int:
             out.mkdir(parents=True, exist_ok=True)
             (out / "bringup.json").write_text(json.dumps(doc, indent=1) + "\n", encoding="utf-8")
             (out / "calibration.toml").write_text(calib.dumps(cals), encoding="utf-8")
+            if any(sm is not None for sm in samples):
+                np.savez(out / "encoder_capture.npz", **{
+                    f"{ch}{i}": sm[k] for i, sm in enumerate(samples) if sm is not None
+                    for k, ch in enumerate("ab")})
             plots = write_plots(out, axes)
+            plots += write_lissajous(out, [
+                {"a": sm[0], "b": sm[1], "quality": encquality.Quality(
+                    **a["encoder"], cycles=a["encoder_capture"]["lines"])} if sm else None
+                for a, sm in zip(axes, samples)])
             write_report(out, doc, plots)
             if args.apply:
                 if not all(c.homed and c.aligned for c in cals):

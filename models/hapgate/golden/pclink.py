@@ -16,6 +16,8 @@ PING, GET_STATE, SET_FORCE, SET_SCENE, ENABLE, GET_STATS, CLEAR_ERROR = range(1,
 INFO, STREAM, FORCE = 8, 9, 10           # version 2
 SET_CALIB, GET_CALIB = 0x0B, 0x0C        # version 2 (issue 26)
 BU_START, BU_PROGRESS, BU_RESULT, BU_CHECK, BU_ABORT = 0x0D, 0x0E, 0x0F, 0x10, 0x11  # v2 bring-up
+CAP_READ = 0x12                          # version 2: entries of the FPGA's capture buffer
+CAP_READ_MAX = 30                        # entries per CAP_READ reply
 STATE_PUSH = 0x8A                        # version 2, device -> PC only
 REPLY, NAK = 0x80, 0xFF
 NAK_RANGE, NAK_ERROR_LATCHED, NAK_REPLAY, NAK_UNCALIBRATED, NAK_ENABLED = 1, 2, 3, 4, 5
@@ -26,17 +28,19 @@ NAK_REASONS = {NAK_RANGE: "value out of range", NAK_ERROR_LATCHED: "an error is 
                NAK_ENABLED: "not while the forces are enabled",
                NAK_BRINGUP: "a bring-up step is running (or the device has no bring-up)"}
 # bring-up (dsp-fw/include/hg_bringup.h): steps, states, errors, the message layouts
-BU_STEPS = {"align": 1, "homing": 2, "restart": 3, "guided": 4, "dynamics": 5}
+BU_STEPS = {"align": 1, "homing": 2, "restart": 3, "guided": 4, "dynamics": 5, "encoder": 6}
 BU_STATES = ("IDLE", "ALIGN_LOCK", "ALIGN_FWD", "ALIGN_BACK", "HOME_SEARCH", "RETURN",
-             "GUIDED_WAIT", "IDENT_RUN", "IDENT_SETTLE")
+             "GUIDED_WAIT", "IDENT_RUN", "IDENT_SETTLE", "ENC_SWEEP")
 BU_ERRORS = ("OK", "ARG", "BUSY", "NOT_READY", "SERVO", "FAULT", "WDOG", "STALE", "SPEED",
              "TRAVEL", "TIME", "ABORT", "LINK", "NO_MOVE", "POLE_PAIRS", "FIT", "NO_INDEX",
-             "GUIDED_TIMEOUT", "CONFIG")
+             "GUIDED_TIMEOUT", "CONFIG", "CAPTURE")
 BU_START_FMT = "<BBbbbI"      # step, axis, expect[3], seed
 BU_START_ACK_FMT = "<Bff"     # result, value, limit
 BU_PROGRESS_FMT = "<BBBBIIffIH"   # state, step, axis, err, ticks, tick_limit, value, limit, SEQ, Hz
 BU_RESULT0_FMT = "<BBBbbB6f3i3f"  # axis, page, flags, scan_sign, dir_base, 0, ... (README table)
 BU_RESULT1_FMT = "<BBBB12f"       # axis, page, 0, 0, J, b, c, g, kt_amp, resid, durations[6]
+BU_RESULT4_FMT = "<BBBBfIIff5I"   # axis, page, captured, 0, duration s, decim, entries, speed
+#                                  rad/s, sample Hz, CAL_CTRL, _STAT, _OFS, _GAIN, _PHASE
 BU_CHECK_FMT = "<BBBBff32s12s"    # axis, check, count, flags, value, limit, name, unit
 CALIB_FMT = "<BBbBBiH"     # axis, flags, enc_dir, phases_swapped, pole_pairs, index_to_zero,
 #                            comm_offset (hg_axis_calib_t): SET_CALIB request, GET_CALIB reply
@@ -246,6 +250,19 @@ def max_stream(baud: int, servo_hz: int, headroom: float = 0.3) -> tuple[int, fl
     while servo_hz / period > hz_max:
         period += 1
     return period, servo_hz / period
+
+
+def cap_read(start: int, n: int) -> bytes:
+    """CAP_READ request: n (1..CAP_READ_MAX) entries from entry start."""
+    return struct.pack("<HB", start, n)
+
+
+def parse_cap_read(data: bytes) -> tuple[int, list[int]]:
+    """CAP_READ reply: (first entry, the raw 16-bit entries {B, A})."""
+    start, n = struct.unpack_from("<HB", data)
+    if len(data) != 4 + 2 * n:
+        raise ValueError(f"CAP_READ reply of {len(data)} bytes for {n} entries")
+    return start, list(struct.unpack_from(f"<{n}H", data, 4))
 
 
 def parse_ping(data: bytes) -> tuple[int, int, int]:

@@ -406,9 +406,11 @@ class Device:
     def bu_result(self, axis: int, page: int) -> tuple[Any, ...]:
         """One page of an axis's results (dsp-fw/README.md, BU_RESULT): page 0 and 1 as the
         struct tuples of pclink.BU_RESULT0_FMT / BU_RESULT1_FMT, page 2 the calibration bring-up
-        found (hapgate.golden.calib.AxisCalib)."""
+        found (hapgate.golden.calib.AxisCalib), page 4 the ENCODER step's capture and CAL_*
+        registers as the struct tuple of pclink.BU_RESULT4_FMT."""
         d = self._request(pclink.BU_RESULT, bytes([axis, page]))
-        fmt = {0: pclink.BU_RESULT0_FMT, 1: pclink.BU_RESULT1_FMT, 2: pclink.CALIB_FMT}[page]
+        fmt = {0: pclink.BU_RESULT0_FMT, 1: pclink.BU_RESULT1_FMT, 2: pclink.CALIB_FMT,
+               4: pclink.BU_RESULT4_FMT}[page]
         if len(d) != struct_size(fmt):
             raise ProtocolError(f"BU_RESULT page {page} reply of {len(d)} bytes")
         if page == 2:
@@ -424,6 +426,24 @@ class Device:
         return {"name": name.split(b"\0")[0].decode(), "value": float(v), "limit": float(lim),
                 "unit": unit.split(b"\0")[0].decode(), "ge": bool(fl & 1), "done": bool(fl & 2),
                 "pass": bool(fl & 4), "count": int(n)}
+
+    def cap_read(self, start: int, n: int) -> list[int]:
+        """n raw entries {B, A} of the FPGA's capture buffer from entry start, in CAP_READ
+        requests of at most pclink.CAP_READ_MAX (hapgate.golden.capture.unpack decodes them).
+        Refused (NAK_BRINGUP) while a bring-up step runs, (NAK_RANGE) past the buffer's end."""
+        out: list[int] = []
+        while len(out) < n:
+            k = min(pclink.CAP_READ_MAX, n - len(out))
+            d = self._request(pclink.CAP_READ, pclink.cap_read(start + len(out), k))
+            try:
+                got, words = pclink.parse_cap_read(d)
+            except (ValueError, struct.error) as exc:
+                raise ProtocolError(str(exc)) from None
+            if got != start + len(out) or len(words) != k:
+                raise ProtocolError(f"CAP_READ answered {len(words)} entries from {got}, asked "
+                                    f"{k} from {start + len(out)}")
+            out += words
+        return out
 
     def bu_abort(self) -> None:
         """Stop the running bring-up step: zero torque before the reply."""
