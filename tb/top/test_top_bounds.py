@@ -25,3 +25,12 @@ def test_top_torque_limit_bounds() -> None:
     cfg = configs.get("paper").replace(clk_hz=50_000_000)
     sim.run_cocotb(blocks.get("hapgate_top"), "verilator", "cocotb_top_bounds", HERE,
                    config=cfg, testcase="torque_limit_bounds")
+
+
+def test_top_fault_kinds_zero_torque() -> None:
+    """Overspeed on one axis and signal loss on another zero those motors only, within one
+    frame and the output stage (tb/top/cocotb_top_bounds.py says how); the top test covers
+    clipping, the watchdog and the disable. Same build as the clamp test."""
+    cfg = configs.get("paper").replace(clk_hz=50_000_000)
+    sim.run_cocotb(blocks.get("hapgate_top"), "verilator", "cocotb_top_bounds", HERE,
+                   config=cfg, testcase="fault_kinds_zero_torque")
