@@ -11,7 +11,7 @@ from fractions import Fraction
 
 import cocotb
 import numpy as np
-from cocotb.triggers import ClockCycles, RisingEdge
+from cocotb.triggers import ClockCycles, ReadOnly, RisingEdge
 from cocotb.utils import get_sim_time
 from hapgate.flows import regmap
 from hapgate.golden import commutation as cm
@@ -105,7 +105,8 @@ async def fault_kinds_zero_torque(dut) -> None:
     (a^2 + b^2 = 200 < 40^2 on 16 consecutive samples: flagged on the 16th). Axis 1 stays
     healthy and keeps its torque. Zero from one frame + the output stage after the fault is
     visible (rtl/top/README.md; the bound of tb/top/cocotb_top.py); STATUS.FAULT and each
-    axis's FLAGS.FAULTS name the axis and the kind (rtl/regs/hapgate.rdl)."""
+    axis's FLAGS.FAULTS name the axis and the kind (rtl/regs/hapgate.rdl). Then a second
+    reset, mid-run, restores the documented reset state (rtl/top/README.md, "Reset")."""
     a0 = 70                                                  # quadrant 0 on every axis
     master, dac, t = await tbutil.start_top_dac(dut, PERIOD_PS, CFG.comm,
                                                 adc_word=a0 | a0 << 8 | a0 << 16)
@@ -160,5 +161,39 @@ async def fault_kinds_zero_torque(dut) -> None:
     if funcov.active():   # the two causes whose zero torque was just checked
         funcov.sample_top(["overspeed", "loss"])
         funcov.flush()
+
+    # a second reset, mid-run, healthy signals again (rtl/top/README.md, "Reset"): dac_wr_n
+    # high throughout; after it every mode is OFF, the limits are 0, drive is disabled (so every
+    # load is zero), and the sticky faults are gone
+    healthy_word = a0 | a0 << 8 | a0 << 16
+    dut.adc_a.value = healthy_word
+    dut.adc_b.value = healthy_word
+    await ClockCycles(dut.clk, 20 * CFG.div)                # past the interpolator's pipeline
+    n_before = len(dac.loads)
+    assert not dac.violations, dac.violations[:5]
+    dut.rst.value = 1
+    for _ in range(4):
+        await RisingEdge(dut.clk)
+        await ReadOnly()
+        assert int(dut.dac_wr_n.value) == 1, "dac_wr_n low during reset"
+    await RisingEdge(dut.clk)
+    t_rel = int(get_sim_time(unit="ps"))
+    dut.rst.value = 0
+    await ClockCycles(dut.clk, 2 * frame + 10)
+    assert all(ld.t_ps < t_rel - 3 * PERIOD_PS for ld in dac.loads[n_before:]
+               if ld.word != zero), "a non-zero DAC load during or after the reset"
+    assert {ld.addr for ld in dac.loads if ld.t_ps > t_rel} == set(range(6))
+    assert await master.read(W["CTRL"], t) & 0xF == 0, "drive enabled after reset"
+    for i in range(3):
+        assert await master.read(W[f"AXIS[{i}].MODE"], t) & 3 == cm.OFF
+        assert await master.read(W[f"AXIS[{i}].TQ_LIMIT"], t) == 0
+    status = await master.read(W["STATUS"], t)
+    assert status & 7 == 0, f"STATUS.FAULT {status & 7:#05b} after reset"
+    # the reset restarts the frame: each channel's first (zero) load after it may come sooner
+    # than the settling time after its last one; every other DAC port rule still holds
+    again = [v for v in dac.violations if "rewritten after" not in v
+             or not t_rel <= int(v.split()[0]) <= t_rel + 2 * frame * PERIOD_PS]
+    assert not again, again[:5]
     dut._log.info(f"faults: overspeed on axis 0 and loss on axis 2 zero their motors within "
-                  f"{bound} clocks; axis 1 keeps its torque")
+                  f"{bound} clocks; axis 1 keeps its torque; a second reset restores the reset "
+                  f"state")
