@@ -132,6 +132,12 @@ def test_an_exclusion_whose_source_moved_is_an_error(tmp_path: Path, probe: Path
     probe.write_text(PROBE.replace("d == 4'd15", "d == 4'd15) q <= 1'b1;\n    if (d == 4'd15"))
     with pytest.raises(coverage.BadInput, match=r"is on lines \[7, 8\]"):
         _load(tmp_path, IF_ARM)                            # now ambiguous
+    probe.write_text(PROBE)
+    # a text of several lines (indentation included) is one place and covers each line
+    both = 'metric = "line"\ntext = """q <= 1\'b1;  // the arm the stimulus never takes\n' \
+           '        else q <= 1\'b0;"""\n'
+    [row] = coverage.checked_rows(_points(probe), _load(tmp_path, both))
+    assert row.excluded == 2 and row.tally("line") == covdat.Tally(1, 1)
     probe.write_text(PROBE.replace("[3:0] d", "[3:0] e"))   # the port was renamed
     with pytest.raises(coverage.BadInput, match="'d' is not a port of m"):
         _load(tmp_path, D3)

@@ -75,8 +75,9 @@ class BadInput(ValueError):
 @dataclass(frozen=True)
 class Exclusion:
     """One reviewed exclusion. Where it is: the RTL `file` (relative to the repository) and, for
-    lines and branches, the exact source `text` of the line (found on exactly one line of the
-    file, so that an edit above it moves nothing and an edit of the line itself is noticed);
+    lines and branches, the exact source `text` of the line or lines (occurring exactly once in
+    the file, so that an edit above it moves nothing and an edit of the text itself is noticed;
+    a text of several lines, with their indentation, covers each of them);
     a branch exclusion may name its `arm` (Verilator's comment: `if`, `else`, `elsif`,
     `cond_then`, `cond_else`, `case`...), else every arm on that line. A toggle exclusion
     names the module's port (`signal`) and optionally its `bits` ("hi:lo" or one bit)."""
@@ -99,19 +100,22 @@ class Exclusion:
                 else f"{self.text!r}" + (f" ({self.arm})" if self.arm else ""))
         return f"{self.where} ({self.module} {self.metric} {what})"
 
-    def source_line(self) -> int:
-        """The line of `file` whose text contains `text` (line and branch exclusions).
-        Raises BadInput, naming the exclusion, unless exactly one line has it."""
+    def source_lines(self) -> range:
+        """The lines of `file` that `text` spans (line and branch exclusions; a text of several
+        lines covers them all). Raises BadInput, naming the exclusion, unless the text occurs
+        exactly once in the file."""
         src = ROOT / self.file
         if not src.is_file():
             raise BadInput(f"{self.where}: `file` {self.file!r} does not exist")
-        hits = [i for i, ln in enumerate(src.read_text().splitlines(), start=1)
-                if self.text in ln]
+        body = src.read_text()
+        hits = [m.start() for m in re.finditer(re.escape(self.text or ""), body)]
         if len(hits) != 1:
+            at = sorted({body.count("\n", 0, h) + 1 for h in hits})
             raise BadInput(f"{self.where}: `text` {self.text!r} is on "
-                           + (f"lines {hits}" if hits else "no line") + f" of {self.file} "
-                           "(it must be on exactly one: the source moved or changed?)")
-        return hits[0]
+                           + (f"lines {at}" if hits else "no line") + f" of {self.file} "
+                           "(it must occur exactly once: the source moved or changed?)")
+        first = body.count("\n", 0, hits[0]) + 1
+        return range(first, first + (self.text or "").rstrip("\n").count("\n") + 1)
 
     def check_source(self) -> None:
         """The exclusion still points at the RTL: its module is declared in its file and its
@@ -127,11 +131,11 @@ class Exclusion:
                 raise BadInput(f"{self.where}: {self.signal!r} is not a port of {self.module} "
                                f"in {self.file}")
         else:
-            self.source_line()
+            self.source_lines()
 
-    def matches(self, file: str, metric: str, label: str, line: int, at: int | None) -> bool:
+    def matches(self, file: str, metric: str, label: str, line: int, at: range | None) -> bool:
         """Whether the report item (of a module named `module`) is this exclusion's; `at` is
-        source_line() (line and branch exclusions)."""
+        source_lines() (line and branch exclusions)."""
         if metric != self.metric or Path(file).resolve() != (ROOT / self.file).resolve():
             return False
         if metric == "toggle":
@@ -142,7 +146,7 @@ class Exclusion:
             m = re.match(r"[^\[:]*\[(\d+)\]", label)
             bit = int(m.group(1)) if m else 0
             return self.bits[0] <= bit <= self.bits[1]
-        if line != at:
+        if at is None or line not in at:
             return False
         return self.arm is None or label.split(" @")[0] == self.arm
 
@@ -279,7 +283,7 @@ def rows(points: Sequence[covdat.Point], exclusions: Sequence[Exclusion],
             if ex.module != mod:
                 continue
             keep = []
-            at = None if ex.metric == "toggle" else ex.source_line()
+            at = None if ex.metric == "toggle" else ex.source_lines()
             for it in items[ex.metric]:
                 if ex.matches(str(src), ex.metric, it[0], it[1], at):
                     used[ex] = used.get(ex, 0) + 1
@@ -484,21 +488,44 @@ def report(files: dict[str, list[Path]], ran: str, seconds: float | None = None,
                                  "pct": round(g.pct, 2)} for g in fg}}, indent=2) + "\n")
     btab = block_table(rs, fg)
     write_text(OUT / "table-blocks.md", btab)
-    write_readme_table(btab)
+    if full:      # (a partial run's table would replace the whole suite's)
+        write_readme_table(btab)
     info = OUT / "coverage.info"
     write_text(info, lcov_info(rs))
     how = write_html(info, rs, OUT / "html")
-    uncovered = "".join(
-        f"- `{r.module}` {m}: " + ", ".join(lab for lab, _, c in r.items[m] if c == 0) + "\n"
-        for r in rs for m in METRICS if any(c == 0 for *_, c in r.items[m]))
-    uncovered += "".join(f"- functional {b}\n" for g in fg for b in g.uncovered)
-    write_text(OUT / "uncovered.md", uncovered)
+    write_text(OUT / "uncovered.md", uncovered_md(rs, fg))
     doc.append("\nThe items not covered (configuration `suite`) are listed in "
                "`build/reports/coverage/uncovered.md` after a run.\n")
-    write_text(DOC, "".join(doc))
+    if full:
+        write_text(DOC, "".join(doc))
+    else:
+        print(f"a partial run: {README.name} and {DOC.name} left as they are")
     print(f"report: {OUT} (lcov and html of `suite`: {how}, {OUT / 'html' / 'index.html'})"
           + (f"; {seconds:.0f} s" if seconds is not None else ""))
     return out
+
+
+def uncovered_md(rs: Sequence[Row], fg: Sequence[FuncGroup]) -> str:
+    """Every item of `rs` not covered: lines and branches one per item with their source text
+    (what an exclusion's `text` quotes), toggles per port with the bits; the functional bins
+    nobody hit."""
+    out = []
+    for r in rs:
+        src = Path(r.file).read_text().splitlines() if Path(r.file).is_file() else []
+        rel = Path(r.file).resolve().relative_to(ROOT.resolve())
+        for m in ("line", "branch"):
+            for lab, ln, c in r.items[m]:
+                if c == 0:
+                    text = src[ln - 1].strip() if 0 < ln <= len(src) else "?"
+                    out.append(f"- `{r.module}` {m} {lab} ({rel}:{ln}): `{text}`")
+        bits: dict[str, list[str]] = {}
+        for lab, _, c in r.items["toggle"]:
+            if c == 0:
+                bits.setdefault(covdat.signal_of(lab), []).append(
+                    lab[len(covdat.signal_of(lab)):])
+        out += [f"- `{r.module}` toggle {sig}: {' '.join(b)}" for sig, b in bits.items()]
+    out += [f"- functional {b}" for g in fg for b in g.uncovered]
+    return "\n".join(out) + "\n" if out else ""
 
 
 README = ROOT / "README.md"
