@@ -28,8 +28,7 @@ def test_rtl_bit_exact() -> None:
     """Four stress scenarios back to back (noisy ramp to 244 rev/s, dropout with clears and
     homing arms, overspeed to 300 rev/s, standstill chatter), 600 samples each, cocotb on one
     simulator (Icarus: its build is instant; Verilator where Icarus is missing and in a coverage
-    run); the loop's
-    settings change every 150 samples. The long run is the native test below."""
+    run); the loop's settings change every 150 samples. The long run is the native test below."""
     cfg = interp.InterpConfig(vel_obs=True)
     simulator = sim.one_simulator()   # (Verilator in a coverage run)
     scen = "ramp244_paper,dropout_controls,overspeed,standstill_chatter"
