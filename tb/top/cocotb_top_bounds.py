@@ -3,7 +3,9 @@
 the OFFSET's angle whatever the shaft does, so each code depends on the torque and the limit
 only. The expected codes come from the spec's formulas (tb/top/test_top_bounds.py cites them);
 the golden model's clamp and commutation (as hapgate.golden.top chains them) must give the same
-codes as the RTL, and both the spec's."""
+codes as the RTL, and both the spec's. Also: the fault kinds the top test does not raise
+(overspeed, signal loss) zero their motors only, and a second reset restores the reset state
+(fault_kinds_zero_torque)."""
 
 from __future__ import annotations
 
