@@ -276,7 +276,8 @@ def rows(points: Sequence[covdat.Point], exclusions: Sequence[Exclusion],
                      for (_, ln), c in sorted(covdat.line_counts(pts).items())],
             "branch": [(f"{p.comment} @{p.line}:{p.get('n')}", p.line, p.count)
                        for p in covdat.branches(pts)],
-            "toggle": [(p.comment, p.line, p.count) for p in covdat.toggles(pts, ports)],
+            "toggle": [(p.comment, p.line, p.count)
+                       for p in covdat.reliable_toggles(covdat.toggles(pts, ports))],
         }
         n_ex = 0
         for ex in exclusions:
