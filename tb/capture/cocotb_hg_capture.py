@@ -185,6 +185,11 @@ async def capture_bit_exact(dut) -> None:
             await tb.cycle((we, word, 0xFFFF_FFFF))
             await tb.idle(2)
             await tb.check_stat()
+    # DECIM's every bit: a stop with all ones read back, then zeros
+    for decim in (0xFFFF, 0):
+        await tb.ctrl(CapCtrl(False, decim=decim))
+        await tb.idle(2)
+        await tb.check_stat()
     cases = [CapCtrl(True, sel=0), CapCtrl(True, sel=1, decim=2),
              CapCtrl(True, sel=2, trig=1, trig_axis=2, decim=1),
              CapCtrl(True, sel=3, trig=1, trig_axis=3),
