@@ -7,7 +7,8 @@ module cov_probe (
     input  wire       clk,  // clock
     input  wire       rst,  // synchronous active-high reset
     input  wire       sel,  // count enable
-    output reg  [3:0] q     // the count
+    output reg  [3:0] q,    // the count
+    output wire [127:0] w   // the count in a wide port's low bits (above: constant 0)
 );
     always @(posedge clk) begin
         if (rst)
@@ -17,5 +18,6 @@ module cov_probe (
         else
             q <= q;
     end
+    assign w = {124'd0, q};
 endmodule
 `default_nettype wire

@@ -69,15 +69,19 @@ def test_skipped_and_unskipped_runs_are_bit_identical():
 
 
 @pytest.mark.parametrize("kind, axis, err", [("dropout", 1, "AXIS_FAULT"),
+                                             ("dropout", 0, "AXIS_FAULT"),
+                                             ("dropout", 2, "AXIS_FAULT"),
                                              ("watchdog", None, "WATCHDOG"),
                                              ("hang", None, "OVERRUN")])
 def test_fault_means_zero_torque_within_one_frame(kind, axis, err):
     """From the cause (the interpolator's loss on the 16th bad sample; the watchdog's expiry)
     every affected DAC channel is zero within one frame (16 us) plus the load pipeline (9
-    clocks) and stays zero; the firmware latches the matching error."""
+    clocks) and stays zero; the firmware latches the matching error. A dropout on axis 0 or 2
+    runs all three axes (the build of test_position_tracks_the_true_angle_without_slip)."""
     fault = {"at_s": 0.01, "kind": kind} | ({"axis": axis} if axis is not None else {})
     dur = 0.016 if kind == "dropout" else 0.025 if kind == "watchdog" else 0.03
-    s = _short(**{"run.duration_s": dur, "fault": [fault]})
+    s = _short(**{"run.duration_s": dur, "fault": [fault]}
+               | ({"run.axes": [0, 1, 2]} if axis in (0, 2) else {}))
     r = runner.run(s)
     assert len(r.events) == 1
     ev = r.events[0]

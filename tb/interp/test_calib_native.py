@@ -180,3 +180,24 @@ def test_tracking_and_overspeed_with_calibration() -> None:
     paper = interp.run(a[:, 0], b[:, 0], idx[:, 0], interp.InterpConfig())
     assert paper.overspeed_count[-1] > paper.overspeed_count[conv]
     assert run.axis(1)["overspeed_count"][-1] > run.axis(1)["overspeed_count"][conv]
+
+
+def test_mu_zero_acts_as_one() -> None:
+    """CAL_CTRL.MU = 0 acts as 1 (rtl/regs/REGISTERS.md, the MU field): the same signals with MU
+    0 and MU 1 give the same positions and calibration state on every sample, RTL and model; MU
+    2 differs (MU matters on this stimulus). Paper-like signals, mixed motion."""
+    n = 100_000
+    x = enccal.mixed_motion(n, seed=7)
+    a, b = encsig.adc_codes(x, encsig.with_spec(encsig.PAPER_LIKE, seed=8))
+    cols = ["pos", *native.CAL_COLUMNS]
+    runs = {mu: native.run_interp(a, b, None, CFG, columns=cols, cal_en=True, cal_mu=mu).axis(0)
+            for mu in (0, 1, 2)}
+    models = {mu: interp.run(a, b, None, CFG, cal_en=True, cal_mu=mu) for mu in (0, 1)}
+    assert runs[1]["cal_updates"][-1] > 100, "the run must exercise the adaptation"
+    for c in cols:
+        assert np.array_equal(runs[0][c], runs[1][c]), f"RTL: MU 0 and MU 1 differ in {c}"
+    m0, m1 = (native.model_matrix(m) | native.cal_columns(m) for m in (models[0], models[1]))
+    for c in cols:
+        assert np.array_equal(m0[c], m1[c]), f"model: MU 0 and MU 1 differ in {c}"
+        assert np.array_equal(runs[0][c], m0[c]), f"RTL and model differ in {c} at MU 0"
+    assert not np.array_equal(runs[1]["cal_ofs_a"], runs[2]["cal_ofs_a"])

@@ -184,6 +184,38 @@ def test_index_latch_is_the_line_start_from_either_side(speed: float) -> None:
         assert model.index_pos[-1] == out["index_pos"][-1]
 
 
+def test_index_edge_in_each_quadrant_latches_the_nearest_line_start() -> None:
+    """An index edge in each quadrant of a line (an index wider or shifted against A/B, as a
+    real encoder's can be) latches the nearest line start, rtl/interp/README.md step 6:
+    ((qc + 2) & ~3) counts of a quadrant, so quadrants 0 and 1 give the line's own start and
+    quadrants 2 (the tie, rounded up) and 3 the next line's. RTL and model, each against that
+    formula over the true quadrant; the count steps once per edge."""
+    speed = 0.0004                                  # lines per sample: 625 samples a quadrant
+    n = int(0.97 / speed)
+    x = 3.02 + speed * np.arange(n)                 # through line 3: quadrants 0, 1, 2, 3
+    a, b = encsig.adc_codes(x, encsig.with_spec(encsig.IDEAL, amplitude=110))  # no clip
+    frac = x - 3.0
+    idx = np.zeros(n, dtype=bool)
+    for q in range(4):                              # a pulse mid-quadrant, 0.05 line wide
+        idx |= (frac >= q / 4 + 0.10) & (frac < q / 4 + 0.15)
+    rises = np.flatnonzero(idx[1:] & ~idx[:-1]) + 1
+    quad = np.floor(frac[rises] * 4).astype(np.int64)
+    assert quad.tolist() == [0, 1, 2, 3]
+    qcounts = CFG.counts_per_line // 4
+    # counting starts at the line the interpolator woke up in (line 3 = its line 0)
+    want = ((quad + 2) & ~3) * qcounts
+    assert want.tolist() == [0, 0, CFG.counts_per_line, CFG.counts_per_line]
+    run = native.run_interp(a, b, idx, CFG, columns=["pos", "index_pos", "index_count",
+                                                     "faults"]).axis(0)
+    model = interp.run(a, b, idx, CFG)
+    for engine, pos, count in (("rtl", run["index_pos"], run["index_count"]),
+                               ("model", model.index_pos, model.index_count)):
+        assert np.array_equal(pos[rises], want), (engine, pos[rises], want)
+        assert np.array_equal(count[rises], np.arange(1, 5)), (engine, count[rises])
+        assert np.all(count[rises - 1] == np.arange(4)), engine     # on the edge's sample
+    assert not run["faults"].any()
+
+
 def test_fault_timing_and_clear() -> None:
     """Dropout raises signal loss after exactly LOSS_SAMPLES samples, clipping and overspeed
     on the very sample; a clear removes a fault that is gone and not one that persists."""

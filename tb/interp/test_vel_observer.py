@@ -27,10 +27,10 @@ ACC = 1000.0 * 2**20 / 1e12          # 1000 rev/s^2 in counts/sample^2
 def test_rtl_bit_exact() -> None:
     """Four stress scenarios back to back (noisy ramp to 244 rev/s, dropout with clears and
     homing arms, overspeed to 300 rev/s, standstill chatter), 600 samples each, cocotb on one
-    simulator (Icarus: its build is instant; Verilator where Icarus is missing); the loop's
-    settings change every 150 samples. The long run is the native test below."""
+    simulator (Icarus: its build is instant; Verilator where Icarus is missing and in a coverage
+    run); the loop's settings change every 150 samples. The long run is the native test below."""
     cfg = interp.InterpConfig(vel_obs=True)
-    simulator = "icarus" if "icarus" in sim.simulators() else "verilator"
+    simulator = sim.one_simulator()   # (Verilator in a coverage run)
     scen = "ramp244_paper,dropout_controls,overspeed,standstill_chatter"
     sim.run_cocotb(blocks.get("enc_interp_obs"), simulator, "cocotb_vel_observer", HERE,
                    params=cfg.rtl_params(), testcase="observer_bit_exact",

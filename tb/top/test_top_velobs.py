@@ -15,7 +15,7 @@ HERE = Path(__file__).parent
 
 
 def test_top_velocity_observer() -> None:
-    simulator = "icarus" if "icarus" in sim.simulators() else "verilator"
+    simulator = sim.one_simulator()   # (Verilator in a coverage run)
     cfg = configs.get("observer").replace(clk_hz=8_000_000)
     sim.run_cocotb(blocks.get("hapgate_top"), simulator, "cocotb_top_velobs", HERE,
                    config=cfg, extra_env={"HG_SAMPLES": "700"})

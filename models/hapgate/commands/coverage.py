@@ -39,10 +39,12 @@ from ..runners import covbuild, funcov
 OUT = REPORTS / "coverage"
 DAT = BUILD / "coverage" / "dat"
 EXCLUSIONS = TB / "coverage" / "exclusions.toml"
+PARTIAL = "partial.txt"     # in DAT: the run was not every group (see checked_rows)
 DOC = ROOT / "docs" / "coverage.md"
 # test groups: the block test folders (cocotb tests and native harness tests alike)
 GROUPS = {"commutation": ["tb/commutation"], "dac_sched": ["tb/dac_sched"],
-          "interp": ["tb/interp"], "bus": ["tb/bus"], "top": ["tb/top"],
+          "interp": ["tb/interp"], "bus": ["tb/bus"], "capture": ["tb/capture"],
+          "top": ["tb/top"],
           "boards": ["tb/boards"], "device": ["tb/device", "tb/cosim"]}
 # what a coverage run leaves out: Icarus (no coverage), netlist and gate-level simulations
 # (their sources are Yosys output, not rtl/)
@@ -72,16 +74,100 @@ class BadInput(ValueError):
 
 @dataclass(frozen=True)
 class Exclusion:
+    """One reviewed exclusion. Where it is: the RTL `file` (relative to the repository) and, for
+    lines and branches, the exact source `text` of the line or lines (occurring exactly once in
+    the file, so that an edit above it moves nothing and an edit of the text itself is noticed;
+    a text of several lines, with their indentation, covers each of them);
+    a branch exclusion may name its `arm` (Verilator's comment: `if`, `else`, `elsif`,
+    `cond_then`, `cond_else`, `case`...), else every arm on that line. A toggle exclusion
+    names the module's port (`signal`) and optionally its `bits` ("hi:lo" or one bit)."""
+
     module: str
     metric: str
     category: str
     reason: str
-    line: int | None = None
+    file: str
+    text: str | None = None
+    arm: str | None = None
     signal: str | None = None
+    bits: tuple[int, int] | None = None     # (lo, hi), inclusive
+    where: str = ""                         # "FILE: [[exclude]] #N" for messages
+
+    @property
+    def label(self) -> str:
+        what = (f"port {self.signal}" + (f"[{self.bits[1]}:{self.bits[0]}]" if self.bits else "")
+                if self.metric == "toggle"
+                else f"{self.text!r}" + (f" ({self.arm})" if self.arm else ""))
+        return f"{self.where} ({self.module} {self.metric} {what})"
+
+    def source_lines(self) -> range:
+        """The lines of `file` that `text` spans (line and branch exclusions; a text of several
+        lines covers them all). Raises BadInput, naming the exclusion, unless the text occurs
+        exactly once in the file."""
+        src = ROOT / self.file
+        if not src.is_file():
+            raise BadInput(f"{self.where}: `file` {self.file!r} does not exist")
+        body = src.read_text()
+        hits = [m.start() for m in re.finditer(re.escape(self.text or ""), body)]
+        if len(hits) != 1:
+            at = sorted({body.count("\n", 0, h) + 1 for h in hits})
+            raise BadInput(f"{self.where}: `text` {self.text!r} is on "
+                           + (f"lines {at}" if hits else "no line") + f" of {self.file} "
+                           "(it must occur exactly once: the source moved or changed?)")
+        first = body.count("\n", 0, hits[0]) + 1
+        return range(first, first + (self.text or "").rstrip("\n").count("\n") + 1)
+
+    def check_source(self) -> None:
+        """The exclusion still points at the RTL: its module is declared in its file and its
+        line (or its port) is there. Raises BadInput naming the exclusion."""
+        src = ROOT / self.file
+        if not src.is_file():
+            raise BadInput(f"{self.where}: `file` {self.file!r} does not exist")
+        ports = module_ports(src, self.module)
+        if not ports:
+            raise BadInput(f"{self.where}: module {self.module!r} is not declared in {self.file}")
+        if self.metric == "toggle":
+            if self.signal not in ports:
+                raise BadInput(f"{self.where}: {self.signal!r} is not a port of {self.module} "
+                               f"in {self.file}")
+        else:
+            self.source_lines()
+
+    def matches(self, file: str, metric: str, label: str, line: int, at: range | None) -> bool:
+        """Whether the report item (of a module named `module`) is this exclusion's; `at` is
+        source_lines() (line and branch exclusions)."""
+        if metric != self.metric or Path(file).resolve() != (ROOT / self.file).resolve():
+            return False
+        if metric == "toggle":
+            if covdat.signal_of(label) != self.signal:
+                return False
+            if self.bits is None:
+                return True
+            m = re.match(r"[^\[:]*\[(\d+)\]", label)
+            bit = int(m.group(1)) if m else 0
+            return self.bits[0] <= bit <= self.bits[1]
+        if at is None or line not in at:
+            return False
+        return self.arm is None or label.split(" @")[0] == self.arm
+
+
+def _bits(v: object, where: str) -> tuple[int, int]:
+    m = re.fullmatch(r"(\d+)(?::(\d+))?", v) if isinstance(v, str) else None
+    if m is None:
+        raise BadInput(f"{where}: `bits` must be \"HI:LO\" or \"BIT\", not {v!r}")
+    hi, lo = int(m.group(1)), int(m.group(2) or m.group(1))
+    if lo > hi:
+        raise BadInput(f"{where}: `bits` {v!r}: HI below LO")
+    return lo, hi
+
+
+KEYS = {"module", "metric", "category", "reason", "file", "text", "arm", "signal", "bits"}
 
 
 def load_exclusions(path: Path = EXCLUSIONS) -> list[Exclusion]:
-    """The reviewed exclusions; unknown keys, categories or metrics are refused with the file."""
+    """The reviewed exclusions; unknown keys, categories or metrics, a missing place or one
+    that no longer points at the RTL (Exclusion.check_source) are refused with the file and
+    the entry's number."""
     try:
         data = tomllib.loads(path.read_text())
     except tomllib.TOMLDecodeError as e:
@@ -92,21 +178,32 @@ def load_exclusions(path: Path = EXCLUSIONS) -> list[Exclusion]:
     out = []
     for i, e in enumerate(data.get("exclude", []), start=1):
         where = f"{path}: [[exclude]] #{i}"
-        extra = set(e) - {"module", "metric", "category", "reason", "line", "signal"}
+        extra = set(e) - KEYS
         if extra:
             raise BadInput(f"{where}: unknown keys {sorted(extra)}")
-        for k in ("module", "metric", "category", "reason"):
+        for k in ("module", "metric", "category", "reason", "file"):
             if not isinstance(e.get(k), str) or not e[k].strip():
                 raise BadInput(f"{where}: `{k}` must be a non-empty string")
         if e["category"] not in CATEGORIES:
             raise BadInput(f"{where}: category {e['category']!r} not one of {CATEGORIES}")
         if e["metric"] not in METRICS:
             raise BadInput(f"{where}: metric {e['metric']!r} not one of {METRICS}")
-        if e["metric"] == "toggle" and not isinstance(e.get("signal"), str):
-            raise BadInput(f"{where}: a toggle exclusion names its port (`signal`)")
-        if e["metric"] in ("line", "branch") and not isinstance(e.get("line"), int):
-            raise BadInput(f"{where}: a {e['metric']} exclusion names its source `line`")
-        out.append(Exclusion(**e))
+        if e["metric"] == "toggle":
+            if not isinstance(e.get("signal"), str) or "text" in e or "arm" in e:
+                raise BadInput(f"{where}: a toggle exclusion names its port (`signal`, "
+                               "optionally `bits`), no `text` or `arm`")
+        else:
+            if not isinstance(e.get("text"), str) or not e["text"].strip():
+                raise BadInput(f"{where}: a {e['metric']} exclusion names the exact source "
+                               "`text` of its line")
+            if "signal" in e or "bits" in e or (e["metric"] == "line" and "arm" in e):
+                raise BadInput(f"{where}: a {e['metric']} exclusion takes `text`"
+                               + (" and optionally `arm`" if e["metric"] == "branch" else "")
+                               + ", no `signal` or `bits`")
+        bits = _bits(e["bits"], where) if "bits" in e else None
+        ex = Exclusion(**{**e, "bits": bits, "where": where})
+        ex.check_source()
+        out.append(ex)
     return out
 
 
@@ -153,8 +250,10 @@ class Row:
         return covdat.Tally(sum(1 for *_, c in got if c > 0), len(got))
 
 
-def rows(points: Sequence[covdat.Point], exclusions: Sequence[Exclusion]) -> list[Row]:
-    """One row per RTL module (sources under rtl/), exclusions applied (each must match).
+def rows(points: Sequence[covdat.Point], exclusions: Sequence[Exclusion],
+         used: dict[Exclusion, int] | None = None) -> list[Row]:
+    """One row per RTL module (sources under rtl/), exclusions applied; `used` counts the
+    items each exclusion removed (see stale()).
     Verilator names a module built with other parameters `<module>__<tag>`: those are merged
     into the module's row (the same point in several parameter sets: counts summed)."""
     def plain(p: covdat.Point) -> covdat.Point:
@@ -162,10 +261,11 @@ def rows(points: Sequence[covdat.Point], exclusions: Sequence[Exclusion]) -> lis
         return covdat.Point(keys, p.count, p.hier)
 
     by_mod: dict[str, list[covdat.Point]] = {}
+    if used is None:
+        used = {}
     rtl = [plain(p) for p in points if Path(p.file).resolve().is_relative_to(RTL.resolve())]
     for p in covdat.merge([rtl]):
         by_mod.setdefault(p.module, []).append(p)
-    used = [0] * len(exclusions)
     out = []
     for mod in sorted(by_mod):
         pts = by_mod[mod]
@@ -176,28 +276,51 @@ def rows(points: Sequence[covdat.Point], exclusions: Sequence[Exclusion]) -> lis
                      for (_, ln), c in sorted(covdat.line_counts(pts).items())],
             "branch": [(f"{p.comment} @{p.line}:{p.get('n')}", p.line, p.count)
                        for p in covdat.branches(pts)],
-            "toggle": [(p.comment, p.line, p.count) for p in covdat.toggles(pts, ports)],
+            "toggle": [(p.comment, p.line, p.count)
+                       for p in covdat.reliable_toggles(covdat.toggles(pts, ports))],
         }
         n_ex = 0
-        for k, ex in enumerate(exclusions):
+        for ex in exclusions:
             if ex.module != mod:
                 continue
             keep = []
+            at = None if ex.metric == "toggle" else ex.source_lines()
             for it in items[ex.metric]:
-                hit = (covdat.signal_of(it[0]) == ex.signal if ex.metric == "toggle"
-                       else it[1] == ex.line)
-                if hit:
-                    used[k] += 1
+                if ex.matches(str(src), ex.metric, it[0], it[1], at):
+                    used[ex] = used.get(ex, 0) + 1
                     n_ex += 1
                 else:
                     keep.append(it)
             items[ex.metric] = keep
         out.append(Row(mod, str(src), items, n_ex))
-    stale = [exclusions[k] for k, n in enumerate(used) if n == 0]
-    if stale:
-        raise BadInput(f"{EXCLUSIONS}: exclusions that match nothing: "
-                       + "; ".join(f"{e.module} {e.metric} {e.line or e.signal}" for e in stale))
     return out
+
+
+def stale(rs: Sequence[Row], exclusions: Sequence[Exclusion], used: dict[Exclusion, int]
+          ) -> list[Exclusion]:
+    """The exclusions of a module the run built that matched none of its items (the module's
+    source moved or the item became covered or vanished). An exclusion of a module the run did
+    not build (`--only`) is not judged. Judged on `suite`: a named configuration may not
+    elaborate the excluded code (a parameter-time branch) or the module at all."""
+    built = {r.module for r in rs}
+    return [e for e in exclusions if e.module in built and not used.get(e)]
+
+
+def checked_rows(points: Sequence[covdat.Point], exclusions: Sequence[Exclusion],
+                 full: bool = True) -> list[Row]:
+    """rows(), refused (BadInput naming each entry) when an exclusion is stale(). In a partial
+    run (`--only`, `-k`: full False) a stale exclusion is only warned about: the run may build a
+    module without the parameter set that elaborates the excluded code."""
+    used: dict[Exclusion, int] = {}
+    rs = rows(points, exclusions, used)
+    old = stale(rs, exclusions, used)
+    if old:
+        msg = ("exclusions that match nothing in this run (stale: remove or fix them): "
+               + "; ".join(e.label for e in old))
+        if full:
+            raise BadInput(msg)
+        print(f"warning (a partial run, not judged): {msg}", file=sys.stderr)
+    return rs
 
 
 def _fmt(t: covdat.Tally) -> str:
@@ -333,8 +456,10 @@ def functional_table(fg: Sequence[FuncGroup]) -> str:
             + "".join(f"| {g.name} | {g.covered}/{g.total} ({g.pct:.1f} %) |\n" for g in fg))
 
 
-def report(files: dict[str, list[Path]], ran: str, seconds: float | None = None
-           ) -> dict[str, list[Row]]:
+def report(files: dict[str, list[Path]], ran: str, seconds: float | None = None,
+           full: bool = True) -> dict[str, list[Row]]:
+    """The report of the coverage `files` of each configuration (config_files()); `full`: the
+    run was every group with no `-k` (a stale exclusion is an error only then)."""
     exclusions = load_exclusions()
     ensure(OUT)
     out: dict[str, list[Row]] = {}
@@ -343,7 +468,9 @@ def report(files: dict[str, list[Path]], ran: str, seconds: float | None = None
     for cfg, fs in files.items():
         if not fs:
             continue
-        rs = out[cfg] = rows(covdat.read_all(fs), exclusions)
+        pts = covdat.read_all(fs)
+        rs = out[cfg] = checked_rows(pts, exclusions, full) if cfg == "suite" else rows(pts,
+                                                                                   exclusions)
         tab = table(rs)
         write_text(OUT / f"table-{cfg}.md", tab)
         doc.append(f"\n## Configuration `{cfg}`\n\n{CONFIGS[cfg]}; {len(fs)} coverage "
@@ -354,28 +481,52 @@ def report(files: dict[str, list[Path]], ran: str, seconds: float | None = None
     doc.append(f"\n## Functional coverage\n\nCover points and crosses (runners/funcov.py), "
                f"merged over the whole run.\n\n{ftab}")
     print(f"functional coverage:\n{ftab}")
+    rs = out["suite"]
     write_text(OUT / "summary.json", json.dumps(
         {**{cfg: summary(rs, fg) for cfg, rs in out.items()},
+         "blocks": blocks(rs, fg),
          "functional": {g.name: {"covered": g.covered, "total": g.total,
                                  "pct": round(g.pct, 2)} for g in fg}}, indent=2) + "\n")
-    rs = out["suite"]
     btab = block_table(rs, fg)
     write_text(OUT / "table-blocks.md", btab)
-    write_readme_table(btab)
+    if full:      # (a partial run's table would replace the whole suite's)
+        write_readme_table(btab)
     info = OUT / "coverage.info"
     write_text(info, lcov_info(rs))
     how = write_html(info, rs, OUT / "html")
-    uncovered = "".join(
-        f"- `{r.module}` {m}: " + ", ".join(lab for lab, _, c in r.items[m] if c == 0) + "\n"
-        for r in rs for m in METRICS if any(c == 0 for *_, c in r.items[m]))
-    uncovered += "".join(f"- functional {b}\n" for g in fg for b in g.uncovered)
-    write_text(OUT / "uncovered.md", uncovered)
+    write_text(OUT / "uncovered.md", uncovered_md(rs, fg))
     doc.append("\nThe items not covered (configuration `suite`) are listed in "
                "`build/reports/coverage/uncovered.md` after a run.\n")
-    write_text(DOC, "".join(doc))
+    if full:
+        write_text(DOC, "".join(doc))
+    else:
+        print(f"a partial run: {README.name} and {DOC.name} left as they are")
     print(f"report: {OUT} (lcov and html of `suite`: {how}, {OUT / 'html' / 'index.html'})"
           + (f"; {seconds:.0f} s" if seconds is not None else ""))
     return out
+
+
+def uncovered_md(rs: Sequence[Row], fg: Sequence[FuncGroup]) -> str:
+    """Every item of `rs` not covered: lines and branches one per item with their source text
+    (what an exclusion's `text` quotes), toggles per port with the bits; the functional bins
+    nobody hit."""
+    out = []
+    for r in rs:
+        src = Path(r.file).read_text().splitlines() if Path(r.file).is_file() else []
+        rel = Path(r.file).resolve().relative_to(ROOT.resolve())
+        for m in ("line", "branch"):
+            for lab, ln, c in r.items[m]:
+                if c == 0:
+                    text = src[ln - 1].strip() if 0 < ln <= len(src) else "?"
+                    out.append(f"- `{r.module}` {m} {lab} ({rel}:{ln}): `{text}`")
+        bits: dict[str, list[str]] = {}
+        for lab, _, c in r.items["toggle"]:
+            if c == 0:
+                bits.setdefault(covdat.signal_of(lab), []).append(
+                    lab[len(covdat.signal_of(lab)):])
+        out += [f"- `{r.module}` toggle {sig}: {' '.join(b)}" for sig, b in bits.items()]
+    out += [f"- functional {b}" for g in fg for b in g.uncovered]
+    return "\n".join(out) + "\n" if out else ""
 
 
 README = ROOT / "README.md"
@@ -386,30 +537,52 @@ BLOCK_FUNC = {"interp": "interp", "commutation": "commutation", "dac_sched": "da
               "bus": "bus", "top": "top"}
 
 
-def block_table(rs: Sequence[Row], fg: Sequence[FuncGroup]) -> str:
-    """One row per rtl/ folder: its modules' lines, branches and port toggles summed, and its
-    functional group's bins (the README's table)."""
+# the goals (issue 29), per block of the `suite` table: line and branch %, port toggle %,
+# functional bins % (a block without a metric has nothing to miss)
+GOALS = {"line": 98.0, "branch": 95.0, "toggle": 90.0, "functional": 100.0}
+
+
+def blocks(rs: Sequence[Row], fg: Sequence[FuncGroup]) -> dict[str, dict]:
+    """Per rtl/ folder: its modules' lines, branches and port toggles summed (covered, total,
+    pct), its functional group's bins, the items excluded, and the goals it misses."""
     by: dict[str, list[Row]] = {}
     for r in rs:
         by.setdefault(Path(r.file).resolve().relative_to(RTL.resolve()).parts[0], []).append(r)
     func = {g.name: g for g in fg}
-
-    def tally(rows: list[Row], m: str) -> covdat.Tally:
-        ts = [r.tally(m) for r in rows]
-        return covdat.Tally(sum(t.covered for t in ts), sum(t.total for t in ts))
-
-    def pct(t: covdat.Tally) -> str:
-        return "—" if t.total == 0 else f"{t.pct:.1f} %"
-
-    out = ["| block | lines | branches | port toggles | functional bins | excluded |",
-           "|---|---|---|---|---|---|"]
+    out = {}
     for blk in sorted(by):
+        rec: dict = {}
+        for m in METRICS:
+            ts = [r.tally(m) for r in by[blk]]
+            t = covdat.Tally(sum(x.covered for x in ts), sum(x.total for x in ts))
+            rec[m] = {"covered": t.covered, "total": t.total,
+                      "pct": None if t.pct is None else round(t.pct, 2)}
         g = func.get(BLOCK_FUNC.get(blk, ""))
-        fpct = "—" if g is None or not g.total else f"{g.pct:.1f} % of {g.total}"
-        rows = by[blk]
-        out.append(f"| `rtl/{blk}/` | {pct(tally(rows, 'line'))} | "
-                   f"{pct(tally(rows, 'branch'))} | {pct(tally(rows, 'toggle'))} | {fpct} | "
-                   f"{sum(r.excluded for r in rows)} |")
+        rec["functional"] = (None if g is None or not g.total else
+                             {"covered": g.covered, "total": g.total, "pct": round(g.pct, 2)})
+        rec["excluded"] = sum(r.excluded for r in by[blk])
+        # a goal is missed when the exact ratio is below it (97.96 % shows as 98.0 %)
+        rec["missed_goals"] = [m for m, goal in GOALS.items()
+                               if rec[m] is not None and rec[m]["total"]
+                               and 100.0 * rec[m]["covered"] / rec[m]["total"] < goal]
+        out[blk] = rec
+    return out
+
+
+def block_table(rs: Sequence[Row], fg: Sequence[FuncGroup]) -> str:
+    """One row per rtl/ folder: its modules' lines, branches and port toggles summed, and its
+    functional group's bins (the README's table); `goals` names the goals a block misses."""
+    def pct(t: dict | None) -> str:
+        return "—" if t is None or not t["total"] else f"{t['pct']:.1f} %"
+
+    out = ["| block | lines | branches | port toggles | functional bins | excluded | goals |",
+           "|---|---|---|---|---|---|---|"]
+    for blk, rec in blocks(rs, fg).items():
+        f = rec["functional"]
+        fpct = "—" if f is None else f"{f['pct']:.1f} % of {f['total']}"
+        miss = ", ".join(rec["missed_goals"]) or "met"
+        out.append(f"| `rtl/{blk}/` | {pct(rec['line'])} | {pct(rec['branch'])} | "
+                   f"{pct(rec['toggle'])} | {fpct} | {rec['excluded']} | {miss} |")
     return "\n".join(out) + "\n"
 
 
@@ -459,6 +632,8 @@ def main(args: argparse.Namespace) -> int:
         print(f"coverage run: {' '.join(cmd[2:])}  (coverage files: {DAT})", flush=True)
         write_text(DAT / "ran.txt", ", ".join(f"`{p}`" for p in paths)
                    + (f" (-k {args.k})" if args.k else ""))
+        if args.k or (args.only and set(args.only) != set(GROUPS)):
+            write_text(DAT / PARTIAL, "a partial run: --only or -k\n")
         rc = subprocess.run(cmd, cwd=ROOT, env=os.environ | {covbuild.ENV: str(DAT)}).returncode
         if rc not in (0, 1):
             print(f"pytest exited {rc}: no report", file=sys.stderr)
@@ -469,7 +644,7 @@ def main(args: argparse.Namespace) -> int:
         return 1
     try:
         ran = (DAT / "ran.txt").read_text() if (DAT / "ran.txt").exists() else "?"
-        report(files, ran, time.perf_counter() - t0)
+        report(files, ran, time.perf_counter() - t0, full=not (DAT / PARTIAL).exists())
     except (BadInput, covdat.CovFormatError) as e:
         print(f"error: {e}", file=sys.stderr)
         return 2

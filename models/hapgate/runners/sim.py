@@ -43,6 +43,14 @@ def simulators() -> list[str]:
     return sims
 
 
+def one_simulator() -> str:
+    """The simulator of a test that runs on one only: Icarus where installed (its build is
+    instant), Verilator without it and in a coverage run (Icarus has no coverage)."""
+    if covbuild.active() is None and "icarus" in simulators():
+        return "icarus"
+    return "verilator"
+
+
 def _tag(params: Params, build_args: Sequence[str]) -> str:
     return cache.digest(data={k: param_text(v) for k, v in sorted(params.items())}
                         | {"_": list(build_args)}, length=10)
