@@ -96,6 +96,11 @@ REGRESS: dict[str, str] = {
         "bring-up's refusals end to end on the virtual device; tier 1 keeps the same refusals "
         "in the firmware's C unit tests (bringup_guided_timeout, bringup_align_held, "
         "bringup_align_pole_pairs) and unaligned.toml end to end",
+    r"^tb/bringup/test_bringup\.py::test_(identified_dynamics_within_budget|encoder_dir_all_"
+    r"steps)":
+        "bring-up with every step end to end (50-60 s of device time each); tier 1 keeps the "
+        "identification and the other joints' hold in the firmware's C unit tests "
+        "(bringup_ident, bringup_ident_hold) and the guided move on encoder_dir.toml",
     r"^tb/bus/test_hg_bus\.py::test_random_accesses_16mhz":
         "random bus accesses at a second FPGA clock (16 MHz, no board's); tier 1 keeps them at "
         "the bus tests' own clock",

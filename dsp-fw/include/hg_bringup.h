@@ -40,6 +40,8 @@ typedef enum {
     HG_BU_GUIDED_WAIT,    /* zero torque, waiting for the operator's move                   */
     HG_BU_IDENT_RUN,      /* excitation running, normal equations accumulating              */
     HG_BU_IDENT_SETTLE,   /* excitation off, position hold until at rest                    */
+    HG_BU_IDENT_MOVE,     /* IDENT first: every joint walked back to the reference pose (the
+                           * others drifted while earlier steps moved one axis)            */
 } hg_bu_state_t;
 
 /* Why a step ended (hg_bringup_t.err); err_value / err_limit carry the figures. */
@@ -77,6 +79,7 @@ enum {
     HG_BU_CHK_GUIDED_MOVE,    /* deg mech, GE: movement seen along the named direction         */
     HG_BU_CHK_IDENT_RESID,    /* %, LE: rms fit residual / rms torque                          */
     HG_BU_CHK_IDENT_TRAVEL,   /* deg mech, LE: largest excursion during the excitation         */
+    HG_BU_CHK_IDENT_HOLD,     /* deg mech, LE: largest excursion of a held joint (IDENT)        */
     HG_BU_NCHECKS
 };
 
@@ -126,6 +129,10 @@ typedef struct {
     float tau_gravity;       /* N m at the pose, joint sign  */
     float kt_amp;            /* N m per V of DAC: the nominal kt * amp_gain the fit is scaled by */
     float ident_resid;       /* relative rms residual        */
+    float id_q[3];           /* rad: joint angles at the identification's start (NaN: an axis
+                              * not homed), enc_dir and the reference pose as finalize gives */
+    float id_hold_max;       /* rad: largest excursion of a held joint during IDENT          */
+    float id_lag;            /* s: the torque's lag behind the code written (fitted)          */
     float duration_s[6];     /* device time each step took, by HG_BU_STEP_*   */
     hg_bu_check_t chk[HG_BU_NCHECKS];
 } hg_bu_axis_t;
@@ -158,9 +165,15 @@ typedef struct {
     hg_real id_kp, id_kd;    /* N m/rad, N m s/rad: the weak hold that keeps the axis in place */
     hg_real id_resid_max;    /* relative rms residual                                           */
     hg_real id_settle_s;     /* s     hold after the excitation                                 */
+    hg_real id_hold_kp, id_hold_kd; /* N m/rad, N m s/rad: the stiff hold of the other joints  */
+    hg_real id_hold_tau;     /* N m   |hold torque| bound of the other joints (their TQ_LIMIT)  */
+    hg_real id_hold_travel;  /* rad   a held joint's excursion bound (else TRAVEL)              */
 } hg_bringup_cfg_t;
 
-#define HG_BU_ID_N 4 /* unknowns: inertia, viscous, Coulomb, constant (gravity residual) */
+/* unknowns: inertia, viscous, Coulomb, constant (gravity residual), and the torque's lag behind
+ * the code written (the amplifier's current loop, the DAC's timing: a nuisance parameter that
+ * would otherwise bias b by -lag * the hold's stiffness) */
+#define HG_BU_ID_N 5
 
 typedef struct {
     hg_servo_t *servo;       /* its cfg gives the motor scaling, rate and qd_max; handed back */
@@ -205,8 +218,15 @@ typedef struct {
     uint32_t id_win;                      /* IDENT: intervals since the first boundary   */
     double id_phase[6];                   /* IDENT: multisine phases (from the seed)     */
     double id_tau_prev;                   /* IDENT: torque written the tick before       */
+    double id_tau_w;                      /* IDENT: torque of the interval before the window */
     double id_xmax;                       /* IDENT: largest |x| seen (rad)               */
     uint32_t id_seed;                     /* IDENT: hg_bringup_start's seed              */
+    int8_t id_sign[3];                    /* IDENT: each axis's scan sign s                */
+    uint32_t hold_mode[3], hold_offset[3];/* IDENT: the held axes' MODE and OFFSET        */
+    int32_t hold_torque[3];               /* IDENT: the held axes' torque codes           */
+    double id_set[3], id_goal[3];         /* IDENT: hold setpoints and the reference pose,
+                                           * counts from the step's start                 */
+    uint32_t id_t0;                       /* IDENT: tick the excitation started           */
 } hg_bringup_t;
 
 void hg_bringup_default_cfg(hg_bringup_cfg_t *c);
