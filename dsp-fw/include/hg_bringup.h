@@ -212,12 +212,12 @@ typedef struct {
     uint8_t seen;            /* GUIDED: axes whose move was seen                             */
     double id_ata[HG_BU_ID_N][HG_BU_ID_N], id_aty[HG_BU_ID_N], id_yty;
     double id_row[HG_BU_ID_N], id_y;      /* IDENT: the window being integrated            */
-    double id_x[3];                       /* IDENT: last three positions (rad)             */
+#define HG_BU_ID_H 3 /* IDENT: velocity by central differences over +-H ticks */
+    double id_x[2 * HG_BU_ID_H + 1];      /* IDENT: the last 2H + 1 positions, oldest first (rad) */
+    double id_tq[HG_BU_ID_H + 1];         /* IDENT: torques written, [0] the latest (N m)  */
     double id_v_start, id_x_start;        /* IDENT: v and x at the window start          */
-    double id_tau_now;                    /* IDENT: torque written this tick (N m)       */
     uint32_t id_win;                      /* IDENT: intervals since the first boundary   */
     double id_phase[6];                   /* IDENT: multisine phases (from the seed)     */
-    double id_tau_prev;                   /* IDENT: torque written the tick before       */
     double id_tau_w;                      /* IDENT: torque of the interval before the window */
     double id_xmax;                       /* IDENT: largest |x| seen (rad)               */
     uint32_t id_seed;                     /* IDENT: hg_bringup_start's seed              */

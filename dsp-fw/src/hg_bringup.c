@@ -600,13 +600,16 @@ static void guided_tick(hg_bringup_t *b)
  *     J (v_b - v_a) + b (x_b - x_a) + c sum sgn(dx) dt + g T + L (tau_b - tau_a) = sum tau dt
  * (L: the torque's lag behind the codes, tau_b, tau_a the torques of the window's last interval
  * and of the one before it)
- * (v by central differences at the window edges, tau held over each tick as the FPGA holds
- * it). Each window is one row of a 4-unknown least-squares problem whose normal equations are
- * accumulated in place and solved by Cholesky after Jacobi scaling. The weak PD hold keeps the
- * axis near its start (its torque is part of tau, so it does not bias the fit). The torque is
- * the code actually written, converted back: rounding and clamping are inside the model. */
+ * (v by central differences over +-H ticks at the window edges, tau held over each tick as the
+ * FPGA holds it). Each window is one row of a 5-unknown least-squares problem whose normal
+ * equations are accumulated in place and solved by Cholesky after Jacobi scaling. The axis's
+ * own PD hold keeps it near the reference pose (its torque is part of tau, so it does not bias
+ * the fit). The torque is the code actually written, converted back: rounding and clamping are
+ * inside the model. */
 
-#define ID_WIN 10u
+#define ID_WIN 20u
+#define ID_H HG_BU_ID_H
+#define ID_NX (2u * ID_H + 1u)
 
 static uint32_t lcg(uint32_t *s)
 {
@@ -737,9 +740,12 @@ static void ident_start_run(hg_bringup_t *b)
             b->id_ata[i][j] = 0.0;
     }
     b->id_yty = b->id_y = 0.0;
-    b->id_x[0] = b->id_x[1] = b->id_x[2] = 0.0;
+    for (unsigned i = 0; i < ID_NX; i++)
+        b->id_x[i] = 0.0;
+    for (unsigned i = 0; i <= ID_H; i++)
+        b->id_tq[i] = 0.0;
     b->id_win = 0;
-    b->id_tau_prev = b->id_tau_now = b->id_v_start = b->id_x_start = b->id_tau_w = 0.0;
+    b->id_v_start = b->id_x_start = b->id_tau_w = 0.0;
     b->id_xmax = 0.0;
     uint32_t seed = b->id_seed;
     for (unsigned k = 0; k < 6; k++)
@@ -753,31 +759,35 @@ static void ident_start_run(hg_bringup_t *b)
 static void ident_accumulate(hg_bringup_t *b, double x_new)
 {
     const double dt = 1.0 / rate(b);
-    b->id_x[0] = b->id_x[1];
-    b->id_x[1] = b->id_x[2];
-    b->id_x[2] = x_new;
-    if (b->ticks - b->id_t0 < 3)
-        return; /* three positions needed for the first central difference */
-    /* the interval (k-2 -> k-1) is complete, and v at k-1 is known */
-    const double v_mid = (b->id_x[2] - b->id_x[0]) / (2.0 * dt);
-    const double dx = b->id_x[1] - b->id_x[0];
+    for (unsigned i = 0; i + 1 < ID_NX; i++)
+        b->id_x[i] = b->id_x[i + 1];
+    b->id_x[ID_NX - 1] = x_new;
+    if (b->ticks - b->id_t0 < ID_NX)
+        return; /* 2H + 1 positions needed for the first central difference */
+    /* At tick k the centre c = k - H has its velocity, and the interval (c-1 -> c) is complete:
+     * its torque is the one written at tick c - 1, id_tq[H]. (The wide difference keeps the
+     * encoder's interpolation error out of the velocities.) */
+    const double v_mid = (b->id_x[ID_NX - 1] - b->id_x[0]) / (2.0 * ID_H * dt);
+    const double x_c = b->id_x[ID_H];
+    const double dx = x_c - b->id_x[ID_H - 1];
+    const double tq = b->id_tq[ID_H];
     if (b->id_win == 0) { /* first boundary */
-        b->id_tau_w = b->id_tau_prev;
+        b->id_tau_w = tq;
         b->id_v_start = v_mid;
-        b->id_x_start = b->id_x[1];
+        b->id_x_start = x_c;
         b->id_win = 1;
         return;
     }
     b->id_row[2] += (dx > 0.0 ? 1.0 : (dx < 0.0 ? -1.0 : 0.0)) * dt;
     b->id_row[3] += dt;
-    b->id_y += b->id_tau_prev * dt; /* the torque held over that interval */
+    b->id_y += tq * dt; /* the torque held over that interval */
     if (b->id_win++ % ID_WIN == 0) {
         b->id_row[0] = v_mid - b->id_v_start;
-        b->id_row[1] = b->id_x[1] - b->id_x_start;
+        b->id_row[1] = x_c - b->id_x_start;
         /* the torque acting lags the code by L: its integral over the window is the codes'
          * minus L * (the last interval's torque - the one before the window) */
-        b->id_row[4] = b->id_tau_prev - b->id_tau_w;
-        b->id_tau_w = b->id_tau_prev;
+        b->id_row[4] = tq - b->id_tau_w;
+        b->id_tau_w = tq;
         /* Only windows that moved one way throughout: at a reversal the joint may stick, and
          * static friction is anything within +-c, not c sgn(dx) (the window is left out). */
         if (fabs(b->id_row[2]) > b->id_row[3] - 0.5 * dt) {
@@ -789,7 +799,7 @@ static void ident_accumulate(hg_bringup_t *b, double x_new)
             b->id_yty += b->id_y * b->id_y;
         }
         b->id_v_start = v_mid;
-        b->id_x_start = b->id_x[1];
+        b->id_x_start = x_c;
         for (unsigned i = 0; i < HG_BU_ID_N; i++)
             b->id_row[i] = 0.0;
         b->id_y = 0.0;
@@ -891,14 +901,14 @@ static void ident_tick(hg_bringup_t *b)
     const uint32_t n = b->ticks - b->id_t0; /* ticks into the excitation */
     const double t = (double)n / rate(b);
     const double x = hold_error(b, b->axis); /* from the reference pose */
-    const double v = (x - b->id_x[2]) * rate(b);
+    const double v = (x - b->id_x[ID_NX - 1]) * rate(b);
     b->id_xmax = fabs(x) > b->id_xmax ? fabs(x) : b->id_xmax;
     if (b->state == HG_BU_IDENT_RUN) {
         ident_accumulate(b, x);
     } else {
-        b->id_x[0] = b->id_x[1];
-        b->id_x[1] = b->id_x[2];
-        b->id_x[2] = x;
+        for (unsigned i = 0; i + 1 < ID_NX; i++)
+            b->id_x[i] = b->id_x[i + 1];
+        b->id_x[ID_NX - 1] = x;
     }
     const double dur = (double)b->cfg.id_duration_s;
     double tau = -(double)b->cfg.id_kp * x - (double)b->cfg.id_kd * (n > 1 ? v : 0.0);
@@ -922,9 +932,10 @@ static void ident_tick(hg_bringup_t *b)
     b->torque = tau_code(b, tau);
     ident_commutate(b, b->axis, &b->mode, &b->offset);
     ident_hold(b);
-    /* the torques of the last two ticks, as written (held over k-2 -> k-1 and k-1 -> k) */
-    b->id_tau_prev = b->id_tau_now;
-    b->id_tau_now = (double)b->torque / code_per_nm(&b->servo->cfg.motor[b->axis]);
+    /* the torques written, latest first (each held over the interval after its tick) */
+    for (unsigned i = ID_H; i > 0; i--)
+        b->id_tq[i] = b->id_tq[i - 1];
+    b->id_tq[0] = (double)b->torque / code_per_nm(&b->servo->cfg.motor[b->axis]);
 }
 
 /* ---------------------------------------------------------------- the tick */

@@ -7,7 +7,6 @@
  * models/hapgate/golden/commutation.py describes it: angle code k stands for k + 1/2), the
  * torque clamp, the enables, HOME_ARM and the index latch, the snapshot. Every expected value
  * is computed here from the plant's parameters. */
-#include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 #include "hal_sim.h"
@@ -730,7 +729,6 @@ static void ident_case(uint32_t seed, double J, double b, double c, double g, in
     CHECK(B.res[1].scan_sign == (swapped ? -1 : 1));
     CHECK(hg_bringup_start(&B, HG_BU_STEP_IDENT, 1, NULL, seed) == HG_BU_OK);
     run_step();
-    fprintf(stderr, "DBG err %u val %g J %g b %g c %g g %g lag %g exc %g\n", B.err, (double)B.err_value, (double)B.res[1].inertia, (double)B.res[1].b_visc, (double)B.res[1].tau_coulomb, (double)B.res[1].tau_gravity, (double)B.res[1].id_lag, (double)hg_bringup_check(&B, 1, HG_BU_CHK_IDENT_TRAVEL).value);
     CHECK(B.err == HG_BU_OK);
     const hg_bu_axis_t *r = &B.res[1];
     CHECK_NEAR(r->inertia, J, 0.05 * J);
