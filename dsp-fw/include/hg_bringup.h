@@ -5,7 +5,8 @@
  *   HOME    index search by stepping the ALIGN field (current-bounded), back to the start pose
  *   RESTART the paper's restart in the reference pose: no search, angles from the calibration
  *   GUIDED  the operator moves the handle along a named direction: the encoder's direction
- *   IDENT   dynamics identification: multisine excitation, least-squares fit
+ *   IDENT   dynamics identification: back to the reference pose, the other joints held,
+ *           multisine excitation, least-squares fit
  * The background loop starts a step (hg_bringup_start) and reads progress and results; the servo
  * ISR (hg_bringup_isr) steps the machine once per tick while it is active, in place of
  * hg_servo_step, and hands the FPGA back to the servo when the step ends. README.md, "Bring-up". */
@@ -133,6 +134,8 @@ typedef struct {
                               * not homed), enc_dir and the reference pose as finalize gives */
     float id_hold_max;       /* rad: largest excursion of a held joint during IDENT          */
     float id_lag;            /* s: the torque's lag behind the code written (fitted)          */
+    float id_se[4];          /* standard errors of J, b, c, g (units as the values): the fit's
+                              * residual variance times the diagonal of (A^T A)^-1            */
     float duration_s[6];     /* device time each step took, by HG_BU_STEP_*   */
     hg_bu_check_t chk[HG_BU_NCHECKS];
 } hg_bu_axis_t;
@@ -217,6 +220,7 @@ typedef struct {
     double id_tq[HG_BU_ID_H + 1];         /* IDENT: torques written, [0] the latest (N m)  */
     double id_v_start, id_x_start;        /* IDENT: v and x at the window start          */
     uint32_t id_win;                      /* IDENT: intervals since the first boundary   */
+    uint32_t id_rows;                     /* IDENT: windows kept in the fit                */
     double id_phase[6];                   /* IDENT: multisine phases (from the seed)     */
     double id_tau_w;                      /* IDENT: torque of the interval before the window */
     double id_xmax;                       /* IDENT: largest |x| seen (rad)               */

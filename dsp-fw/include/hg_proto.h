@@ -61,7 +61,7 @@ enum {
 #define HG_BU_RESULT0_LEN 54u   /* page 0: ALIGN, HOME, GUIDED */
 #define HG_BU_RESULT1_LEN 52u   /* page 1: IDENT and the step durations */
 #define HG_BU_RESULT2_LEN HG_CALIB_LEN /* page 2: the calibration bring-up found (SET_CALIB's) */
-#define HG_BU_RESULT3_LEN 24u   /* page 3: IDENT's pose, the held joints' excursion, the lag */
+#define HG_BU_RESULT3_LEN 40u   /* page 3: IDENT's pose, held excursion, lag, standard errors */
 #define HG_BU_CHECK_LEN 56u
 #define HG_BU_NAME_LEN 32u      /* BU_CHECK: NUL-padded name */
 #define HG_BU_UNIT_LEN 12u      /* BU_CHECK: NUL-padded unit */

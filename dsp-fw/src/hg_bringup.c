@@ -67,7 +67,7 @@ void hg_bringup_default_cfg(hg_bringup_cfg_t *c)
     c->guided_min_move = HG_C(0.1);
     c->guided_timeout_s = HG_C(20.0);
     c->id_tau = HG_C(0.04);
-    c->id_duration_s = HG_C(8.0);
+    c->id_duration_s = HG_C(12.0);
     c->id_kp = HG_C(0.1);
     c->id_kd = HG_C(0.005);
     c->id_resid_max = HG_C(0.05);
@@ -608,6 +608,7 @@ static void guided_tick(hg_bringup_t *b)
  * inside the model. */
 
 #define ID_WIN 20u
+#define ID_AMP 0.2 /* each line's amplitude / id_tau: the six rarely reach the clamp together */
 #define ID_H HG_BU_ID_H
 #define ID_NX (2u * ID_H + 1u)
 
@@ -745,6 +746,7 @@ static void ident_start_run(hg_bringup_t *b)
     for (unsigned i = 0; i <= ID_H; i++)
         b->id_tq[i] = 0.0;
     b->id_win = 0;
+    b->id_rows = 0;
     b->id_v_start = b->id_x_start = b->id_tau_w = 0.0;
     b->id_xmax = 0.0;
     uint32_t seed = b->id_seed;
@@ -797,6 +799,7 @@ static void ident_accumulate(hg_bringup_t *b, double x_new)
                 b->id_aty[i] += b->id_row[i] * b->id_y;
             }
             b->id_yty += b->id_y * b->id_y;
+            b->id_rows++;
         }
         b->id_v_start = v_mid;
         b->id_x_start = x_c;
@@ -880,6 +883,19 @@ static void ident_fit(hg_bringup_t *b)
     r->kt_amp = (float)((double)m->kt * (double)m->amp_gain);
     r->ident_resid = (float)resid;
     r->id_lag = (float)(ok ? th[4] : 0.0);
+    /* standard errors: s^2 = rr / (rows - N), times the diagonal of (A^T A)^-1 (column i of
+     * the inverse solves A z = e_i) */
+    const double s2 = b->id_rows > HG_BU_ID_N ? (rr > 0.0 ? rr : 0.0)
+                                                   / (double)(b->id_rows - HG_BU_ID_N) : 0.0;
+    for (unsigned k = 0; k < 4; k++) {
+        double e[HG_BU_ID_N], z[HG_BU_ID_N];
+        for (unsigned i = 0; i < HG_BU_ID_N; i++) {
+            e[i] = i == k ? 1.0 : 0.0;
+            for (unsigned j = 0; j < HG_BU_ID_N; j++)
+                a[i][j] = b->id_ata[i][j];
+        }
+        r->id_se[k] = (float)(ok && solve_spd(a, e, z) && z[k] > 0.0 ? sqrt(s2 * z[k]) : 0.0);
+    }
     set_check(b, b->axis, HG_BU_CHK_IDENT_RESID, resid * 100.0,
               (double)b->cfg.id_resid_max * 100.0);
     set_check(b, b->axis, HG_BU_CHK_IDENT_TRAVEL, b->id_xmax * 360.0 / TWO_PI_D,
@@ -919,7 +935,7 @@ static void ident_tick(hg_bringup_t *b)
         double ex = 0.0;
         for (unsigned k = 0; k < 6; k++)
             ex += sin(TWO_PI_D * ID_FREQ[k] * t + b->id_phase[k]);
-        tau += fade * 0.15 * (double)b->cfg.id_tau * ex;
+        tau += fade * ID_AMP * (double)b->cfg.id_tau * ex;
         if (t >= dur)
             b->state = HG_BU_IDENT_SETTLE;
     } else if (t >= dur + (double)b->cfg.id_settle_s) {

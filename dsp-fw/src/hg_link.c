@@ -329,11 +329,12 @@ static int h_bu_result(hg_link_t *l, const uint8_t *req, uint8_t *out, size_t *n
     const hg_bu_axis_t *r = &b->res[a];
     const uint32_t t = hg_hal_irq_save();
     if (req[1] == 3u) {
-        const float v[5] = { r->id_q[0], r->id_q[1], r->id_q[2], r->id_hold_max, r->id_lag };
+        const float v[9] = { r->id_q[0], r->id_q[1], r->id_q[2], r->id_hold_max, r->id_lag,
+                             r->id_se[0], r->id_se[1], r->id_se[2], r->id_se[3] };
         out[0] = a;
         out[1] = 3;
         out[2] = out[3] = 0;
-        for (int i = 0; i < 5; i++)
+        for (int i = 0; i < 9; i++)
             hg_put_f32(out + 4 + 4 * i, v[i]);
         *n = HG_BU_RESULT3_LEN;
     } else if (req[1] == 2u) {

@@ -736,6 +736,10 @@ static void ident_case(uint32_t seed, double J, double b, double c, double g, in
     CHECK_NEAR(r->tau_coulomb, c, 0.05 * c);
     CHECK_NEAR(r->tau_gravity, g, 0.05 * fabs(g));
     CHECK_NEAR(r->kt_amp, a->kt * a->amp, 1e-6);
+    /* the fit's standard errors: resolved, and J's well inside its 5 % */
+    for (unsigned k = 0; k < 4; k++)
+        CHECK(r->id_se[k] > 0.0f && isfinite(r->id_se[k]));
+    CHECK((double)r->id_se[0] < 0.01 * J);
     const hg_bu_check_info_t x = hg_bringup_check(&B, 1, HG_BU_CHK_IDENT_TRAVEL);
     CHECK(x.done && x.pass);
     CHECK(r->chk[HG_BU_CHK_IDENT_RESID].pass);

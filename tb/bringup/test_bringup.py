@@ -222,8 +222,8 @@ def test_identified_dynamics_within_budget(seed: int, tmp_path: Path, capsys: An
     assert_dynamics(doc, scene)
     ident = [s for s in doc["steps"] if s["step"] == "dynamics"]
     assert len(ident) == 3 and all(s["err"] == "OK" for s in ident), ident
-    # device time: the excitation (8 s) and the settling (0.5 s), in the device's own ticks
-    assert all(s["duration_s"] == pytest.approx(8.5, abs=0.01) for s in ident), ident
+    # device time: the walk to the reference pose, the excitation (12 s), the settling (0.5 s)
+    assert all(s["duration_s"] >= 12.5 for s in ident), ident
 
 
 def test_encoder_dir_all_steps(tmp_path: Path, capsys: Any) -> None:

