@@ -231,6 +231,8 @@ typedef struct {
     double id_set[3], id_goal[3];         /* IDENT: hold setpoints and the reference pose,
                                            * counts from the step's start                 */
     uint32_t id_t0;                       /* IDENT: tick the excitation started           */
+    uint8_t held_mask;                    /* axes held this step (bit i): IDENT the other two,
+                                           * ALIGN and HOME the other aligned ones          */
 } hg_bringup_t;
 
 void hg_bringup_default_cfg(hg_bringup_cfg_t *c);

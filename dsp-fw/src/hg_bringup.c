@@ -242,11 +242,11 @@ static void finish(hg_bringup_t *b)
 static void write_outputs(hg_bringup_t *b, uint32_t ctrl_extra)
 {
     const uint32_t a = b->axis;
-    const bool hold = b->drive && b->step == HG_BU_STEP_IDENT; /* IDENT holds the others */
     uint32_t en = b->drive ? HG_CTRL_GLOBAL_EN | HG_CTRL_AXIS_EN(a) : 0u;
     for (uint32_t i = 0; i < HG_NAXES; i++) {
         if (i == a)
             continue;
+        const bool hold = b->drive && (b->held_mask & (1u << i));
         if (hold) {
             fpga_write32(AX(i, HG_AX_MODE), b->hold_mode[i]);
             fpga_write32(AX(i, HG_AX_OFFSET), b->hold_offset[i] & 1023u);
@@ -653,7 +653,7 @@ static void ident_hold(hg_bringup_t *b)
 {
     const bool move = b->state == HG_BU_IDENT_MOVE;
     for (unsigned i = 0; i < HG_NAXES; i++) {
-        if (i == b->axis && !move)
+        if (i == b->axis ? !move : !(b->held_mask & (1u << i)))
             continue;
         const double lim = i == b->axis && b->cfg.id_tau < b->cfg.id_hold_tau
                          ? (double)b->cfg.id_tau : (double)b->cfg.id_hold_tau;
@@ -674,7 +674,7 @@ static void ident_hold(hg_bringup_t *b)
         b->hold_mode[i] = mode;
         b->hold_offset[i] = offset;
         const float ax = (float)fabs(x);
-        if (!move && ax > b->res[b->axis].id_hold_max)
+        if (b->step == HG_BU_STEP_IDENT && !move && ax > b->res[b->axis].id_hold_max)
             b->res[b->axis].id_hold_max = ax;
     }
 }
@@ -703,6 +703,22 @@ static void ident_move_tick(hg_bringup_t *b)
         ident_hold(b);
 }
 
+/* ALIGN and HOME hold every other axis that is aligned where it was at the step's start:
+ * free, the linkage's coupling would swing it (into an interpolator overspeed, once). */
+static void hold_enter(hg_bringup_t *b)
+{
+    b->held_mask = 0;
+    for (unsigned i = 0; i < HG_NAXES; i++) {
+        if (i == b->axis || !b->res[i].aligned)
+            continue;
+        b->held_mask |= (uint8_t)(1u << i);
+        b->id_sign[i] = b->res[i].scan_sign < 0 ? (int8_t)-1 : (int8_t)1;
+        b->id_set[i] = 0.0;
+        b->hold_torque[i] = 0;
+        fpga_write32(AX(i, HG_AX_TQ_LIMIT), (uint32_t)tau_code_ax(b, i, (double)b->cfg.id_hold_tau));
+    }
+}
+
 static void ident_enter(hg_bringup_t *b)
 {
     const unsigned a = b->axis;
@@ -710,6 +726,7 @@ static void ident_enter(hg_bringup_t *b)
     b->drive = true;
     b->torque = 0;
     r->id_hold_max = 0.0f;
+    b->held_mask = (uint8_t)(7u & ~(1u << a));
     for (unsigned i = 0; i < HG_NAXES; i++) {
         b->id_sign[i] = b->res[i].scan_sign < 0 ? (int8_t)-1 : (int8_t)1;
         b->hold_torque[i] = 0;
@@ -1013,9 +1030,9 @@ static bool within_bounds(hg_bringup_t *b)
         fail(b, HG_BU_ERR_TRAVEL, travel, (double)b->cfg.travel_max);
         return false;
     }
-    if (b->step == HG_BU_STEP_IDENT && b->ticks > 0) /* held joints: speed, hold error */
+    if (b->held_mask && b->ticks > 0) /* held joints: speed, hold error */
         for (unsigned i = 0; i < HG_NAXES; i++) {
-            if (i == a)
+            if (!(b->held_mask & (1u << i)))
                 continue;
             const double sp = fabs((double)b->vel[i]) / counts_per_rad_ax(b, i);
             const double tr = fabs(hold_error(b, i)); /* from its setpoint */
@@ -1051,6 +1068,9 @@ void hg_bringup_step(hg_bringup_t *b)
         default: b->drive = false; b->mode = HG_MODE_OFF; b->state = HG_BU_GUIDED_WAIT; break;
         }
     }
+    const bool hold_others = b->step == HG_BU_STEP_ALIGN || b->step == HG_BU_STEP_HOME;
+    if (b->ticks == 0 && hold_others)
+        hold_enter(b);
     b->ticks++;
     switch (b->step) {
     case HG_BU_STEP_ALIGN: align_tick(b); break;
@@ -1058,6 +1078,8 @@ void hg_bringup_step(hg_bringup_t *b)
     case HG_BU_STEP_IDENT: ident_tick(b); break;
     default: guided_tick(b); break;
     }
+    if (hold_others && b->state != HG_BU_IDLE)
+        ident_hold(b);
     if (b->state != HG_BU_IDLE)
         write_outputs(b, ctrl_extra);
 }
@@ -1224,6 +1246,7 @@ int hg_bringup_start(hg_bringup_t *b, uint8_t step, uint8_t axis, const int8_t e
     b->err = HG_BU_OK;
     b->err_value = b->err_limit = 0.0f;
     b->ticks = 0;
+    b->held_mask = 0;
     b->tick_limit = limit_s * b->servo->cfg.rate_hz;
     b->have_prev = false;
     b->drive = false;
