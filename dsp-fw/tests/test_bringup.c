@@ -828,6 +828,26 @@ void test_bringup_ident_hold(void)
     CHECK_NEAR(B.err_limit, bc.id_hold_travel, 1e-6);
     CHECK(B.err_value > bc.id_hold_travel);
     check_zero_torque_now();
+    /* ALIGN holds the axes aligned before it (axis 0, loaded, stays within load / kp of where
+     * the step found it) and leaves the others free (axis 2: no torque) */
+    setup_sim();
+    setup_fw(NULL, NULL);
+    align_and_home(0);
+    CHECK(B.err == HG_BU_OK);
+    SIM.ax[0].g = load;
+    const double q0s = SIM.ax[0].q;
+    CHECK(start(HG_BU_STEP_ALIGN, 1) == HG_BU_OK);
+    double d0 = 0.0;
+    int driven0 = 0, driven2 = 0;
+    while (hg_bringup_active(&B)) {
+        sim_tick();
+        d0 = fmax(d0, fabs(SIM.ax[0].q - q0s));
+        driven0 |= hal_sim_torque(0) != 0;
+        driven2 |= hal_sim_torque(2) != 0;
+    }
+    CHECK(B.err == HG_BU_OK && driven0 && !driven2);
+    CHECK(d0 <= 1.3 * load / (double)bc.id_hold_kp);
+    check_zero_torque_now();
 }
 
 /* ---------------------------------------------------------------- over the PC link */
