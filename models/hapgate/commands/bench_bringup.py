@@ -79,6 +79,7 @@ def run(quick: bool = False) -> bool:
     print(table(headers, rows))
     print(f"csv: {write_csv('bench_bringup.csv', headers, rows)}")
     print("goals: offset within 1 deg electrical, index within 0.01 deg, J and b within 5 %, "
-          "c and g within 5 % or one DAC step of torque (docs/bringup.md); wall s includes "
-          "the device's build on a cold cache (total) and the PC's polling")
+          "c and g within 5 % or one DAC step of torque, each at least 3 standard errors of "
+          "the fit (docs/bringup.md); wall s includes the device's build on a cold cache "
+          "(total) and the PC's polling")
     return all(r["err"] == "OK" for r in recs)
