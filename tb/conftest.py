@@ -101,6 +101,11 @@ REGRESS: dict[str, str] = {
         "encoder step on three axes, 25 s of device time); tier 1 keeps the encoder step "
         "end to end on unaligned.toml's healthy encoders and the same fields and bands on "
         "captures of the same signals (test_encoder_result_fields_and_bands)",
+    r"^tb/bringup/test_bringup\.py::test_(identified_dynamics_within_budget|encoder_dir_all_"
+    r"steps)":
+        "bring-up with every step end to end (50-60 s of device time each); tier 1 keeps the "
+        "identification and the other joints' hold in the firmware's C unit tests "
+        "(bringup_ident, bringup_ident_hold) and the guided move on encoder_dir.toml",
     r"^tb/bus/test_hg_bus\.py::test_random_accesses_16mhz":
         "random bus accesses at a second FPGA clock (16 MHz, no board's); tier 1 keeps them at "
         "the bus tests' own clock",

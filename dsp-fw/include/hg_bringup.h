@@ -5,7 +5,8 @@
  *   HOME    index search by stepping the ALIGN field (current-bounded), back to the start pose
  *   RESTART the paper's restart in the reference pose: no search, angles from the calibration
  *   GUIDED  the operator moves the handle along a named direction: the encoder's direction
- *   IDENT   dynamics identification: multisine excitation, least-squares fit
+ *   IDENT   dynamics identification: back to the reference pose, the other joints held,
+ *           multisine excitation, least-squares fit
  *   ENCODER a slow bounded sweep while the FPGA's capture buffer records the axis's raw A/B
  *           words (the PC reads them with CAP_READ and computes the signal quality)
  * The background loop starts a step (hg_bringup_start) and reads progress and results; the servo
@@ -44,6 +45,8 @@ typedef enum {
     HG_BU_GUIDED_WAIT,    /* zero torque, waiting for the operator's move                   */
     HG_BU_IDENT_RUN,      /* excitation running, normal equations accumulating              */
     HG_BU_IDENT_SETTLE,   /* excitation off, position hold until at rest                    */
+    HG_BU_IDENT_MOVE,     /* IDENT first: every joint walked back to the reference pose (the
+                           * others drifted while earlier steps moved one axis)            */
     HG_BU_ENC_SWEEP,      /* ENCODER: the rotor's rest walks at home_speed; the capture is
                            * armed after enc_settle_s and runs until the buffer is full     */
 } hg_bu_state_t;
@@ -85,6 +88,7 @@ enum {
     HG_BU_CHK_GUIDED_MOVE,    /* deg mech, GE: movement seen along the named direction         */
     HG_BU_CHK_IDENT_RESID,    /* %, LE: rms fit residual / rms torque                          */
     HG_BU_CHK_IDENT_TRAVEL,   /* deg mech, LE: largest excursion during the excitation         */
+    HG_BU_CHK_IDENT_HOLD,     /* deg mech, LE: largest excursion of a held joint (IDENT)        */
     HG_BU_NCHECKS
 };
 
@@ -141,6 +145,12 @@ typedef struct {
     uint32_t enc_entries;    /* entries recorded (the axis alone: one per sample)            */
     float enc_speed;         /* rad/s the rest point walked at                                */
     uint32_t enc_cal[5];     /* CAL_CTRL, CAL_STAT, CAL_OFS, CAL_GAIN, CAL_PHASE as read       */
+    float id_q[3];           /* rad: joint angles at the identification's start (NaN: an axis
+                              * not homed), enc_dir and the reference pose as finalize gives */
+    float id_hold_max;       /* rad: largest excursion of a held joint during IDENT          */
+    float id_lag;            /* s: the torque's lag behind the code written (fitted)          */
+    float id_se[4];          /* standard errors of J, b, c, g (units as the values): the fit's
+                              * residual variance times the diagonal of (A^T A)^-1            */
     float duration_s[HG_BU_NSTEPS]; /* device time each step took, by HG_BU_STEP_*   */
     hg_bu_check_t chk[HG_BU_NCHECKS];
 } hg_bu_axis_t;
@@ -179,9 +189,15 @@ typedef struct {
     hg_real enc_damp_s;      /* s     the rest point moves by -enc_damp_s x the speed error (damping;
                               *       the speed low-passed over one line period)               */
     hg_real enc_sample_hz;   /* Hz    the FPGA's ADC sample rate (the paper's 1 MSPS)            */
+    hg_real id_hold_kp, id_hold_kd; /* N m/rad, N m s/rad: the stiff hold of the other joints  */
+    hg_real id_hold_tau;     /* N m   |hold torque| bound of the other joints (their TQ_LIMIT)  */
+    hg_real id_hold_travel;  /* rad   a held joint's excursion bound (else TRAVEL)              */
 } hg_bringup_cfg_t;
 
-#define HG_BU_ID_N 4 /* unknowns: inertia, viscous, Coulomb, constant (gravity residual) */
+/* unknowns: inertia, viscous, Coulomb, constant (gravity residual), and the torque's lag behind
+ * the code written (the amplifier's current loop, the DAC's timing: a nuisance parameter that
+ * would otherwise bias b by -lag * the hold's stiffness) */
+#define HG_BU_ID_N 5
 
 typedef struct {
     hg_servo_t *servo;       /* its cfg gives the motor scaling, rate and qd_max; handed back */
@@ -220,17 +236,27 @@ typedef struct {
     uint8_t seen;            /* GUIDED: axes whose move was seen                             */
     double id_ata[HG_BU_ID_N][HG_BU_ID_N], id_aty[HG_BU_ID_N], id_yty;
     double id_row[HG_BU_ID_N], id_y;      /* IDENT: the window being integrated            */
-    double id_x[3];                       /* IDENT: last three positions (rad)             */
+#define HG_BU_ID_H 3 /* IDENT: velocity by central differences over +-H ticks */
+    double id_x[2 * HG_BU_ID_H + 1];      /* IDENT: the last 2H + 1 positions, oldest first (rad) */
+    double id_tq[HG_BU_ID_H + 1];         /* IDENT: torques written, [0] the latest (N m)  */
     double id_v_start, id_x_start;        /* IDENT: v and x at the window start          */
-    double id_tau_now;                    /* IDENT: torque written this tick (N m)       */
     uint32_t id_win;                      /* IDENT: intervals since the first boundary   */
+    uint32_t id_rows;                     /* IDENT: windows kept in the fit                */
     double id_phase[6];                   /* IDENT: multisine phases (from the seed)     */
-    double id_tau_prev;                   /* IDENT: torque written the tick before       */
+    double id_tau_w;                      /* IDENT: torque of the interval before the window */
     double id_xmax;                       /* IDENT: largest |x| seen (rad)               */
     uint32_t id_seed;                     /* IDENT: hg_bringup_start's seed              */
     bool enc_armed;                       /* ENCODER: the capture was armed              */
     int32_t enc_prev;                     /* ENCODER: last tick's count                   */
     double enc_vf;                        /* ENCODER: low-passed speed, counts/s         */
+    int8_t id_sign[3];                    /* IDENT: each axis's scan sign s                */
+    uint32_t hold_mode[3], hold_offset[3];/* IDENT: the held axes' MODE and OFFSET        */
+    int32_t hold_torque[3];               /* IDENT: the held axes' torque codes           */
+    double id_set[3], id_goal[3];         /* IDENT: hold setpoints and the reference pose,
+                                           * counts from the step's start                 */
+    uint32_t id_t0;                       /* IDENT: tick the excitation started           */
+    uint8_t held_mask;                    /* axes held this step (bit i): IDENT the other two,
+                                           * ALIGN and HOME the other aligned ones          */
 } hg_bringup_t;
 
 void hg_bringup_default_cfg(hg_bringup_cfg_t *c);

@@ -62,6 +62,7 @@ enum {
 #define HG_BU_RESULT0_LEN 54u   /* page 0: ALIGN, HOME, GUIDED */
 #define HG_BU_RESULT1_LEN 52u   /* page 1: IDENT and the step durations */
 #define HG_BU_RESULT2_LEN HG_CALIB_LEN /* page 2: the calibration bring-up found (SET_CALIB's) */
+#define HG_BU_RESULT3_LEN 40u   /* page 3: IDENT's pose, held excursion, lag, standard errors */
 #define HG_BU_RESULT4_LEN 44u   /* page 4: ENCODER's capture and the CAL_* registers */
 #define HG_CAP_READ_MAX 30u     /* CAP_READ: entries per reply (u16 each, after 4 bytes) */
 #define HG_BU_CHECK_LEN 56u

@@ -40,6 +40,7 @@ static const struct {
     [HG_BU_CHK_GUIDED_MOVE] = { "guided_movement", "deg", true },
     [HG_BU_CHK_IDENT_RESID] = { "ident_residual", "%", false },
     [HG_BU_CHK_IDENT_TRAVEL] = { "ident_excursion", "deg", false },
+    [HG_BU_CHK_IDENT_HOLD] = { "ident_hold_excursion", "deg", false },
 };
 
 /* The multisine's lines (Hz): from below the viscous corner J/b (~0.6 Hz on the default plant)
@@ -67,15 +68,20 @@ void hg_bringup_default_cfg(hg_bringup_cfg_t *c)
     c->guided_min_move = HG_C(0.1);
     c->guided_timeout_s = HG_C(20.0);
     c->id_tau = HG_C(0.04);
-    c->id_duration_s = HG_C(8.0);
-    c->id_kp = HG_C(0.02);
-    c->id_kd = HG_C(0.002);
+    c->id_duration_s = HG_C(12.0);
+    c->id_kp = HG_C(0.1);
+    c->id_kd = HG_C(0.005);
     c->id_resid_max = HG_C(0.05);
     c->id_settle_s = HG_C(0.5);
     c->enc_lines = HG_C(8.0);
     c->enc_settle_s = HG_C(0.3);
     c->enc_damp_s = HG_C(0.03);
     c->enc_sample_hz = HG_C(1e6);
+    /* the other joints' hold: ~25 Hz, damping ratio ~0.7 on a 1e-4 kg m^2 joint (README.md) */
+    c->id_hold_kp = HG_C(2.5);
+    c->id_hold_kd = HG_C(0.022);
+    c->id_hold_tau = HG_C(0.1);
+    c->id_hold_travel = HG_C(0.2);
 }
 
 /* ---------------------------------------------------------------- small helpers */
@@ -105,9 +111,14 @@ static int32_t cdiff(int32_t x, int32_t y)
     return (int32_t)((uint32_t)x - (uint32_t)y);
 }
 
+static double counts_per_rad_ax(const hg_bringup_t *b, unsigned i)
+{
+    return (double)b->servo->cfg.enc[i].counts_per_rev / TWO_PI_D;
+}
+
 static double counts_per_rad(const hg_bringup_t *b)
 {
-    return (double)b->servo->cfg.enc[b->axis].counts_per_rev / TWO_PI_D;
+    return counts_per_rad_ax(b, b->axis);
 }
 
 static double rate(const hg_bringup_t *b)
@@ -127,12 +138,17 @@ static double code_per_nm(const hg_motor_t *m)
     return (double)HG_TORQUE_FS / ((double)m->kt * (double)m->amp_gain * (double)m->dac_fs);
 }
 
-static int32_t tau_code(const hg_bringup_t *b, double tau)
+static int32_t tau_code_ax(const hg_bringup_t *b, unsigned i, double tau)
 {
-    double x = tau * code_per_nm(&b->servo->cfg.motor[b->axis]);
+    double x = tau * code_per_nm(&b->servo->cfg.motor[i]);
     const double fs = (double)HG_TORQUE_FS;
     x = x > fs ? fs : (x < -fs ? -fs : x);
     return (int32_t)(x < 0.0 ? x - 0.5 : x + 0.5);
+}
+
+static int32_t tau_code(const hg_bringup_t *b, double tau)
+{
+    return tau_code_ax(b, b->axis, tau);
 }
 
 static void set_check(hg_bringup_t *b, unsigned axis, unsigned id, double value, double limit)
@@ -231,13 +247,21 @@ static void finish(hg_bringup_t *b)
 static void write_outputs(hg_bringup_t *b, uint32_t ctrl_extra)
 {
     const uint32_t a = b->axis;
-    for (uint32_t i = 0; i < HG_NAXES; i++)
-        if (i != a)
-            fpga_write32(AX(i, HG_AX_TORQUE), 0);
+    uint32_t en = b->drive ? HG_CTRL_GLOBAL_EN | HG_CTRL_AXIS_EN(a) : 0u;
+    for (uint32_t i = 0; i < HG_NAXES; i++) {
+        if (i == a)
+            continue;
+        const bool hold = b->drive && (b->held_mask & (1u << i));
+        if (hold) {
+            fpga_write32(AX(i, HG_AX_MODE), b->hold_mode[i]);
+            fpga_write32(AX(i, HG_AX_OFFSET), b->hold_offset[i] & 1023u);
+            en |= HG_CTRL_AXIS_EN(i);
+        }
+        fpga_write32(AX(i, HG_AX_TORQUE), hold ? (uint32_t)(uint16_t)(int16_t)b->hold_torque[i] : 0u);
+    }
     fpga_write32(AX(a, HG_AX_MODE), b->mode);
     fpga_write32(AX(a, HG_AX_OFFSET), b->offset & 1023u);
     fpga_write32(AX(a, HG_AX_TORQUE), b->drive ? (uint32_t)(uint16_t)(int16_t)b->torque : 0u);
-    const uint32_t en = b->drive ? HG_CTRL_GLOBAL_EN | HG_CTRL_AXIS_EN(a) : 0u;
     fpga_write32(HG_REG_CTRL, en | ctrl_extra);
     fpga_write32(HG_REG_WDOG, HG_WDOG_KEY);
 }
@@ -569,17 +593,29 @@ static void guided_tick(hg_bringup_t *b)
 }
 
 /* ---------------------------------------------------------------- IDENT */
-/* Model, in the count direction x (rad) with the applied torque tau (N m, nominal scale):
+/* The axis is identified with the other two held: on the linkage a free joint swings under
+ * the coupling (mass matrix, centrifugal terms) and its motion would enter the identified
+ * axis's torque balance. Held (a stiff PD on each one's start position, bounded in torque by
+ * its TQ_LIMIT and in travel by id_hold_travel), the identified axis sees the diagonal entry
+ * of the joint-space mass matrix at the pose. Every axis is driven in its own scan sign's
+ * direction x = s * counts (a positive code pushes toward increasing x).
+ * Model, in that direction x (rad) with the applied torque tau (N m, nominal scale):
  *     J x'' + b x' + c sgn(x') + g = tau
  * integrated over windows of W ticks so no acceleration is needed:
- *     J (v_b - v_a) + b (x_b - x_a) + c sum sgn(dx) dt + g T = sum tau dt
- * (v by central differences at the window edges, tau held over each tick as the FPGA holds
- * it). Each window is one row of a 4-unknown least-squares problem whose normal equations are
- * accumulated in place and solved by Cholesky after Jacobi scaling. The weak PD hold keeps the
- * axis near its start (its torque is part of tau, so it does not bias the fit). The torque is
- * the code actually written, converted back: rounding and clamping are inside the model. */
+ *     J (v_b - v_a) + b (x_b - x_a) + c sum sgn(dx) dt + g T + L (tau_b - tau_a) = sum tau dt
+ * (L: the torque's lag behind the codes, tau_b, tau_a the torques of the window's last interval
+ * and of the one before it)
+ * (v by central differences over +-H ticks at the window edges, tau held over each tick as the
+ * FPGA holds it). Each window is one row of a 5-unknown least-squares problem whose normal
+ * equations are accumulated in place and solved by Cholesky after Jacobi scaling. The axis's
+ * own PD hold keeps it near the reference pose (its torque is part of tau, so it does not bias
+ * the fit). The torque is the code actually written, converted back: rounding and clamping are
+ * inside the model. */
 
-#define ID_WIN 10u
+#define ID_WIN 20u
+#define ID_AMP 0.2 /* each line's amplitude / id_tau: the six rarely reach the clamp together */
+#define ID_H HG_BU_ID_H
+#define ID_NX (2u * ID_H + 1u)
 
 static uint32_t lcg(uint32_t *s)
 {
@@ -587,61 +623,208 @@ static uint32_t lcg(uint32_t *s)
     return *s;
 }
 
+/* The commutation of axis i for a positive code to push toward increasing s * counts. s = +1:
+ * the FPGA's SINE mode, the offset in its present frame (POS - POS_HOMED: 0 or the home).
+ * s = -1: the FPGA's field cannot turn against the count, so the firmware places it every tick
+ * (ALIGN mode, as the servo does for such an axis): field = offset_raw + s * u(count half a tick
+ * ahead), floored (the ROM evaluates code k at k + 1/2). */
+static void ident_commutate(const hg_bringup_t *b, unsigned i, uint32_t *mode, uint32_t *offset)
+{
+    const hg_bu_axis_t *r = &b->res[i];
+    if (r->scan_sign > 0) {
+        const int32_t frame = cdiff(b->pos[i], b->pos_homed[i]);
+        *mode = HG_MODE_TORQUE;
+        *offset = (uint32_t)(offset_in_frame(b, i, frame) + 0.5) & 1023u;
+    } else {
+        const int32_t ahead = b->vel[i] / (int32_t)(2u * b->servo->cfg.rate_hz);
+        const int32_t p = (int32_t)((uint32_t)b->pos[i] + (uint32_t)ahead);
+        *mode = HG_MODE_ALIGN;
+        *offset = (uint32_t)floor(wrap_codes((double)r->offset_raw - count_angle(b, p))) & 1023u;
+    }
+}
+
+/* The hold's error of axis i: its distance from its setpoint (rad, in the s * counts
+ * direction). */
+static double hold_error(const hg_bringup_t *b, unsigned i)
+{
+    return (double)b->id_sign[i] * ((double)cdiff(b->pos[i], b->p_start[i]) - b->id_set[i])
+         / counts_per_rad_ax(b, i);
+}
+
+/* The held axes' torques and commutation for this tick (in IDENT_MOVE every axis is held, the
+ * identified one within its own limit); the largest excursion of a held one while the axis is
+ * excited. */
+static void ident_hold(hg_bringup_t *b)
+{
+    const bool move = b->state == HG_BU_IDENT_MOVE;
+    for (unsigned i = 0; i < HG_NAXES; i++) {
+        if (i == b->axis ? !move : !(b->held_mask & (1u << i)))
+            continue;
+        const double lim = i == b->axis && b->cfg.id_tau < b->cfg.id_hold_tau
+                         ? (double)b->cfg.id_tau : (double)b->cfg.id_hold_tau;
+        const double x = hold_error(b, i);
+        const double v = (double)b->id_sign[i] * (double)b->vel[i] / counts_per_rad_ax(b, i);
+        double tau = -(double)b->cfg.id_hold_kp * x - (double)b->cfg.id_hold_kd * v;
+        tau = tau > lim ? lim : (tau < -lim ? -lim : tau);
+        const int32_t code = tau_code_ax(b, i, tau);
+        uint32_t mode, offset;
+        ident_commutate(b, i, &mode, &offset);
+        if (i == b->axis) {
+            b->torque = code;
+            b->mode = mode;
+            b->offset = offset;
+            continue;
+        }
+        b->hold_torque[i] = code;
+        b->hold_mode[i] = mode;
+        b->hold_offset[i] = offset;
+        const float ax = (float)fabs(x);
+        if (b->step == HG_BU_STEP_IDENT && !move && ax > b->res[b->axis].id_hold_max)
+            b->res[b->axis].id_hold_max = ax;
+    }
+}
+
+/* IDENT_MOVE: the setpoints walk to the reference pose at home_speed; the excitation starts
+ * when every joint is within 1/64 electrical cycle of it and at rest: the pose is then the same
+ * whatever the earlier steps left (the truth is the mass matrix at that pose). */
+static void ident_start_run(hg_bringup_t *b);
+
+static void ident_move_tick(hg_bringup_t *b)
+{
+    const double cpe = (double)HG_ENC_COUNTS_PER_REV / (double)b->cfg.pole_pairs;
+    bool there = true;
+    for (unsigned i = 0; i < HG_NAXES; i++) {
+        const double step = (double)b->cfg.home_speed * counts_per_rad_ax(b, i) / rate(b);
+        const double d = b->id_goal[i] - b->id_set[i];
+        b->id_set[i] = fabs(d) <= step ? b->id_goal[i] : b->id_set[i] + (d > 0.0 ? step : -step);
+        const double err = fabs((double)cdiff(b->pos[i], b->p_start[i]) - b->id_goal[i]);
+        const double speed = fabs((double)b->vel[i]) / counts_per_rad_ax(b, i);
+        there = there && b->id_set[i] == b->id_goal[i] && err < cpe / 64.0
+             && speed < 0.01 * (double)b->cfg.speed_max;
+    }
+    if (there)
+        ident_start_run(b);
+    else
+        ident_hold(b);
+}
+
+/* ALIGN and HOME hold every other axis that is aligned where it was at the step's start:
+ * free, the linkage's coupling would swing it (into an interpolator overspeed, once). */
+static void hold_enter(hg_bringup_t *b)
+{
+    b->held_mask = 0;
+    for (unsigned i = 0; i < HG_NAXES; i++) {
+        if (i == b->axis || !b->res[i].aligned)
+            continue;
+        b->held_mask |= (uint8_t)(1u << i);
+        b->id_sign[i] = b->res[i].scan_sign < 0 ? (int8_t)-1 : (int8_t)1;
+        b->id_set[i] = 0.0;
+        b->hold_torque[i] = 0;
+        fpga_write32(AX(i, HG_AX_TQ_LIMIT), (uint32_t)tau_code_ax(b, i, (double)b->cfg.id_hold_tau));
+    }
+}
+
 static void ident_enter(hg_bringup_t *b)
 {
-    b->mode = HG_MODE_TORQUE;
+    const unsigned a = b->axis;
+    hg_bu_axis_t *r = &b->res[a];
     b->drive = true;
     b->torque = 0;
-    const int32_t frame = cdiff(b->pos[b->axis], b->pos_homed[b->axis]); /* the FPGA's home */
-    b->offset = (uint32_t)(offset_in_frame(b, b->axis, frame) + 0.5) & 1023u;
+    r->id_hold_max = 0.0f;
+    b->held_mask = (uint8_t)(7u & ~(1u << a));
+    for (unsigned i = 0; i < HG_NAXES; i++) {
+        b->id_sign[i] = b->res[i].scan_sign < 0 ? (int8_t)-1 : (int8_t)1;
+        b->hold_torque[i] = 0;
+        b->id_set[i] = 0.0;
+        b->id_goal[i] = (double)cdiff(b->res[i].ref_count, b->p_start[i]);
+        const double lim = i == a ? (double)b->cfg.id_tau : (double)b->cfg.id_hold_tau;
+        fpga_write32(AX(i, HG_AX_TQ_LIMIT), (uint32_t)tau_code_ax(b, i, lim));
+    }
+    b->state = HG_BU_IDENT_MOVE;
+    ident_hold(b);
+}
+
+static void ident_start_run(hg_bringup_t *b)
+{
+    const unsigned a = b->axis;
+    hg_bu_axis_t *r = &b->res[a];
+    for (unsigned i = 0; i < HG_NAXES; i++) {
+        /* the pose, in the joint convention the calibration gives (homed axes only) */
+        const double dir = b->calib.axis[i].enc_dir == -1 ? -1.0 : 1.0;
+        r->id_q[i] = b->res[i].homed
+                   ? (float)(dir * (double)cdiff(b->pos[i], b->res[i].enc_offset)
+                             / counts_per_rad_ax(b, i))
+                   : (float)NAN;
+    }
+    b->id_t0 = b->ticks;
     for (unsigned i = 0; i < HG_BU_ID_N; i++) {
         b->id_aty[i] = b->id_row[i] = 0.0;
         for (unsigned j = 0; j < HG_BU_ID_N; j++)
             b->id_ata[i][j] = 0.0;
     }
     b->id_yty = b->id_y = 0.0;
-    b->id_x[0] = b->id_x[1] = b->id_x[2] = 0.0;
+    for (unsigned i = 0; i < ID_NX; i++)
+        b->id_x[i] = 0.0;
+    for (unsigned i = 0; i <= ID_H; i++)
+        b->id_tq[i] = 0.0;
     b->id_win = 0;
-    b->id_tau_prev = b->id_tau_now = b->id_v_start = b->id_x_start = 0.0;
+    b->id_rows = 0;
+    b->id_v_start = b->id_x_start = b->id_tau_w = 0.0;
     b->id_xmax = 0.0;
     uint32_t seed = b->id_seed;
     for (unsigned k = 0; k < 6; k++)
         b->id_phase[k] = (double)(lcg(&seed) >> 8) / 16777216.0 * TWO_PI_D;
     b->state = HG_BU_IDENT_RUN;
-    fpga_write32(AX(b->axis, HG_AX_TQ_LIMIT), (uint32_t)tau_code(b, (double)b->cfg.id_tau));
+    b->torque = 0;
+    ident_hold(b); /* the others: this tick's hold */
+    ident_commutate(b, a, &b->mode, &b->offset);
 }
 
 static void ident_accumulate(hg_bringup_t *b, double x_new)
 {
     const double dt = 1.0 / rate(b);
-    b->id_x[0] = b->id_x[1];
-    b->id_x[1] = b->id_x[2];
-    b->id_x[2] = x_new;
-    if (b->ticks < 3)
-        return; /* three positions needed for the first central difference */
-    /* the interval (k-2 -> k-1) is complete, and v at k-1 is known */
-    const double v_mid = (b->id_x[2] - b->id_x[0]) / (2.0 * dt);
-    const double dx = b->id_x[1] - b->id_x[0];
+    for (unsigned i = 0; i + 1 < ID_NX; i++)
+        b->id_x[i] = b->id_x[i + 1];
+    b->id_x[ID_NX - 1] = x_new;
+    if (b->ticks - b->id_t0 < ID_NX)
+        return; /* 2H + 1 positions needed for the first central difference */
+    /* At tick k the centre c = k - H has its velocity, and the interval (c-1 -> c) is complete:
+     * its torque is the one written at tick c - 1, id_tq[H]. (The wide difference keeps the
+     * encoder's interpolation error out of the velocities.) */
+    const double v_mid = (b->id_x[ID_NX - 1] - b->id_x[0]) / (2.0 * ID_H * dt);
+    const double x_c = b->id_x[ID_H];
+    const double dx = x_c - b->id_x[ID_H - 1];
+    const double tq = b->id_tq[ID_H];
     if (b->id_win == 0) { /* first boundary */
+        b->id_tau_w = tq;
         b->id_v_start = v_mid;
-        b->id_x_start = b->id_x[1];
+        b->id_x_start = x_c;
         b->id_win = 1;
         return;
     }
     b->id_row[2] += (dx > 0.0 ? 1.0 : (dx < 0.0 ? -1.0 : 0.0)) * dt;
     b->id_row[3] += dt;
-    b->id_y += b->id_tau_prev * dt; /* the torque held over that interval */
+    b->id_y += tq * dt; /* the torque held over that interval */
     if (b->id_win++ % ID_WIN == 0) {
         b->id_row[0] = v_mid - b->id_v_start;
-        b->id_row[1] = b->id_x[1] - b->id_x_start;
-        for (unsigned i = 0; i < HG_BU_ID_N; i++) {
-            for (unsigned j = 0; j < HG_BU_ID_N; j++)
-                b->id_ata[i][j] += b->id_row[i] * b->id_row[j];
-            b->id_aty[i] += b->id_row[i] * b->id_y;
+        b->id_row[1] = x_c - b->id_x_start;
+        /* the torque acting lags the code by L: its integral over the window is the codes'
+         * minus L * (the last interval's torque - the one before the window) */
+        b->id_row[4] = tq - b->id_tau_w;
+        b->id_tau_w = tq;
+        /* Only windows that moved one way throughout: at a reversal the joint may stick, and
+         * static friction is anything within +-c, not c sgn(dx) (the window is left out). */
+        if (fabs(b->id_row[2]) > b->id_row[3] - 0.5 * dt) {
+            for (unsigned i = 0; i < HG_BU_ID_N; i++) {
+                for (unsigned j = 0; j < HG_BU_ID_N; j++)
+                    b->id_ata[i][j] += b->id_row[i] * b->id_row[j];
+                b->id_aty[i] += b->id_row[i] * b->id_y;
+            }
+            b->id_yty += b->id_y * b->id_y;
+            b->id_rows++;
         }
-        b->id_yty += b->id_y * b->id_y;
         b->id_v_start = v_mid;
-        b->id_x_start = b->id_x[1];
+        b->id_x_start = x_c;
         for (unsigned i = 0; i < HG_BU_ID_N; i++)
             b->id_row[i] = 0.0;
         b->id_y = 0.0;
@@ -712,18 +895,35 @@ static void ident_fit(hg_bringup_t *b)
             rr += th[i] * b->id_ata[i][j] * th[j];
     }
     const double resid = ok && b->id_yty > 0.0 ? sqrt((rr > 0.0 ? rr : 0.0) / b->id_yty) : 1.0;
-    const int8_t dir = b->calib.axis[b->axis].enc_dir ? b->calib.axis[b->axis].enc_dir
-                                                      : b->servo->cfg.enc[b->axis].dir;
+    const int8_t dir = (int8_t)(b->id_sign[b->axis]
+                                * (b->calib.axis[b->axis].enc_dir ? b->calib.axis[b->axis].enc_dir
+                                                                  : b->servo->cfg.enc[b->axis].dir));
     r->inertia = (float)(ok ? th[0] : 0.0);
     r->b_visc = (float)(ok ? th[1] : 0.0);
     r->tau_coulomb = (float)(ok ? th[2] : 0.0);
     r->tau_gravity = (float)(ok ? th[3] * (double)dir : 0.0);
     r->kt_amp = (float)((double)m->kt * (double)m->amp_gain);
     r->ident_resid = (float)resid;
+    r->id_lag = (float)(ok ? th[4] : 0.0);
+    /* standard errors: s^2 = rr / (rows - N), times the diagonal of (A^T A)^-1 (column i of
+     * the inverse solves A z = e_i) */
+    const double s2 = b->id_rows > HG_BU_ID_N ? (rr > 0.0 ? rr : 0.0)
+                                                   / (double)(b->id_rows - HG_BU_ID_N) : 0.0;
+    for (unsigned k = 0; k < 4; k++) {
+        double e[HG_BU_ID_N], z[HG_BU_ID_N];
+        for (unsigned i = 0; i < HG_BU_ID_N; i++) {
+            e[i] = i == k ? 1.0 : 0.0;
+            for (unsigned j = 0; j < HG_BU_ID_N; j++)
+                a[i][j] = b->id_ata[i][j];
+        }
+        r->id_se[k] = (float)(ok && solve_spd(a, e, z) && z[k] > 0.0 ? sqrt(s2 * z[k]) : 0.0);
+    }
     set_check(b, b->axis, HG_BU_CHK_IDENT_RESID, resid * 100.0,
               (double)b->cfg.id_resid_max * 100.0);
     set_check(b, b->axis, HG_BU_CHK_IDENT_TRAVEL, b->id_xmax * 360.0 / TWO_PI_D,
               (double)b->cfg.travel_max * 360.0 / TWO_PI_D);
+    set_check(b, b->axis, HG_BU_CHK_IDENT_HOLD, (double)r->id_hold_max * 360.0 / TWO_PI_D,
+              (double)b->cfg.id_hold_travel * 360.0 / TWO_PI_D);
     if (!ok || !(th[0] > 0.0) || !r->chk[HG_BU_CHK_IDENT_RESID].pass)
         fail(b, HG_BU_ERR_FIT, resid * 100.0, (double)b->cfg.id_resid_max * 100.0);
     else
@@ -732,20 +932,24 @@ static void ident_fit(hg_bringup_t *b)
 
 static void ident_tick(hg_bringup_t *b)
 {
-    const double t = (double)b->ticks / rate(b);
-    const double x = (double)cdiff(b->pos[b->axis], b->p_start[b->axis])
-                   / counts_per_rad(b);
-    const double v = (x - b->id_x[2]) * rate(b);
+    if (b->state == HG_BU_IDENT_MOVE) {
+        ident_move_tick(b);
+        return;
+    }
+    const uint32_t n = b->ticks - b->id_t0; /* ticks into the excitation */
+    const double t = (double)n / rate(b);
+    const double x = hold_error(b, b->axis); /* from the reference pose */
+    const double v = (x - b->id_x[ID_NX - 1]) * rate(b);
     b->id_xmax = fabs(x) > b->id_xmax ? fabs(x) : b->id_xmax;
     if (b->state == HG_BU_IDENT_RUN) {
         ident_accumulate(b, x);
     } else {
-        b->id_x[0] = b->id_x[1];
-        b->id_x[1] = b->id_x[2];
-        b->id_x[2] = x;
+        for (unsigned i = 0; i + 1 < ID_NX; i++)
+            b->id_x[i] = b->id_x[i + 1];
+        b->id_x[ID_NX - 1] = x;
     }
     const double dur = (double)b->cfg.id_duration_s;
-    double tau = -(double)b->cfg.id_kp * x - (double)b->cfg.id_kd * (b->ticks > 1 ? v : 0.0);
+    double tau = -(double)b->cfg.id_kp * x - (double)b->cfg.id_kd * (n > 1 ? v : 0.0);
     if (b->state == HG_BU_IDENT_RUN) {
         /* raised-cosine fade in and out over 0.5 s: no step in torque */
         const double fade_t = t < 0.5 ? t : (dur - t < 0.5 ? dur - t : 0.5);
@@ -753,7 +957,7 @@ static void ident_tick(hg_bringup_t *b)
         double ex = 0.0;
         for (unsigned k = 0; k < 6; k++)
             ex += sin(TWO_PI_D * ID_FREQ[k] * t + b->id_phase[k]);
-        tau += fade * 0.15 * (double)b->cfg.id_tau * ex;
+        tau += fade * ID_AMP * (double)b->cfg.id_tau * ex;
         if (t >= dur)
             b->state = HG_BU_IDENT_SETTLE;
     } else if (t >= dur + (double)b->cfg.id_settle_s) {
@@ -764,9 +968,12 @@ static void ident_tick(hg_bringup_t *b)
     const double lim = (double)b->cfg.id_tau;
     tau = tau > lim ? lim : (tau < -lim ? -lim : tau);
     b->torque = tau_code(b, tau);
-    /* the torques of the last two ticks, as written (held over k-2 -> k-1 and k-1 -> k) */
-    b->id_tau_prev = b->id_tau_now;
-    b->id_tau_now = (double)b->torque / code_per_nm(&b->servo->cfg.motor[b->axis]);
+    ident_commutate(b, b->axis, &b->mode, &b->offset);
+    ident_hold(b);
+    /* the torques written, latest first (each held over the interval after its tick) */
+    for (unsigned i = ID_H; i > 0; i--)
+        b->id_tq[i] = b->id_tq[i - 1];
+    b->id_tq[0] = (double)b->torque / code_per_nm(&b->servo->cfg.motor[b->axis]);
 }
 
 /* ---------------------------------------------------------------- ENCODER */
@@ -918,6 +1125,21 @@ static bool within_bounds(hg_bringup_t *b)
         fail(b, HG_BU_ERR_TRAVEL, travel, (double)b->cfg.travel_max);
         return false;
     }
+    if (b->held_mask && b->ticks > 0) /* held joints: speed, hold error */
+        for (unsigned i = 0; i < HG_NAXES; i++) {
+            if (!(b->held_mask & (1u << i)))
+                continue;
+            const double sp = fabs((double)b->vel[i]) / counts_per_rad_ax(b, i);
+            const double tr = fabs(hold_error(b, i)); /* from its setpoint */
+            if (sp > (double)b->cfg.speed_max) {
+                fail(b, HG_BU_ERR_SPEED, sp, (double)b->cfg.speed_max);
+                return false;
+            }
+            if (tr > (double)b->cfg.id_hold_travel) {
+                fail(b, HG_BU_ERR_TRAVEL, tr, (double)b->cfg.id_hold_travel);
+                return false;
+            }
+        }
     return true;
 }
 
@@ -942,6 +1164,9 @@ void hg_bringup_step(hg_bringup_t *b)
         default: b->drive = false; b->mode = HG_MODE_OFF; b->state = HG_BU_GUIDED_WAIT; break;
         }
     }
+    const bool hold_others = b->step == HG_BU_STEP_ALIGN || b->step == HG_BU_STEP_HOME;
+    if (b->ticks == 0 && hold_others)
+        hold_enter(b);
     b->ticks++;
     switch (b->step) {
     case HG_BU_STEP_ALIGN: align_tick(b); break;
@@ -950,6 +1175,8 @@ void hg_bringup_step(hg_bringup_t *b)
     case HG_BU_STEP_ENCODER: encoder_tick(b); break;
     default: guided_tick(b); break;
     }
+    if (hold_others && b->state != HG_BU_IDLE)
+        ident_hold(b);
     if (b->state != HG_BU_IDLE)
         write_outputs(b, ctrl_extra);
 }
@@ -1126,20 +1353,24 @@ int hg_bringup_start(hg_bringup_t *b, uint8_t step, uint8_t axis, const int8_t e
         break;
     }
     default: /* IDENT */
-        if (!b->res[axis].aligned)
-            return HG_BU_ERR_NOT_READY;
-        if (b->res[axis].scan_sign != 1) {
-            /* the commutator's angle runs against the rotor: no FPGA offset can drive it */
-            b->err_value = (float)b->res[axis].scan_sign;
-            b->err_limit = 1.0f;
-            return HG_BU_ERR_NOT_READY;
-        }
-        if (!(c->id_tau > HG_C(0.0) && c->id_duration_s > HG_C(1.0)))
+        /* every axis is driven: the identified one, and the others held */
+        for (unsigned i = 0; i < HG_NAXES; i++)
+            if (!b->res[i].aligned) {
+                b->err_value = (float)i; /* the first axis not aligned */
+                b->err_limit = 0.0f;
+                return HG_BU_ERR_NOT_READY;
+            }
+        if (!(c->id_tau > HG_C(0.0) && c->id_duration_s > HG_C(1.0) && c->id_hold_tau > HG_C(0.0)
+              && c->id_hold_kp >= HG_C(0.0) && c->id_hold_kd >= HG_C(0.0)
+              && c->id_hold_travel > HG_C(0.0) && c->id_hold_travel <= c->travel_max))
             return HG_BU_ERR_ARG;
-        limit_s = (uint32_t)((double)c->id_duration_s + (double)c->id_settle_s) + 2u;
+        /* the walk back to the reference pose (at most travel_max), the excitation, the hold */
+        limit_s = (uint32_t)((double)c->travel_max / (double)c->home_speed + 2.0
+                             + (double)c->id_duration_s + (double)c->id_settle_s) + 2u;
         b->id_seed = seed;
         b->res[axis].chk[HG_BU_CHK_IDENT_RESID].done = 0;
         b->res[axis].chk[HG_BU_CHK_IDENT_TRAVEL].done = 0;
+        b->res[axis].chk[HG_BU_CHK_IDENT_HOLD].done = 0;
         break;
     }
     const uint32_t t = hg_hal_irq_save();
@@ -1148,6 +1379,7 @@ int hg_bringup_start(hg_bringup_t *b, uint8_t step, uint8_t axis, const int8_t e
     b->err = HG_BU_OK;
     b->err_value = b->err_limit = 0.0f;
     b->ticks = 0;
+    b->held_mask = 0;
     b->tick_limit = limit_s * b->servo->cfg.rate_hz;
     b->have_prev = false;
     b->drive = false;
@@ -1157,7 +1389,7 @@ int hg_bringup_start(hg_bringup_t *b, uint8_t step, uint8_t axis, const int8_t e
     b->state = step == HG_BU_STEP_ALIGN ? HG_BU_ALIGN_LOCK
              : step == HG_BU_STEP_HOME ? HG_BU_HOME_SEARCH
              : step == HG_BU_STEP_GUIDED ? HG_BU_GUIDED_WAIT
-             : step == HG_BU_STEP_ENCODER ? HG_BU_ENC_SWEEP : HG_BU_IDENT_RUN;
+             : step == HG_BU_STEP_ENCODER ? HG_BU_ENC_SWEEP : HG_BU_IDENT_MOVE;
     hg_hal_irq_restore(t);
     return HG_BU_OK;
 }

@@ -318,14 +318,14 @@ static int h_bu_progress(hg_link_t *l, const uint8_t *req, uint8_t *out, size_t 
 static void put_calib(uint8_t *d, uint8_t axis, const hg_axis_calib_t *c);
 
 /* u8 axis, u8 page -> page 0 (ALIGN, HOME, GUIDED), 1 (IDENT, durations), 2 (calibration),
- * 4 (ENCODER). */
+ * 3 (IDENT's pose and hold), 4 (ENCODER). */
 static int h_bu_result(hg_link_t *l, const uint8_t *req, uint8_t *out, size_t *n)
 {
     const hg_bringup_t *b = l->bu;
     const uint8_t a = req[0];
     if (!b)
         return HG_NAK_BRINGUP;
-    if (a >= 3u || req[1] > 4u || req[1] == 3u) /* page 3: reserved for IDENT */
+    if (a >= 3u || req[1] > 4u)
         return HG_NAK_RANGE;
     const hg_bu_axis_t *r = &b->res[a];
     const uint32_t t = hg_hal_irq_save();
@@ -342,6 +342,15 @@ static int h_bu_result(hg_link_t *l, const uint8_t *req, uint8_t *out, size_t *n
         for (int i = 0; i < 5; i++)
             hg_put_u32(out + 24 + 4 * i, r->enc_cal[i]);
         *n = HG_BU_RESULT4_LEN;
+    } else if (req[1] == 3u) {
+        const float v[9] = { r->id_q[0], r->id_q[1], r->id_q[2], r->id_hold_max, r->id_lag,
+                             r->id_se[0], r->id_se[1], r->id_se[2], r->id_se[3] };
+        out[0] = a;
+        out[1] = 3;
+        out[2] = out[3] = 0;
+        for (int i = 0; i < 9; i++)
+            hg_put_f32(out + 4 + 4 * i, v[i]);
+        *n = HG_BU_RESULT3_LEN;
     } else if (req[1] == 2u) {
         put_calib(out, a, &b->calib.axis[a]);
         *n = HG_BU_RESULT2_LEN;

@@ -108,7 +108,7 @@ static size_t make_chunk(uint8_t *out, int *want)
     }
     if (type == 15 || type == 16) { /* BU_RESULT / BU_CHECK: axis, page or check in range */
         raw[3] = (uint8_t)(rnd() % 4);
-        raw[4] = (uint8_t)(rnd() % (type == 15 ? 4 : 11));
+        raw[4] = (uint8_t)(rnd() % (type == 15 ? 5 : 12));
     }
     if (type == 18) { /* CAP_READ: a range inside a small buffer often */
         raw[3] = (uint8_t)(rnd() % 40);

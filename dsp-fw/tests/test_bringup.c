@@ -349,8 +349,9 @@ void test_bringup_align_swapped(void)
     CHECK(torque_ratio(1, B.calib.axis[1].comm_offset) >= 0.999);
     SIM.corrected = 0; /* without the correction no offset works */
     CHECK(torque_ratio(1, B.calib.axis[1].comm_offset) < 0.0);
-    /* IDENT needs a commutation the FPGA can do as it is */
+    /* IDENT drives every axis: refused until all three are aligned, naming the first that is not */
     CHECK(start(HG_BU_STEP_IDENT, 1) == HG_BU_ERR_NOT_READY);
+    CHECK(B.err_value == 0.0f);
 }
 
 void test_bringup_align_pole_pairs(void)
@@ -700,19 +701,35 @@ void test_bringup_guided_timeout(void)
 
 /* ---------------------------------------------------------------- IDENT */
 
-static void ident_case(uint32_t seed, double J, double b, double c, double g)
+/* Align and home all three axes (IDENT drives them all). */
+static void align_and_home_all(void)
+{
+    for (unsigned i = 0; i < 3; i++) {
+        align_and_home(i);
+        CHECK(B.err == HG_BU_OK);
+    }
+}
+
+static void ident_case(uint32_t seed, double J, double b, double c, double g, int swapped)
 {
     setup_sim();
     sim_ax_t *a = &SIM.ax[1];
+    a->off_deg = swapped ? -61.0 : 45.0; /* (the swapped offset of test_bringup_align_swapped) */
+    a->swapped = swapped; /* s = -1: the firmware places the field every tick (ALIGN mode) */
+    setup_fw(NULL, NULL);
+    /* the held axes first: unheld, axis 1's constant load would run it off meanwhile */
+    align_and_home(0);
+    CHECK(B.err == HG_BU_OK);
+    align_and_home(2);
+    CHECK(B.err == HG_BU_OK);
     a->J = J;
     a->b = b;
     a->c = c;
     a->g = g;
-    a->off_deg = 45.0;
     SIM.noise = seed;
-    setup_fw(NULL, NULL);
     align_and_home(1);
     CHECK(B.err == HG_BU_OK);
+    CHECK(B.res[1].scan_sign == (swapped ? -1 : 1));
     CHECK(hg_bringup_start(&B, HG_BU_STEP_IDENT, 1, NULL, seed) == HG_BU_OK);
     run_step();
     CHECK(B.err == HG_BU_OK);
@@ -722,6 +739,10 @@ static void ident_case(uint32_t seed, double J, double b, double c, double g)
     CHECK_NEAR(r->tau_coulomb, c, 0.05 * c);
     CHECK_NEAR(r->tau_gravity, g, 0.05 * fabs(g));
     CHECK_NEAR(r->kt_amp, a->kt * a->amp, 1e-6);
+    /* the fit's standard errors: resolved, and J's well inside its 5 % */
+    for (unsigned k = 0; k < 4; k++)
+        CHECK(r->id_se[k] > 0.0f && isfinite(r->id_se[k]));
+    CHECK((double)r->id_se[0] < 0.01 * J);
     const hg_bu_check_info_t x = hg_bringup_check(&B, 1, HG_BU_CHK_IDENT_TRAVEL);
     CHECK(x.done && x.pass);
     CHECK(r->chk[HG_BU_CHK_IDENT_RESID].pass);
@@ -730,19 +751,105 @@ static void ident_case(uint32_t seed, double J, double b, double c, double g)
 
 void test_bringup_ident(void)
 {
-    ident_case(1, 5e-5, 2e-4, 2e-3, 5e-3);
-    ident_case(7, 3e-5, 4e-4, 1e-3, -3e-3);
+    ident_case(1, 5e-5, 2e-4, 2e-3, 5e-3, 0);
+    ident_case(7, 3e-5, 4e-4, 1e-3, -3e-3, 0);
+    ident_case(3, 5e-5, 2e-4, 2e-3, 5e-3, 1);
 
     /* a fault in the middle of the excitation: zero torque on that tick */
     setup_sim();
     setup_fw(NULL, NULL);
-    align_and_home(0);
+    align_and_home_all();
     CHECK(hg_bringup_start(&B, HG_BU_STEP_IDENT, 0, NULL, 3) == HG_BU_OK);
     run_ticks(3000);
     CHECK(B.state == HG_BU_IDENT_RUN && hal_sim_torque(0) != 0);
     SIM.ax[0].fault = 1;
     sim_tick();
     CHECK(B.err == HG_BU_ERR_FAULT);
+    check_zero_torque_now();
+}
+
+/* The other joints' hold during IDENT: a constant load on axes 0 and 2 (the linkage's coupling
+ * stands in for it) is resisted by a PD torque toward each one's start, within id_hold_tau, so
+ * each stays within load / id_hold_kp of where it was; a load beyond what the hold may give
+ * drives the joint past id_hold_travel: TRAVEL and zero torque on every axis. */
+void test_bringup_ident_hold(void)
+{
+    hg_bringup_cfg_t bc;
+    hg_bringup_default_cfg(&bc);
+    const double load = 0.4 * (double)bc.id_hold_tau;
+    setup_sim();
+    SIM.ax[2].swapped = 1; /* a held axis with s = -1 as well */
+    setup_fw(NULL, NULL);
+    align_and_home_all();
+    SIM.ax[0].g = load;
+    SIM.ax[2].g = -load;
+    SIM.ax[1].q += 0.3; /* the earlier steps left the joints away from the reference pose */
+    SIM.ax[2].q -= 0.2;
+    CHECK(hg_bringup_start(&B, HG_BU_STEP_IDENT, 1, NULL, 5) == HG_BU_OK);
+    /* the hold keeps each joint at the reference pose, where IDENT_MOVE put it */
+    double dev_max[3] = { 0.0, 0.0, 0.0 };
+    int opposed = 1;
+    uint32_t run_ticks_seen = 0;
+    const double code_lim = (double)bc.id_hold_tau * 32767.0 / (0.06 * 0.8 * 10.0);
+    while (hg_bringup_active(&B)) {
+        sim_tick();
+        const bool excited = B.state == HG_BU_IDENT_RUN || B.state == HG_BU_IDENT_SETTLE;
+        run_ticks_seen += excited ? 1u : 0u;
+        for (unsigned i = 0; i < 3; i += 2) {
+            const double tq = (double)(int16_t)hal_sim_torque(i);
+            CHECK(fabs(tq) <= code_lim + 1.0);
+            if (!excited)
+                continue;
+            dev_max[i] = fmax(dev_max[i], fabs(SIM.ax[i].q - SIM.ax[i].q_pu));
+            if (run_ticks_seen > 500 && SIM.ax[i].tau * SIM.ax[i].g <= 0.0)
+                opposed = 0; /* the motor pushes against the load once it has settled */
+        }
+    }
+    CHECK(run_ticks_seen >= (uint32_t)(bc.id_duration_s * 1000.0f));
+    /* the excitation started in the reference pose (within 1/64 electrical cycle) */
+    for (unsigned i = 0; i < 3; i++)
+        CHECK_NEAR(B.res[1].id_q[i], SIM.ax[i].q_pu, PI_D / 64.0);
+    CHECK(B.err == HG_BU_OK);
+    CHECK(opposed);
+    for (unsigned i = 0; i < 3; i += 2) {
+        CHECK(dev_max[i] <= 1.3 * load / (double)bc.id_hold_kp); /* PD overshoot < 30 % */
+        CHECK(dev_max[i] >= 0.9 * load / (double)bc.id_hold_kp);
+    }
+    const hg_bu_check_info_t h = hg_bringup_check(&B, 1, HG_BU_CHK_IDENT_HOLD);
+    CHECK(h.done && h.pass);
+    CHECK_NEAR(h.value, fmax(dev_max[0], dev_max[2]) * 180.0 / PI_D, 0.002);
+    check_zero_torque_now();
+
+    /* more than the hold may give: the joint leaves, the step ends at the travel bound */
+    setup_sim();
+    setup_fw(NULL, NULL);
+    align_and_home_all();
+    SIM.ax[0].g = 1.05 * (double)bc.id_hold_tau; /* slow enough not to trip the speed first */
+    CHECK(hg_bringup_start(&B, HG_BU_STEP_IDENT, 1, NULL, 5) == HG_BU_OK);
+    run_step();
+    CHECK(B.err == HG_BU_ERR_TRAVEL);
+    CHECK_NEAR(B.err_limit, bc.id_hold_travel, 1e-6);
+    CHECK(B.err_value > bc.id_hold_travel);
+    check_zero_torque_now();
+    /* ALIGN holds the axes aligned before it (axis 0, loaded, stays within load / kp of where
+     * the step found it) and leaves the others free (axis 2: no torque) */
+    setup_sim();
+    setup_fw(NULL, NULL);
+    align_and_home(0);
+    CHECK(B.err == HG_BU_OK);
+    SIM.ax[0].g = load;
+    const double q0s = SIM.ax[0].q;
+    CHECK(start(HG_BU_STEP_ALIGN, 1) == HG_BU_OK);
+    double d0 = 0.0;
+    int driven0 = 0, driven2 = 0;
+    while (hg_bringup_active(&B)) {
+        sim_tick();
+        d0 = fmax(d0, fabs(SIM.ax[0].q - q0s));
+        driven0 |= hal_sim_torque(0) != 0;
+        driven2 |= hal_sim_torque(2) != 0;
+    }
+    CHECK(B.err == HG_BU_OK && driven0 && !driven2);
+    CHECK(d0 <= 1.3 * load / (double)bc.id_hold_kp);
     check_zero_torque_now();
 }
 
@@ -868,6 +975,12 @@ void test_bringup_link_align(void)
     CHECK(n == HG_CALIB_LEN);
     CHECK(raw[3] == 1 && raw[4] == B.calib.axis[1].flags && raw[6] == 1);
     CHECK(hg_get_u16(raw + 12) == B.calib.axis[1].comm_offset);
+    /* page 3: IDENT's pose (not identified yet: zero) and hold */
+    d[1] = 3;
+    CHECK(link_req(HG_MSG_BU_RESULT, d, 2, raw, &n) == (HG_MSG_BU_RESULT | HG_MSG_REPLY));
+    CHECK(n == HG_BU_RESULT3_LEN);
+    CHECK(raw[3] == 1 && raw[4] == 3);
+    CHECK(f32_at(raw + 7) == r->id_q[0] && f32_at(raw + 19) == r->id_hold_max);
     d[1] = 5;
     CHECK(link_req(HG_MSG_BU_RESULT, d, 2, raw, &n) == HG_MSG_NAK && raw[4] == HG_NAK_RANGE);
     /* a check, self-describing */
@@ -895,10 +1008,11 @@ void test_bringup_link_align(void)
     CHECK(f32_at(raw + 4) == 0.0f && f32_at(raw + 8) == 0.0f);
     CHECK(link_start(HG_BU_STEP_ENCODER + 1, 0, 0, 0, 0, raw) == HG_BU_ERR_ARG);
     CHECK(link_start(HG_BU_STEP_IDENT, 1, 0, 0, 0, raw) == HG_BU_ERR_NOT_READY);
-    CHECK(f32_at(raw + 4) == -1.0f && f32_at(raw + 8) == 1.0f); /* scan sign, needed */
+    CHECK(f32_at(raw + 4) == 0.0f && f32_at(raw + 8) == 0.0f); /* axis 0 is not aligned */
     /* the same refusal again: its figures again (not those of the last step) */
+    B.err_value = 7.0f;
     CHECK(link_start(HG_BU_STEP_IDENT, 1, 0, 0, 0, raw) == HG_BU_ERR_NOT_READY);
-    CHECK(f32_at(raw + 4) == -1.0f && f32_at(raw + 8) == 1.0f);
+    CHECK(f32_at(raw + 4) == 0.0f && f32_at(raw + 8) == 0.0f);
     B.cfg.travel_max = 1.0f;
     CHECK(link_start(HG_BU_STEP_ALIGN, 0, 0, 0, 0, raw) == HG_BU_ERR_CONFIG);
     CHECK_NEAR(f32_at(raw + 4), 2.5 / 2.0 * 2.0 * PI_D, 1e-4);
@@ -1052,9 +1166,9 @@ void test_bringup_encoder(void)
         CHECK(r->enc_cal[i] == cal[i]);
     CHECK(fabs(SIM.ax[0].q - q_back) < 2.0 * PI_D / 2.0 / 64.0); /* back within 1/64 cycle */
     check_zero_torque_now();
-    /* page 4 (page 3 is not this step's) */
-    const uint8_t d3[2] = { 0, 3 };
-    CHECK(link_req(HG_MSG_BU_RESULT, d3, 2, raw, &n) == HG_MSG_NAK && raw[4] == HG_NAK_RANGE);
+    /* page 4 (page 3 is IDENT's); page 5 does not exist */
+    const uint8_t d5[2] = { 0, 5 };
+    CHECK(link_req(HG_MSG_BU_RESULT, d5, 2, raw, &n) == HG_MSG_NAK && raw[4] == HG_NAK_RANGE);
     const uint8_t d[2] = { 0, 4 };
     CHECK(link_req(HG_MSG_BU_RESULT, d, 2, raw, &n) == (HG_MSG_BU_RESULT | HG_MSG_REPLY));
     CHECK(n == HG_BU_RESULT4_LEN && raw[3] == 0 && raw[4] == 4 && raw[5] == 1);

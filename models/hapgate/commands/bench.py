@@ -27,7 +27,15 @@ from ..base import toolenv
 from ..base.paths import ROOT
 from ..base.report import table, write_csv
 from ..runners import cosim
-from . import bench_calib, bench_commutation, bench_host, bench_interp, bench_velobs, bench_view
+from . import (
+    bench_bringup,
+    bench_calib,
+    bench_commutation,
+    bench_host,
+    bench_interp,
+    bench_velobs,
+    bench_view,
+)
 
 FIGURES = ROOT / "docs" / "figures.md"
 MARK = "<!-- bench section: {} -->"
@@ -70,6 +78,7 @@ SECTIONS: dict[str, tuple[str, Callable[[bool], bool]]] = {
     "device": ("Virtual device", _device),
     "host": ("Host API over the PC link", bench_host.run),
     "host-c": ("The C servo loop beside the Python loop", bench_host.run_c),
+    "bringup": ("Bring-up: device time and accuracy per step", bench_bringup.run),
     "fw": ("DSP firmware: servo step cost", _fw),
     "view": ("The live view: real-time factor with and without a viewer", bench_view.run),
 }

@@ -51,6 +51,7 @@ def library() -> C.CDLL:
     lib.hg_plant_mech_read.argtypes = [C.c_void_p, C.c_int, C.POINTER(Out)]
     lib.hg_plant_encode.argtypes = [C.c_void_p, C.c_int, d3, C.c_int, C.POINTER(C.c_int8),
                                     C.POINTER(C.c_int8)]
+    lib.hg_plant_jac.argtypes = [C.c_void_p, d3, d3]
     return lib
 
 
@@ -91,6 +92,13 @@ class Plant:
         qa = (C.c_double * 3)(*np.asarray(q, float))
         qda = (C.c_double * 3)(*(np.zeros(3) if qd is None else np.asarray(qd, float)))
         self.lib.hg_plant_set_q(self.h, qa, qda)
+
+    def jacobian(self, q: np.ndarray) -> np.ndarray:
+        """The plant's own Jacobian dp/dq at q (3x3)."""
+        qa = (C.c_double * 3)(*np.asarray(q, float))
+        out = (C.c_double * 9)()
+        self.lib.hg_plant_jac(self.h, qa, out)
+        return np.array(out).reshape(3, 3)
 
     def read(self) -> dict[str, np.ndarray | float]:
         o = Out()

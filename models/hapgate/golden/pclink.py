@@ -30,7 +30,7 @@ NAK_REASONS = {NAK_RANGE: "value out of range", NAK_ERROR_LATCHED: "an error is 
 # bring-up (dsp-fw/include/hg_bringup.h): steps, states, errors, the message layouts
 BU_STEPS = {"align": 1, "homing": 2, "restart": 3, "guided": 4, "dynamics": 5, "encoder": 6}
 BU_STATES = ("IDLE", "ALIGN_LOCK", "ALIGN_FWD", "ALIGN_BACK", "HOME_SEARCH", "RETURN",
-             "GUIDED_WAIT", "IDENT_RUN", "IDENT_SETTLE", "ENC_SWEEP")
+             "GUIDED_WAIT", "IDENT_RUN", "IDENT_SETTLE", "IDENT_MOVE", "ENC_SWEEP")
 BU_ERRORS = ("OK", "ARG", "BUSY", "NOT_READY", "SERVO", "FAULT", "WDOG", "STALE", "SPEED",
              "TRAVEL", "TIME", "ABORT", "LINK", "NO_MOVE", "POLE_PAIRS", "FIT", "NO_INDEX",
              "GUIDED_TIMEOUT", "CONFIG", "CAPTURE")
@@ -39,6 +39,7 @@ BU_START_ACK_FMT = "<Bff"     # result, value, limit
 BU_PROGRESS_FMT = "<BBBBIIffIH"   # state, step, axis, err, ticks, tick_limit, value, limit, SEQ, Hz
 BU_RESULT0_FMT = "<BBBbbB6f3i3f"  # axis, page, flags, scan_sign, dir_base, 0, ... (README table)
 BU_RESULT1_FMT = "<BBBB12f"       # axis, page, 0, 0, J, b, c, g, kt_amp, resid, durations[6]
+BU_RESULT3_FMT = "<BBBB9f"        # axis, page, 0, 0, IDENT pose q[3], held excursion, lag, se[4]
 BU_RESULT4_FMT = "<BBBBfIIff5I"   # axis, page, captured, 0, duration s, decim, entries, speed
 #                                  rad/s, sample Hz, CAL_CTRL, _STAT, _OFS, _GAIN, _PHASE
 BU_CHECK_FMT = "<BBBBff32s12s"    # axis, check, count, flags, value, limit, name, unit

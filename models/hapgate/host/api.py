@@ -406,11 +406,12 @@ class Device:
     def bu_result(self, axis: int, page: int) -> tuple[Any, ...]:
         """One page of an axis's results (dsp-fw/README.md, BU_RESULT): page 0 and 1 as the
         struct tuples of pclink.BU_RESULT0_FMT / BU_RESULT1_FMT, page 2 the calibration bring-up
-        found (hapgate.golden.calib.AxisCalib), page 4 the ENCODER step's capture and CAL_*
-        registers as the struct tuple of pclink.BU_RESULT4_FMT."""
+        found (hapgate.golden.calib.AxisCalib), page 3 IDENT's pose, hold and standard errors as
+        pclink.BU_RESULT3_FMT, page 4 the ENCODER step's capture and CAL_* registers as
+        pclink.BU_RESULT4_FMT."""
         d = self._request(pclink.BU_RESULT, bytes([axis, page]))
         fmt = {0: pclink.BU_RESULT0_FMT, 1: pclink.BU_RESULT1_FMT, 2: pclink.CALIB_FMT,
-               4: pclink.BU_RESULT4_FMT}[page]
+               3: pclink.BU_RESULT3_FMT, 4: pclink.BU_RESULT4_FMT}[page]
         if len(d) != struct_size(fmt):
             raise ProtocolError(f"BU_RESULT page {page} reply of {len(d)} bytes")
         if page == 2:
