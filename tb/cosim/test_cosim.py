@@ -259,3 +259,18 @@ def test_the_harness_refuses_a_bad_run_configuration(tmp_path, line, why) -> Non
     assert p.returncode == 2, p.stdout[-300:]
     assert p.stderr.startswith(f"error: {tmp_path / 'bad.run'}: ") and why in p.stderr, p.stderr
     assert p.stdout == "" and not (tmp_path / "frames.csv").exists()
+
+
+def test_the_command_refuses_a_malformed_scene_with_exit_2(tmp_path, capsys) -> None:
+    """`hapgate cosim run|check`: a malformed scene is exit 2 naming the file and the key, before
+    anything is built or run; the shipped scenes all check."""
+    from hapgate.commands import cli
+
+    bad = tmp_path / "bad.toml"
+    bad.write_text("[wall]\nk = 1.0\nkk = 2\n")
+    out = tmp_path / "out"
+    assert cli.main(["cosim", "run", str(bad), "--out", str(out)]) == 2
+    assert f"error: {bad}: wall.kk: unknown key" in capsys.readouterr().err
+    assert not out.exists()
+    assert cli.main(["cosim", "check", *map(str, sorted(cosim.SCENES.glob("*.toml")))]) == 0
+    assert cli.main(["cosim", "check", str(cosim.SCENES / "wall.toml"), str(bad)]) == 2
