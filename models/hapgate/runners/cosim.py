@@ -206,8 +206,8 @@ def build(cfg: TopConfig | None = None) -> Path:
                 f"-DHG_DAC_OFFSET_BINARY={int(cfg.comm.offset_binary)} "
                 f"-I{HERE} -I{DEVICE} -I{FW / 'include'}"),
         ldflags="fw/libhgfw.a -lm",          # relative to the build directory (make runs there)
-        inputs=[HERE / "cosim.h", DEVICE / "bus_hal.h", DEVICE / "dac_word.h", DEVICE / "plant.h",
-                DEVICE / "harness_common.h", *fw_srcs],
+        inputs=[HERE / "cosim.h", DEVICE / "testb.h", DEVICE / "bus_hal.h", DEVICE / "dac_word.h",
+                DEVICE / "plant.h", DEVICE / "harness_common.h", *fw_srcs],
         prepare=_fw_lib)
 
 
