@@ -252,8 +252,8 @@ int main(int argc, char** argv) {
         const double w = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
         const uint32_t st = fpga_read32(HG_REG_STATUS);
         const bool ok = bad == 0 && (st & (HG_STAT_BUS_ERR | HG_STAT_PROTO_ERR)) == 0;
-        std::printf("scenario=bus clk_hz=%d setup=%d strobe=%d hold=%d ready=%d\n", CLK_HZ, bus_timing.setup,
-                    bus_timing.strobe, bus_timing.hold, int(bus_timing.use_ready));
+        std::printf("scenario=%s clk_hz=%d setup=%d strobe=%d hold=%d ready=%d\n", scenario.c_str(), CLK_HZ,
+                    bus_timing.setup, bus_timing.strobe, bus_timing.hold, int(bus_timing.use_ready));
         std::printf("sim_s=%.9g wall_s=%.6g clocks=%llu bus_reads=%llu bus_writes=%llu mismatches=%llu tx_per_s=%.6g "
                     "sim_per_wall=%.6g status=%u\n", edge_time(bench.edge), w, static_cast<unsigned long long>(bench.edge),
                     static_cast<unsigned long long>(bus_stats.reads), static_cast<unsigned long long>(bus_stats.writes),
