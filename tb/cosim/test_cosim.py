@@ -261,6 +261,14 @@ def test_the_harness_refuses_a_bad_run_configuration(tmp_path, line, why) -> Non
     assert p.stdout == "" and not (tmp_path / "frames.csv").exists()
 
 
+def test_the_harness_refuses_a_missing_run_configuration(tmp_path) -> None:
+    missing = tmp_path / "none.run"
+    p = subprocess.run([str(cosim.build()), str(missing), str(tmp_path)], capture_output=True,
+                       text=True, timeout=60)
+    assert p.returncode == 2 and f"error: {missing}: cannot read" in p.stderr, p.stderr
+    assert p.stdout == ""
+
+
 def test_the_command_refuses_a_malformed_scene_with_exit_2(tmp_path, capsys) -> None:
     """`hapgate cosim run|check`: a malformed scene is exit 2 naming the file and the key, before
     anything is built or run; the shipped scenes all check."""

@@ -21,7 +21,7 @@
 namespace cosim {
 
 // EMIF-like access timing in FPGA clocks (bus_hal.h; rtl/bus/README.md: strobe >= 5, recovery
-// >= 3, setup >= 0; or wait for ready). Set from the command line, never on a grid.
+// >= 3, setup >= 0; or wait for ready). Set from the scene's [bus] (run key cosim_bus), never on a grid.
 using BusTiming = hg_bus::Timing;
 
 struct DacLoad {

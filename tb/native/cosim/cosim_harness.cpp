@@ -218,6 +218,12 @@ int main(int argc, char** argv) {
     static hg_dev::RunCfg run;   // the scenario engine keeps a pointer to it
     {
         std::string err;
+        if (FILE* f = std::fopen(argv[1], "r")) {
+            std::fclose(f);
+        } else {
+            std::fprintf(stderr, "error: %s: cannot read the run configuration\n", argv[1]);
+            return 2;
+        }
         if (!hg_dev::parse_run(hg_dev::slurp(argv[1]), run, err, hg_dev::Keys::cosim)) {
             std::fprintf(stderr, "error: %s: %s\n", argv[1], err.c_str());
             return 2;
