@@ -8,6 +8,8 @@ the harness's own verdict, and also requires that verdict.
 
 from __future__ import annotations
 
+import subprocess
+from dataclasses import replace
 from functools import cache
 
 import numpy as np
@@ -201,10 +203,82 @@ def test_bus_timing_below_the_minimums_is_refused(tmp_path, setup, strobe, hold,
     """rtl/bus/README.md: strobe >= 5 clocks (or ready), recovery >= 3. The shared bus master
     (tb/native/device/bus_hal.h) refuses one clock less of either before the first access:
     exit 2 and the reason; the minimums themselves run (test_bus_throughput_and_integrity)."""
-    import subprocess
-
-    p = subprocess.run([str(cosim.build()), "bus", "1000", str(tmp_path), str(setup), str(strobe),
-                        str(hold), "0"], capture_output=True, text=True, timeout=60)
+    sc = replace(cosim.load("bus"), bus=cosim.BusTiming(setup, strobe, hold))
+    p = _harness(tmp_path, cosim.run_config(sc))
     assert p.returncode == 2, p.stdout[-300:]
     assert f"setup={setup} strobe={strobe} hold={hold}" in p.stderr and why in p.stderr, p.stderr
     assert "result=" not in p.stdout
+
+
+def _harness(tmp_path, text: str, name: str = "case") -> subprocess.CompletedProcess:
+    cfg = tmp_path / f"{name}.run"
+    cfg.write_text(text)
+    return subprocess.run([str(cosim.build()), str(cfg), str(tmp_path)], capture_output=True,
+                          text=True, timeout=60)
+
+
+def test_every_scenario_is_a_scene_file() -> None:
+    """The co-simulation's scenarios are the files of scenes/cosim/, each valid, with the fault
+    and the checks the tests above rely on."""
+    assert sorted(cosim.SCENARIOS) == sorted(f.stem for f in cosim.SCENES.glob("*.toml"))
+    faults = {n: [f["kind"] for f in cosim.load(n).faults] for n in cosim.SCENARIOS}
+    assert faults == {"wall": [], "wdog": ["watchdog"], "hang": ["hang"], "dropout": ["dropout"],
+                      "miscal": [], "bus": []}
+    assert cosim.load("miscal").get("firmware", "comm_err") == [32, 0, 0]
+    assert cosim.load("dropout").faults[0]["axis"] == 1
+    assert cosim.load("bus").get("run", "kind") == "bus"
+
+
+@pytest.mark.parametrize("text, where", [
+    ("[run]\nservo_hz = 1000\nrate = 2\n", "run.rate: unknown key"),
+    ("[hand]\nfree_deg = [4.0, 46.0]\n", "hand.free_deg: expected a list of 3"),
+    ("[walls]\nk = 1.0\n", "walls: unknown table"),
+    ("[[fault]]\nat_s = 0.01\nkind = \"melt\"\n", "fault[0].kind: one of"),
+    ("[[fault]]\nat_s = 0.01\nkind = \"hang\"\nwhen = 1\n", "fault[0].when: unknown key"),
+    ("[run]\nduration_s = 0.05\n[[fault]]\nat_s = 0.06\nkind = \"hang\"\n", "fault[0].at_s"),
+    ("[bus]\nuse_ready = 1\n", "bus.use_ready: expected bool"),
+])
+def test_a_malformed_scene_is_refused_naming_file_and_key(tmp_path, text, where) -> None:
+    f = tmp_path / "bad.toml"
+    f.write_text(text)
+    with pytest.raises(cosim.CosimSceneError) as e:
+        cosim.load(f)
+    assert str(e.value).startswith(f"{f}: ") and where in str(e.value), str(e.value)
+
+
+@pytest.mark.parametrize("line, why", [
+    ("cosim_wall = 0.5", "unknown key cosim_wall"), ("mech_us = 16", "unknown key mech_us"),
+    ("cosim_bus = 1 5 2", "cosim_bus: expected 4 values"),
+    ("fault = 0.01 watchdog 0\nfault = 0.02 hang 0", "at most one fault")])
+def test_the_harness_refuses_a_bad_run_configuration(tmp_path, line, why) -> None:
+    """The harness reads its run configuration with the device harnesses' parser: an unknown key
+    (or a model-fidelity one), a wrong count or a second fault is exit 2 naming the file and
+    the key, before anything runs."""
+    text = cosim.run_config(cosim.load("wall")) + line + "\n"
+    p = _harness(tmp_path, text, "bad")
+    assert p.returncode == 2, p.stdout[-300:]
+    assert p.stderr.startswith(f"error: {tmp_path / 'bad.run'}: ") and why in p.stderr, p.stderr
+    assert p.stdout == "" and not (tmp_path / "frames.csv").exists()
+
+
+def test_the_harness_refuses_a_missing_run_configuration(tmp_path) -> None:
+    missing = tmp_path / "none.run"
+    p = subprocess.run([str(cosim.build()), str(missing), str(tmp_path)], capture_output=True,
+                       text=True, timeout=60)
+    assert p.returncode == 2 and f"error: {missing}: cannot read" in p.stderr, p.stderr
+    assert p.stdout == ""
+
+
+def test_the_command_refuses_a_malformed_scene_with_exit_2(tmp_path, capsys) -> None:
+    """`hapgate cosim run|check`: a malformed scene is exit 2 naming the file and the key, before
+    anything is built or run; the shipped scenes all check."""
+    from hapgate.commands import cli
+
+    bad = tmp_path / "bad.toml"
+    bad.write_text("[wall]\nk = 1.0\nkk = 2\n")
+    out = tmp_path / "out"
+    assert cli.main(["cosim", "run", str(bad), "--out", str(out)]) == 2
+    assert f"error: {bad}: wall.kk: unknown key" in capsys.readouterr().err
+    assert not out.exists()
+    assert cli.main(["cosim", "check", *map(str, sorted(cosim.SCENES.glob("*.toml")))]) == 0
+    assert cli.main(["cosim", "check", str(cosim.SCENES / "wall.toml"), str(bad)]) == 2

@@ -18,6 +18,7 @@ from ..runners.sim import MissingSimulator, simulators
 from . import (
     bench,
     bringup,
+    cosim,
     coverage,
     demo,
     device,
@@ -242,6 +243,9 @@ def main(argv: list[str] | None = None) -> int:
 
     scene.add_arguments(sub.add_parser(
         "scene", help="virtual-device scenes: run FILE [--out DIR] | check FILE..."))
+    cosim.add_arguments(sub.add_parser(
+        "cosim", help="firmware co-simulation scenes: run SCENE [--rate HZ] [--seed N] "
+        "[--out DIR] | check FILE..."))
     up = sub.add_parser("bringup", help="bring-up over the PC link: PORT [--steps ...] [--out DIR] "
                         "[--apply] (docs/bringup.md)")
     bringup.add_arguments(up)

@@ -17,6 +17,7 @@ import numpy as np
 from ..base.paths import ROOT, TB
 from ..golden import encsig, interp, kinematics, pclink
 from ..golden.interp import InterpConfig
+from ..runners import cosim
 from .scene import PcCfg
 
 HERE = TB / "native" / "device"
@@ -30,8 +31,9 @@ T_SWEEP0_S, T_SWEEP_S, T_SETTLE_S = 100e-6, 6e-3, 3e-3   # homing before scene t
 SWEEP_DEG = 0.5              # homing sweep, ending at q0; the index lies half-way
 LOSS_SAMPLES = 16            # interpolator: the 16th bad sample raises signal loss
 ENV_KINDS = {"none": 0, "wall": 1, "spring": 2, "viscous": 3, "pc": 4}
-# the [[fault]] kinds the harnesses simulate, by name (harness_common.h kFaultKinds: a test)
-HARNESS_FAULTS = ("dropout", "hang", "watchdog")
+# the [[fault]] kinds the harnesses simulate, by name (harness_common.h kFaultKinds: a test),
+# the co-simulation's too
+HARNESS_FAULTS = cosim.FAULT_KINDS
 ERR_NAMES = ("NONE", "NONFINITE", "AXIS_FAULT", "ENCODER", "STALE", "OVERRUN", "WATCHDOG",
              "FPGA_ID", "CONFIG")
 HAND_KINDS = {"none": 0, "spring": 1, "fixed": 2}

@@ -3,7 +3,10 @@ top over the modelled EMIF bus (tb/native/cosim/).
 
 `build()` compiles the firmware with its own warning flags into a static library and Verilates
 rtl/top/hapgate_top.v with the C++ harness and the co-sim HAL (one cached build per parameter
-set and source hash, under build/native/cosim-<hash>/). `run()` runs one scenario and returns its
+set and source hash, under build/native/cosim-<hash>/). `load()` reads a co-simulation scene
+(scenes/cosim/NAME.toml) and `run_config()` writes its run configuration, the one format the
+device, model and co-simulation harnesses parse (hg_dev::parse_run). `run()` runs one scene and
+returns its
 summary and per-frame / per-ISR records as numpy arrays. `check()` re-checks a run independently
 of the harness: the torques reconstructed from the DAC codes with `hapgate.golden.commutation`'s
 motor
@@ -14,11 +17,11 @@ raw DAC loads. `demo_section()` / `bench_section()` are the `make demo` / `make 
 
 from __future__ import annotations
 
-import os
+import math
 import subprocess
 import tempfile
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
@@ -36,7 +39,8 @@ HARNESS = [HERE / "cosim_harness.cpp", HERE / "hal_cosim.cpp", DEVICE / "plant.c
 FW = ROOT / "dsp-fw"
 FW_WARN = ("-Wall -Wextra -Werror -Wconversion -Wdouble-promotion -Wshadow -Wstrict-prototypes "
            "-Wmissing-prototypes -Wcast-qual -Wvla").split()   # dsp-fw/Makefile's WARN
-SCENARIOS = ("wall", "wdog", "hang", "dropout", "miscal", "bus")
+SCENES = ROOT / "scenes" / "cosim"
+SCENARIOS = ("wall", "wdog", "hang", "dropout", "miscal", "bus")   # SCENES/NAME.toml
 ERR_NONE, ERR_AXIS_FAULT, ERR_WATCHDOG = 0, 2, 6   # dsp-fw/README.md, "latched error codes"
 STAT_FAULT0, STAT_WDOG = 1 << 0, 1 << 12           # rtl/regs/REGISTERS.md, STATUS
 KT, AMP_GAIN, DAC_FS_V, CODE_FS = 0.06, 0.8, 10.0, 32767   # dsp-fw/README.md motor defaults
@@ -50,8 +54,126 @@ class BusTiming:
     hold: int = 2
     use_ready: bool = False
 
-    def args(self) -> list[str]:
-        return [str(self.setup), str(self.strobe), str(self.hold), str(int(self.use_ready))]
+
+class CosimSceneError(ValueError):
+    """A malformed co-simulation scene (the message names the file and the dotted key)."""
+
+
+# Every key of a co-simulation scene with its default (tb/native/cosim/README.md "Scenes").
+DEFAULTS: dict[str, dict[str, object]] = {
+    "run": {"kind": "servo", "servo_hz": 1000, "duration_s": 0.235},
+    "hand": {"free_deg": [4.0, 46.0, 43.0], "deep_deg": [3.0, 42.0, 40.0], "in_s": 0.1,
+             "hold_s": 0.02, "seed": 1},
+    "wall": {"at": 0.45, "k": 2000.0},
+    "bus": {"setup": 1, "strobe": 5, "hold": 2, "use_ready": False, "pairs": 200_000},
+    "firmware": {"comm_err": [0, 0, 0]},
+}
+FAULT_KEYS = {"at_s": 0.0, "kind": "", "axis": 0}
+KINDS = ("servo", "bus")
+# the fault kinds every harness simulates: hg_dev::kFaultKinds (tb/device/test_record_layout.py
+# compares them, as hapgate.device.harness.HARNESS_FAULTS)
+FAULT_KINDS = ("dropout", "hang", "watchdog")
+
+
+@dataclass(frozen=True)
+class CosimScene:
+    name: str
+    values: dict[str, dict[str, object]]      # every table's every key (defaults filled in)
+    faults: tuple[dict[str, object], ...]     # at most one: at_s (from the push start), kind, axis
+    bus: BusTiming
+
+    def get(self, table: str, key: str) -> object:
+        return self.values[table][key]
+
+
+def _typed(path: Path, dotted: str, value: object, default: object) -> object:
+    """`value` of the default's type (an int is taken for a float; lists by element)."""
+    def ok(v: object, d: object) -> bool:
+        if isinstance(d, bool) or isinstance(v, bool):
+            return isinstance(v, bool) and isinstance(d, bool)
+        if isinstance(d, float):
+            return isinstance(v, (int, float)) and math.isfinite(v)
+        return isinstance(v, type(d))
+    if isinstance(default, list):
+        if not (isinstance(value, list) and len(value) == len(default)
+                and all(ok(v, d) for v, d in zip(value, default))):
+            raise CosimSceneError(f"{path}: {dotted}: expected a list of {len(default)} "
+                                  f"{type(default[0]).__name__}")
+        return [float(v) if isinstance(d, float) else v for v, d in zip(value, default)]
+    if not ok(value, default):
+        raise CosimSceneError(f"{path}: {dotted}: expected {type(default).__name__}")
+    return float(value) if isinstance(default, float) else value
+
+
+def load(scene: str | Path) -> CosimScene:
+    """A co-simulation scene by name (SCENES/NAME.toml) or path; unknown tables and keys, wrong
+    types and impossible values are refused (CosimSceneError naming the file and the key)."""
+    path = Path(scene) if isinstance(scene, Path) or str(scene).endswith(".toml") \
+        else SCENES / f"{scene}.toml"
+    import tomllib  # here, not at the top: `hapgate` itself still starts on Python 3.10
+
+    try:
+        doc = tomllib.loads(path.read_text())
+    except (OSError, UnicodeDecodeError, tomllib.TOMLDecodeError) as e:
+        raise CosimSceneError(f"{path}: {e}") from None
+    values = {t: dict(d) for t, d in DEFAULTS.items()}
+    faults = []
+    for table, body in doc.items():
+        if table == "fault":
+            if not isinstance(body, list):
+                raise CosimSceneError(f"{path}: fault: expected [[fault]] tables")
+            for i, f in enumerate(body):
+                got = dict(FAULT_KEYS)
+                for k, v in f.items():
+                    if k not in FAULT_KEYS:
+                        raise CosimSceneError(f"{path}: fault[{i}].{k}: unknown key")
+                    got[k] = _typed(path, f"fault[{i}].{k}", v, FAULT_KEYS[k])
+                if got["kind"] not in FAULT_KINDS:
+                    raise CosimSceneError(f"{path}: fault[{i}].kind: one of "
+                                          f"{', '.join(FAULT_KINDS)}")
+                if got["axis"] not in (0, 1, 2):
+                    raise CosimSceneError(f"{path}: fault[{i}].axis: 0, 1 or 2")
+                faults.append(got)
+            continue
+        if table not in DEFAULTS or not isinstance(body, dict):
+            raise CosimSceneError(f"{path}: {table}: unknown table")
+        for k, v in body.items():
+            if k not in DEFAULTS[table]:
+                raise CosimSceneError(f"{path}: {table}.{k}: unknown key")
+            values[table][k] = _typed(path, f"{table}.{k}", v, DEFAULTS[table][k])
+    if len(faults) > 1:
+        raise CosimSceneError(f"{path}: fault: at most one fault per co-simulation scene")
+    if faults and not 0 <= faults[0]["at_s"] < values["run"]["duration_s"]:
+        raise CosimSceneError(f"{path}: fault[0].at_s: inside the run (0 .. run.duration_s)")
+    if values["run"]["kind"] not in KINDS:
+        raise CosimSceneError(f"{path}: run.kind: one of {', '.join(KINDS)}")
+    for t, k in (("run", "servo_hz"), ("run", "duration_s"), ("bus", "pairs"), ("wall", "k")):
+        if not values[t][k] > 0:
+            raise CosimSceneError(f"{path}: {t}.{k}: must be > 0")
+    b = values["bus"]
+    return CosimScene(path.stem, values, tuple(faults),
+                      BusTiming(b["setup"], b["strobe"], b["hold"], b["use_ready"]))
+
+
+def run_config(sc: CosimScene) -> str:
+    """The scene as the harness's run configuration (hg_dev::parse_run, cosim_* keys). Scene time
+    0 is the start of the push; the poses in rad as the harness's deg() computes them."""
+    v = sc.values
+    def rad(d: list[float]) -> str:
+        return " ".join(repr(x * math.pi / 180.0) for x in d)
+    b = sc.bus
+    lines = [f"servo_hz = {v['run']['servo_hz']}", f"duration_s = {v['run']['duration_s']!r}",
+             "progress_s = 0",
+             f"cosim_kind = {KINDS.index(v['run']['kind'])}",
+             f"cosim_bus = {b.setup} {b.strobe} {b.hold} {int(b.use_ready)}",
+             f"cosim_bus_pairs = {v['bus']['pairs']}",
+             f"q0 = {rad(v['hand']['free_deg'])}", f"cosim_q_deep = {rad(v['hand']['deep_deg'])}",
+             f"cosim_push = {v['hand']['in_s']!r} {v['hand']['hold_s']!r}",
+             f"cosim_seed = {v['hand']['seed']}",
+             f"cosim_wall_at = {v['wall']['at']!r}", f"env_k = {v['wall']['k']!r}",
+             "comm_err = " + " ".join(str(c) for c in v["firmware"]["comm_err"])]
+    lines += [f"fault = {f['at_s']!r} {f['kind']} {f['axis']}" for f in sc.faults]
+    return "\n".join(lines) + "\n"
 
 
 def _fw_lib(bdir: Path, defines: tuple[str, ...] = ()) -> Path:
@@ -84,8 +206,8 @@ def build(cfg: TopConfig | None = None) -> Path:
                 f"-DHG_DAC_OFFSET_BINARY={int(cfg.comm.offset_binary)} "
                 f"-I{HERE} -I{DEVICE} -I{FW / 'include'}"),
         ldflags="fw/libhgfw.a -lm",          # relative to the build directory (make runs there)
-        inputs=[HERE / "cosim.h", DEVICE / "bus_hal.h", DEVICE / "dac_word.h", DEVICE / "plant.h",
-                DEVICE / "harness_common.h", *fw_srcs],
+        inputs=[HERE / "cosim.h", DEVICE / "testb.h", DEVICE / "bus_hal.h", DEVICE / "dac_word.h",
+                DEVICE / "plant.h", DEVICE / "harness_common.h", *fw_srcs],
         prepare=_fw_lib)
 
 
@@ -101,6 +223,7 @@ class CosimRun:
     wall_s: float                 # wall-clock time of the harness process
     fails: list[str] = field(default_factory=list)
     warns: list[str] = field(default_factory=list)
+    fault: str = ""               # the scene's fault kind ("": a normal run)
 
     def num(self, key: str) -> float:
         return float(self.summary[key])
@@ -109,25 +232,33 @@ class CosimRun:
         return np.array([float(x) for x in self.summary[key].split(",")])
 
 
-def run(scenario: str = "wall", rate_hz: int = 1000, bus: BusTiming = BusTiming(),
-        cfg: TopConfig | None = None, seed: int = 1) -> CosimRun:
-    """One scenario. `seed` picks the joints' power-up positions (uniform over the whole
-    revolution, tb/native/cosim/README.md)."""
-    if scenario not in SCENARIOS:
-        raise ValueError(f"unknown scenario {scenario}; known: {', '.join(SCENARIOS)}")
+def run(scene: str | Path = "wall", rate_hz: int | None = None, bus: BusTiming | None = None,
+        cfg: TopConfig | None = None, seed: int | None = None,
+        keep: Path | None = None) -> CosimRun:
+    """One scene (a name in SCENES or a path, `load()`); `rate_hz`, `bus` and `seed` (the joints'
+    power-up positions, uniform over the whole revolution) override the scene's. `keep`: write
+    the outputs into this directory instead of a temporary one."""
+    sc = load(scene)
+    if rate_hz is not None:
+        sc.values["run"]["servo_hz"] = rate_hz
+    if seed is not None:
+        sc.values["hand"]["seed"] = seed
+    if bus is not None:
+        sc = replace(sc, bus=bus)
+    scenario, rate_hz = sc.name, int(sc.get("run", "servo_hz"))
     exe = build(cfg)
-    tag = f"{scenario}-{rate_hz}-{bus.setup}{bus.strobe}{bus.hold}{int(bus.use_ready)}-s{seed}-"
+    tag = f"{scenario}-{rate_hz}-s{sc.get('hand', 'seed')}-"
     with tempfile.TemporaryDirectory(prefix=tag, dir=ensure(exe.parent / "runs")) as tmp:
-        out = Path(tmp)
+        out = ensure(keep) if keep is not None else Path(tmp)
+        run_cfg = Path(tmp) / f"{scenario}.run"     # its stem names the scenario in the summary
+        run_cfg.write_text(run_config(sc))
         t0 = time.perf_counter()
-        proc = subprocess.run([str(exe), scenario, str(rate_hz), str(out), *bus.args()],
-                              capture_output=True, text=True,
-                              env={**os.environ, "HG_COSIM_SEED": str(seed)})
+        proc = subprocess.run([str(exe), str(run_cfg), str(out)], capture_output=True, text=True)
         wall = time.perf_counter() - t0
         if proc.returncode not in (0, 1) or "result=" not in proc.stdout:
             raise RuntimeError(f"co-sim harness failed ({proc.returncode}): {proc.stderr.strip()}")
         load_dt = [("edge", "<i8"), ("ch", "<i4"), ("code", "<i4")]
-        if scenario == "bus":   # no firmware, no frames
+        if sc.get("run", "kind") == "bus":   # no firmware, no frames
             frames = isr = np.zeros(0)
             loads = np.zeros(0, dtype=load_dt)
         else:
@@ -146,7 +277,7 @@ def run(scenario: str = "wall", rate_hz: int = 1000, bus: BusTiming = BusTiming(
             summary[k] = v
     ok = proc.returncode == 0 and summary.get("result") == "PASS"
     return CosimRun(scenario, rate_hz, ok, summary, np.atleast_1d(frames), np.atleast_1d(isr),
-                    loads, wall, fails, warns)
+                    loads, wall, fails, warns, sc.faults[0]["kind"] if sc.faults else "")
 
 
 # ---------------------------------------------------------------------------- independent check
@@ -186,7 +317,7 @@ def check(r: CosimRun, cfg: TopConfig | None = None) -> Check:
     cc = cfg.comm
     f = r.frames
     clk = r.num("clk_hz")
-    normal = r.scenario in ("wall", "miscal")
+    normal = not r.fault
     normal_end = np.inf if normal else (r.num("cause_edge") or r.num("fault_cmd_edge"))
     sel = (f["start"] > 0) & (f["start"] < normal_end)
     f = f[sel]
@@ -274,7 +405,7 @@ def _row(r: CosimRun, c: Check | None) -> list[object]:
     tx = r.num("bus_reads") + r.num("bus_writes")
     ferr = c.max_force_err if c is not None else float("nan")
     react = "-"
-    if r.scenario not in ("wall", "miscal"):
+    if r.fault:
         clocks = int(r.summary["reaction_clocks"])
         react = f"{clocks / r.num('clk_hz') * 1e6:.2f} us ({clocks} clk)"
     return [f"{r.scenario} @ {r.rate_hz} Hz", f"{r.num('sim_s') * 1e3:.1f} ms",

@@ -32,6 +32,7 @@ from ..golden.interp import InterpConfig
 from . import covbuild, funcov
 
 HARNESS = TB / "native" / "interp" / "interp_harness.cpp"
+TESTB = TB / "native" / "device" / "testb.h"   # the testbench wrapper of the Verilated harnesses
 SOURCES = [RTL / "interp" / "enc_calib.v", RTL / "interp" / "ratio_div.v",
            RTL / "interp" / "vel_observer.v",
            RTL / "interp" / "enc_interp.v",
@@ -149,7 +150,7 @@ def build_interp(cfg: InterpConfig = InterpConfig(), clk_hz: int = interp.MIN_CL
     """Verilate and compile the interpolator harness for this parameter set (cached)."""
     params = interp.interp3_params(cfg, clk_hz=clk_hz, sample_hz=sample_hz, axes=axes)
     return verilate_harness("interp_harness", "enc_interp3", SOURCES, params, [HARNESS],
-                            cflags=f"-DAXES={axes}")
+                            cflags=f"-DAXES={axes} -I{TESTB.parent}", inputs=[TESTB])
 
 
 @dataclass

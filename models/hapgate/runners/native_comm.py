@@ -74,10 +74,11 @@ def build_commutation(cfg: cm.CommutationConfig = cm.CommutationConfig(),
     settle_clocks = c.clk_hz // 1000 * c.settle_ns // 1_000_000
     flags = (f"-DCOUNT_BITS={c.count_bits} -DANGLE_BITS={c.angle_bits} "
              f"-DFRAME_CLOCKS={c.frame_clocks} -DWR_CYCLES={c.wr_cycles} "
-             f"-DSETTLE_CLOCKS={settle_clocks} -O3")
+             f"-DSETTLE_CLOCKS={settle_clocks} -O3 -I{native.TESTB.parent}")
     try:
         return native.verilate_harness("commutation_harness", "commutator", SOURCES, params,
-                                       [HARNESS], cflags=flags, inputs=[Path(params["LUT_FILE"])],
+                                       [HARNESS], cflags=flags,
+                                       inputs=[Path(params["LUT_FILE"]), native.TESTB],
                                        vflags=["-DHG_SIM", "-DHG_SIM_SKIP"])
     except BuildError as exc:
         stops = re.findall(r"\b(\w+_must_\w+|\w+_needs_\w+)\b", exc.text)

@@ -38,7 +38,7 @@
 
 #include "Vcommutator.h"
 #include "Vcommutator___024root.h"
-#include "verilated.h"
+#include "testb.h"
 
 // Vcommutator::eval() wraps the scheduler in per-call bookkeeping for threads and deferred
 // deletes (two mutex operations per call: half the run time of this small model). After the
@@ -151,8 +151,8 @@ int main(int argc, char** argv) {
         return 2;
     }
 
-    auto ctx = std::make_unique<VerilatedContext>();
-    auto top = std::make_unique<Vcommutator>(ctx.get());
+    hg_tb::TestB<Vcommutator> tb;
+    Vcommutator* const top = tb.top.get();
     Checker chk;
 
     uint64_t frames = UINT64_MAX;  // the reset frame, then one per row: known at the input's end
@@ -160,16 +160,9 @@ int main(int argc, char** argv) {
     const size_t chunk = 1 << 14;   // frames per write
     obuf.reserve(chunk * kRecOut);
 
-    present(top.get(), row0);
-    top->clk = 0;
-    top->rst = 1;
+    present(top, row0);
     top->eval();
-    for (int i = 0; i < 4; ++i) {  // the 4th edge is the last with rst high: frame 0 starts
-        top->clk = 1; top->eval();
-        top->clk = 0; top->eval();
-    }
-    top->rst = 0;
-    top->eval();
+    tb.reset(4);   // the 4th edge is the last with rst high: frame 0 starts
 
     uint64_t clk = 0;              // edges since frame 0's start
     uint64_t frame = 0;            // current frame number
@@ -269,7 +262,7 @@ int main(int argc, char** argv) {
         }
         if (frame_edge && frames == UINT64_MAX) {  // row `presented` is latched at the next frame start
             if (const uint8_t* row = next_row()) {
-                present(top.get(), row);
+                present(top, row);
                 ++presented;
             } else {
                 frames = presented + 1;
@@ -292,7 +285,6 @@ int main(int argc, char** argv) {
     const double secs =
         std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     const double cpu = cpu_seconds() - c0;
-    top->final();
     if (std::fclose(out) != 0) {
         std::fprintf(stderr, "error: writing %s failed\n", argv[2]);
         return 3;

@@ -12,7 +12,7 @@
 #include "Vhapgate_top.h"
 #include "bus_hal.h"
 #include "harness_common.h"
-#include "verilated.h"
+#include "testb.h"
 
 #ifndef CLK_HZ
 #error "CLK_HZ must be defined (-DCLK_HZ=...) to match the RTL parameter"
@@ -21,7 +21,7 @@
 namespace cosim {
 
 // EMIF-like access timing in FPGA clocks (bus_hal.h; rtl/bus/README.md: strobe >= 5, recovery
-// >= 3, setup >= 0; or wait for ready). Set from the command line, never on a grid.
+// >= 3, setup >= 0; or wait for ready). Set from the scene's [bus] (run key cosim_bus), never on a grid.
 using BusTiming = hg_bus::Timing;
 
 struct DacLoad {
@@ -37,18 +37,14 @@ struct BusWrite {
     int64_t isr;          // index of the ISR it was issued from (-1: background)
 };
 
-// The testbench: owns the model, counts clock edges from reset release.
-class Testbench {
+// The testbench: the shared wrapper (testb.h: the model, reset, the edges since the last edge
+// that sampled rst high) with the top's monitors and the ADC stimulus.
+class Testbench : public hg_tb::TestB<Vhapgate_top> {
 public:
     Testbench();
-    ~Testbench();
     void reset();
     void tick();  // one full clock: posedge (monitors run) then negedge (stimulus presented)
     void pins() { top->eval(); }   // a bus pin changed (bus_hal.h)
-
-    std::unique_ptr<VerilatedContext> ctx;
-    std::unique_ptr<Vhapgate_top> top;
-    uint64_t edge = 0;  // posedges since the last edge that sampled rst high (edge 0)
 
     // stimulus: called in the clock-low phase of an adc_strobe cycle; the words are captured
     // at the next posedge (edge + 1). Writes a, b (packed 3 x int8) and index (3 bits).

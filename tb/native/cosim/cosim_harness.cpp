@@ -4,15 +4,13 @@
 // three encoders along a prescribed "hand" trajectory (into a virtual wall and back), feeds the
 // ADC codes at every adc_strobe, calls hg_servo_isr() on every rising edge of irq, records every
 // DAC load, and checks the result itself: it exits 0 and prints "result=PASS" only if every
-// check holds. Driven by models/hapgate/runners/cosim.py, which re-checks the outputs independently.
+// check holds. Driven by models/hapgate/runners/cosim.py, which reads the scene
+// (scenes/cosim/*.toml), writes its run configuration and re-checks the outputs independently.
 //
-// usage: cosim_harness SCENARIO RATE_HZ OUTDIR [setup strobe hold use_ready]
-//   SCENARIO: wall    normal run: home, enable, push into the wall and back
-//             wdog    as wall, but from t_fault on every watchdog key write is lost
-//             hang    as wall, but from t_fault on the ISR is not called (the DSP hangs)
-//             dropout as wall, but from t_fault on axis 1's encoder signal is gone (A = B = 0)
-//             bus     bus-bound throughput: SCRATCH write/read-back pairs, no firmware
-//             miscal  negative control: wall with motor 0's commutation offset wrong (must FAIL)
+// usage: cosim_harness RUN_CFG OUTDIR
+//   RUN_CFG: the run configuration (hg_dev::parse_run with the cosim_* keys; its file stem names
+//   the scenario in the summary): the trajectory, the wall, the tick rate, the bus timing, at
+//   most one fault (the shared scenario engine runs it), or cosim_kind = 1: bus throughput.
 // Outputs in OUTDIR: frames.csv (one row per DAC frame), isr.csv (one row per ISR), loads.bin
 // (int64 edge, int32 channel, int32 code per DAC load); a key=value summary on stdout.
 #include <algorithm>
@@ -53,7 +51,6 @@ constexpr double kDacFs = hg_dac::kFullScale;   // DAC code at full scale (dac_w
 // frame start -> channel 0 load (the commutator's load latency + the output stage's register,
 // rtl/top/README.md; longer where the DAC's t_WCS needs a longer strobe)
 constexpr int kLoadClocks = HG_LOAD_CLOCKS;
-constexpr double kWallK = 2000.0;        // N/m (20 N/cm)
 
 double deg(double x) { return x * kPi / 180.0; }
 
@@ -130,24 +127,30 @@ double dot(const Vec3& a, const Vec3& b) { return a[0] * b[0] + a[1] * b[1] + a[
 
 // ------------------------------------------------------------------ the hand trajectory
 struct Trajectory {
-    Vec3 q_free{deg(4.0), deg(46.0), deg(43.0)};
-    Vec3 q_deep{deg(3.0), deg(42.0), deg(40.0)};
+    Vec3 q_free{};            // the scene's free pose (run q0), rad
+    Vec3 q_deep{};            // the deepest pose (cosim_q_deep), rad
     Vec3 q_index{};           // joint angle at the index (line 0 starts there)
     Vec3 sweep{};             // homing sweep: the joints power up this far before q_free
     Vec3 powerup{};           // power-up position after the index, rad in [0, 2 pi)
     double qd_home = 90.0;    // rad/s, the sweep's speed (the firmware's qd_max is 100 rad/s)
     double t_home = 0;        // s, the sweep (it crosses the index once); drive is enabled after it
     double t_push = 0;        // s, start of the push (3 ms after the sweep)
-    double t_in = 100e-3;     // s, into the wall (raised cosine), the same back
-    double t_hold = 20e-3;    // s, held at the deepest point
-    double t_end = 0;         // s, 15 ms after the push has returned
+    double t_in = 0;          // s, into the wall (raised cosine), the same back (cosim_push)
+    double t_hold = 0;        // s, held at the deepest point
+    double t_end = 0;         // s, the scene's duration after the push start
 
     // Power-up anywhere in the revolution (seeded): joint i starts at q_index + powerup[i]
     // (uniform over the whole revolution), sweeps forwards at qd_home through the next index
     // and stops at q_free, a random 0.25..20 deg after it. The raw position (relative to
     // power-up) and the homed one then differ by a random angle: commutating from the raw one
     // cannot pass.
-    explicit Trajectory(uint64_t seed) {
+    Trajectory(uint64_t seed, const hg_dev::RunCfg& run) {
+        for (int i = 0; i < 3; ++i) {
+            q_free[i] = run.q0[i];
+            q_deep[i] = run.cosim.q_deep[i];
+        }
+        t_in = run.cosim.t_in;
+        t_hold = run.cosim.t_hold;
         std::mt19937_64 rng(seed);
         std::uniform_real_distribution<double> turn(0.0, 2 * kPi), after(deg(0.25), deg(20.0));
         double longest = 0;
@@ -160,7 +163,7 @@ struct Trajectory {
         }
         t_home = std::ceil(longest / qd_home * 1e3) * 1e-3;
         t_push = t_home + 3e-3;
-        t_end = t_push + 2 * t_in + t_hold + 15e-3;
+        t_end = t_push + run.duration_s;
     }
     double s(double t) const {  // 0 free .. 1 deep
         const double u = t - t_push;
@@ -208,29 +211,45 @@ struct Frame {
 }  // namespace
 
 int main(int argc, char** argv) {
-    if (argc != 4 && argc != 8) {
-        std::fprintf(stderr, "usage: %s wall|wdog|hang|dropout|miscal|bus RATE_HZ OUTDIR [setup strobe hold ready]\n", argv[0]);
+    if (argc != 3) {
+        std::fprintf(stderr, "usage: %s RUN_CFG OUTDIR\n", argv[0]);
         return 2;
     }
-    const std::string scenario = argv[1];
-    const uint32_t rate = static_cast<uint32_t>(std::strtoul(argv[2], nullptr, 10));
-    const std::string outdir = argv[3];
-    if (argc == 8) {
-        bus_timing.setup = std::atoi(argv[4]);
-        bus_timing.strobe = std::atoi(argv[5]);
-        bus_timing.hold = std::atoi(argv[6]);
-        bus_timing.use_ready = std::atoi(argv[7]) != 0;
+    static hg_dev::RunCfg run;   // the scenario engine keeps a pointer to it
+    {
+        std::string err;
+        if (FILE* f = std::fopen(argv[1], "r")) {
+            std::fclose(f);
+        } else {
+            std::fprintf(stderr, "error: %s: cannot read the run configuration\n", argv[1]);
+            return 2;
+        }
+        if (!hg_dev::parse_run(hg_dev::slurp(argv[1]), run, err, hg_dev::Keys::cosim)) {
+            std::fprintf(stderr, "error: %s: %s\n", argv[1], err.c_str());
+            return 2;
+        }
+        if (run.faults.size() > 1) {
+            std::fprintf(stderr, "error: %s: fault: at most one fault per co-simulation scene\n", argv[1]);
+            return 2;
+        }
     }
-    // miscal: a negative control, the wall run with motor 0's commutation offset 32/1024 of an
-    // electrical cycle (11.25 deg) off: the torque check must fail
-    const bool s_miscal = scenario == "miscal";
-    if (scenario == "bus") {  // bus-bound throughput: back-to-back SCRATCH write / read-back pairs
+    std::string scenario = argv[1];   // the run configuration's file stem
+    scenario = scenario.substr(scenario.find_last_of('/') + 1);
+    scenario = scenario.substr(0, scenario.find('.'));
+    const uint32_t rate = run.servo_hz;
+    const std::string outdir = argv[2];
+    const hg_dev::RunCfg::Cosim& co = run.cosim;
+    bus_timing.setup = co.bus[0];
+    bus_timing.strobe = co.bus[1];
+    bus_timing.hold = co.bus[2];
+    bus_timing.use_ready = co.bus[3] != 0;
+    if (co.bus_only) {  // bus-bound throughput: back-to-back SCRATCH write / read-back pairs
         Testbench bench;
         tb = &bench;
         bench.reset();
         const auto t0 = std::chrono::steady_clock::now();
         uint64_t bad = 0;
-        const uint32_t n = 200000;
+        const uint32_t n = co.bus_pairs;
         for (uint32_t i = 0; i < n; ++i) {
             const uint32_t v = i * 2654435761u;
             fpga_write32(HG_REG_SCRATCH, v);
@@ -239,8 +258,8 @@ int main(int argc, char** argv) {
         const double w = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
         const uint32_t st = fpga_read32(HG_REG_STATUS);
         const bool ok = bad == 0 && (st & (HG_STAT_BUS_ERR | HG_STAT_PROTO_ERR)) == 0;
-        std::printf("scenario=bus clk_hz=%d setup=%d strobe=%d hold=%d ready=%d\n", CLK_HZ, bus_timing.setup,
-                    bus_timing.strobe, bus_timing.hold, int(bus_timing.use_ready));
+        std::printf("scenario=%s clk_hz=%d setup=%d strobe=%d hold=%d ready=%d\n", scenario.c_str(), CLK_HZ,
+                    bus_timing.setup, bus_timing.strobe, bus_timing.hold, int(bus_timing.use_ready));
         std::printf("sim_s=%.9g wall_s=%.6g clocks=%llu bus_reads=%llu bus_writes=%llu mismatches=%llu tx_per_s=%.6g "
                     "sim_per_wall=%.6g status=%u\n", edge_time(bench.edge), w, static_cast<unsigned long long>(bench.edge),
                     static_cast<unsigned long long>(bus_stats.reads), static_cast<unsigned long long>(bus_stats.writes),
@@ -248,17 +267,16 @@ int main(int argc, char** argv) {
         std::printf("result=%s\n", ok ? "PASS" : "FAIL");
         return ok ? 0 : 1;
     }
-    const bool s_wall = scenario == "wall" || s_miscal, s_wdog = scenario == "wdog", s_hang = scenario == "hang",
-               s_drop = scenario == "dropout";
-    if (!(s_wall || s_wdog || s_hang || s_drop)) {
-        std::fprintf(stderr, "error: unknown scenario %s\n", scenario.c_str());
-        return 2;
-    }
+    // the scene's fault (none: the normal run, its checks; the negative control is a normal run
+    // with a commutation offset error, comm_err)
+    const hg_dev::FaultKind fk_none = static_cast<hg_dev::FaultKind>(-1);
+    const hg_dev::FaultKind fkind = run.faults.empty() ? fk_none : run.faults[0].kind;
+    const bool s_wall = fkind == fk_none, s_wdog = fkind == hg_dev::FaultKind::watchdog,
+               s_hang = fkind == hg_dev::FaultKind::hang, s_drop = fkind == hg_dev::FaultKind::dropout;
 
-    // HG_COSIM_SEED: the power-up positions (default 1)
-    const char* seed_env = std::getenv("HG_COSIM_SEED");
-    const uint64_t seed = seed_env ? std::strtoull(seed_env, nullptr, 10) : 1;
-    Trajectory tr(seed);
+    const uint64_t seed = co.seed;
+    const double kWallK = run.env_k;   // N/m, the wall's stiffness (b = 0)
+    Trajectory tr(seed, run);
     {
         char text[96], err[256] = {0};
         std::snprintf(text, sizeof text, "enc_amplitude = %.17g %.17g %.17g\n", kAdcR, kAdcR, kAdcR);
@@ -268,9 +286,8 @@ int main(int argc, char** argv) {
             return 3;
         }
     }
-    const double t_fault = tr.t_push + 60e-3 + 0.5 / rate;  // mid-tick, while in the wall
-    if (!s_wall) tr.t_end = t_fault + 14e-3;                // wdog timeout is 10 ms
-    const int drop_axis = 1;
+    const double t_fault = s_wall ? 0.0 : tr.t_push + run.faults[0].at_s;   // scene time from the push
+    const int drop_axis = s_drop ? run.faults[0].axis : 0;
 
     // wall plane: through a point 45 % of the way from the free to the deep pose, normal into free space
     const Vec3 pf = fk(tr.q_free), pd = fk(tr.q_deep);
@@ -281,7 +298,7 @@ int main(int argc, char** argv) {
         l = std::sqrt(l);
         for (int i = 0; i < 3; ++i) {
             nrm[i] = (pf[i] - pd[i]) / l;
-            p0[i] = pf[i] + 0.45 * (pd[i] - pf[i]);
+            p0[i] = pf[i] + co.wall_at * (pd[i] - pf[i]);
         }
     }
 
@@ -312,7 +329,8 @@ int main(int argc, char** argv) {
     cfg.fpga_clk_hz = CLK_HZ;
     for (int i = 0; i < 3; ++i)  // q = index_to_zero counts before the index (calibration)
         cfg.cal.axis[i].index_to_zero = static_cast<int32_t>(std::lround(-tr.q_index[i] / (2 * kPi) * HG_ENC_COUNTS_PER_REV));
-    if (s_miscal) cfg.cal.axis[0].comm_offset = 32;   // (the calibration sets motor[].comm_offset)
+    for (int i = 0; i < 3; ++i)  // a commutation offset error (the calibration sets motor[].comm_offset)
+        cfg.cal.axis[i].comm_offset = static_cast<uint32_t>(cfg.cal.axis[i].comm_offset + run.comm_err[i]) & 1023u;
     static hg_servo_t s;
     const uint8_t init_err = hg_servo_init(&s, &cfg);
     const uint32_t dac_skew = fpga_read32(HG_WORD(offsetof(hapgate_t, DAC_SKEW))),
@@ -327,22 +345,17 @@ int main(int argc, char** argv) {
     uint64_t enable_edge = 0, fault_edge_cmd = 0;
     uint32_t idx_pos[3] = {0, 0, 0}, status_after = 0;
     bool enabled_once = false;
-    const uint64_t end_edge = static_cast<uint64_t>(tr.t_end * CLK_HZ);
+    // whole microseconds: the push starts on one, the scene's duration is a whole number of them
+    const uint64_t end_edge = static_cast<uint64_t>(std::llround(tr.t_push * 1e6) + std::llround(run.duration_s * 1e6)) *
+                              (CLK_HZ / 1000000);
     uint64_t post_hang_status_edge = 0;
-    // the scenario's fault, run by the shared engine (harness_common.h) on the 1 us grid from
-    // reset release: every watchdog key write lost, the DSP hung (it resumes 2 ms after the
-    // expiry), or axis 1's signal gone
+    // the scene's fault, run by the shared engine (harness_common.h) on the 1 us grid, scene time 0
+    // at the push: every watchdog key write lost, the DSP hung (it resumes 2 ms after the expiry),
+    // or an axis's signal gone
     constexpr uint64_t kD = CLK_HZ / 1000000;
     static_assert(CLK_HZ % 1000000 == 0, "CLK_HZ must be a whole number of MHz");
-    hg_dev::RunCfg run;
-    run.servo_hz = rate;
-    run.duration_s = tr.t_end;
-    run.progress_s = 0;   // no progress lines
-    if (!s_wall)
-        run.faults.push_back({t_fault, s_wdog ? hg_dev::FaultKind::watchdog
-                                       : s_hang ? hg_dev::FaultKind::hang : hg_dev::FaultKind::dropout, drop_axis});
     static hg_dev::Scenario sc;
-    sc.start(run, 0, static_cast<int64_t>(kD));
+    sc.start(run, std::llround(tr.t_push * 1e6), static_cast<int64_t>(kD));
     cosim::scenario = &sc;
 
     while (bench.edge < end_edge) {

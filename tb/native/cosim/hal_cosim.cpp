@@ -24,9 +24,7 @@ std::vector<BusWrite> bus_writes;
 int64_t current_isr = -1;
 hg_dev::Scenario* scenario = nullptr;
 
-Testbench::Testbench() : ctx(new VerilatedContext), top(new Vhapgate_top(ctx.get())) {
-    top->clk = 0;
-    top->rst = 1;
+Testbench::Testbench() {
     top->bus_ce_n = top->bus_re_n = top->bus_we_n = 1;
     top->bus_addr = 0;
     top->bus_data_in = 0;
@@ -35,25 +33,14 @@ Testbench::Testbench() : ctx(new VerilatedContext), top(new Vhapgate_top(ctx.get
     top->eval();
 }
 
-Testbench::~Testbench() { top->final(); }
-
 void Testbench::reset() {
-    top->rst = 1;
-    for (int i = 0; i < 4; ++i) {
-        top->clk = 1; top->eval();
-        top->clk = 0; top->eval();
-    }
-    edge = 0;  // the last edge above sampled rst high
-    top->rst = 0;
-    top->eval();
+    TestB::reset(4);
     prev_wr_n_ = top->dac_wr_n;
     prev_irq_ = top->irq;
 }
 
 void Testbench::tick() {
-    top->clk = 1;
-    top->eval();
-    ++edge;
+    rise();
     // monitors (values right after the edge)
     const int wr_n = top->dac_wr_n;
     if (wr_n && !prev_wr_n_) {
@@ -69,8 +56,7 @@ void Testbench::tick() {
     if (!wdog_expired_edge && r->hapgate_top__DOT__wdog_expired) wdog_expired_edge = edge;
     for (int i = 0; i < 3; ++i)
         if (!fault_edge[i] && ((r->hapgate_top__DOT__fault >> i) & 1U)) fault_edge[i] = edge;
-    top->clk = 0;
-    top->eval();
+    fall();
     // stimulus for the sample captured at the next edge
     if (top->adc_strobe && adc) {
         uint32_t a = 0, b = 0, idx = 0;

@@ -31,7 +31,9 @@ static bool parse_fault(const std::string& rest, RunCfg& c, std::string& err) {
     return err.empty();
 }
 
-bool parse_run(const std::string& text, RunCfg& c, std::string& err, bool model_keys) {
+bool parse_run(const std::string& text, RunCfg& c, std::string& err, Keys keys) {
+    const bool model_keys = keys == Keys::model, cosim_keys = keys == Keys::cosim;
+    RunCfg::Cosim& co = c.cosim;
     std::istringstream in(text);
     std::string line;
     while (std::getline(in, line)) {
@@ -97,6 +99,13 @@ bool parse_run(const std::string& text, RunCfg& c, std::string& err, bool model_
             c.amp_min = static_cast<int>(v[2]); c.amp_max = static_cast<int>(v[3]);
             c.loss_samples = static_cast<int>(v[4]); c.coarse = static_cast<int>(v[5]);
         }
+        else if (cosim_keys && key == "cosim_kind" && need(1)) co.bus_only = static_cast<int>(v[0]);
+        else if (cosim_keys && key == "cosim_bus_pairs" && need(1)) co.bus_pairs = static_cast<uint32_t>(v[0]);
+        else if (cosim_keys && key == "cosim_bus" && need(4)) for (int i = 0; i < 4; ++i) co.bus[i] = static_cast<int>(v[i]);
+        else if (cosim_keys && key == "cosim_q_deep" && need(3)) std::copy(v.begin(), v.end(), co.q_deep);
+        else if (cosim_keys && key == "cosim_push" && need(2)) { co.t_in = v[0]; co.t_hold = v[1]; }
+        else if (cosim_keys && key == "cosim_wall_at" && need(1)) co.wall_at = v[0];
+        else if (cosim_keys && key == "cosim_seed" && need(1)) co.seed = static_cast<uint64_t>(v[0]);
         else if (err.empty()) err = "unknown key " + key;
         if (!err.empty()) return false;
     }

@@ -27,7 +27,7 @@
 #include <vector>
 
 #include "Venc_interp3.h"
-#include "verilated.h"
+#include "testb.h"
 
 #ifndef AXES
 #error "AXES must be defined (-DAXES=n) to match the RTL parameter"
@@ -84,8 +84,8 @@ int main(int argc, char** argv) {
         return 2;
     }
 
-    auto ctx = std::make_unique<VerilatedContext>();
-    auto top = std::make_unique<Venc_interp3>(ctx.get());
+    hg_tb::TestB<Venc_interp3> tb;
+    Venc_interp3* const top = tb.top.get();
 
     const size_t rec_in = 3 * AXES;
     const size_t chunk = 1 << 16;  // samples per read
@@ -94,8 +94,6 @@ int main(int argc, char** argv) {
     obuf.reserve(chunk * AXES * 22);
     size_t ibuf_len = 0, ibuf_pos = 0;
 
-    top->clk = 0;
-    top->rst = 1;
     top->adc_a = top->adc_b = 0;
     top->enc_index = top->ctl_fault_clear = top->ctl_home_arm = 0;
     top->ctl_cal_en = top->ctl_cal_freeze = 0;
@@ -117,10 +115,7 @@ int main(int argc, char** argv) {
         top->cfg_cal_mu = mus;
     }
     top->eval();
-    for (int i = 0; i < 4; ++i) {
-        top->clk = 1; top->eval();
-        top->clk = 0; top->eval();
-    }
+    tb.hold_reset(4);
     // harmonic table (HARM = 1 builds): AXES x 256 signed bytes, written through the table
     // port, then every entry read back (two clocks each), all while in reset (no sample in flight)
     unsigned harm_bad = 0;
@@ -137,24 +132,20 @@ int main(int argc, char** argv) {
                 top->cfg_harm_we = 1U << ax;
                 top->cfg_harm_addr = e;
                 top->cfg_harm_data = tab[256 * ax + e];
-                top->clk = 1; top->eval();
-                top->clk = 0; top->eval();
+                tb.cycle();
             }
         }
         top->cfg_harm_we = 0;
         for (unsigned e = 0; e < 256; ++e) {
             top->cfg_harm_addr = e;
-            for (int i = 0; i < 2; ++i) {
-                top->clk = 1; top->eval();
-                top->clk = 0; top->eval();
-            }
+            tb.cycle();
+            tb.cycle();
             for (int ax = 0; ax < AXES; ++ax)
                 if (field(top->m_harm_rdata, 8 * ax, 8) != tab[256 * ax + e]) ++harm_bad;
         }
     }
 
-    top->rst = 0;
-    top->eval();
+    tb.release();
 
     // the calibration state of sample k comes m_cal_valid cycles before its m_valid result
     std::deque<std::array<uint64_t, 7 * AXES>> cal_q;
@@ -202,8 +193,7 @@ int main(int argc, char** argv) {
             top->ctl_fault_clear = 0;
             top->ctl_home_arm = 0;
         }
-        top->clk = 1;
-        top->eval();
+        tb.rise();
         ++clocks;
         if (top->m_cal_valid) {
             std::array<uint64_t, 7 * AXES> c{};
@@ -243,13 +233,11 @@ int main(int argc, char** argv) {
                 obuf.clear();
             }
         }
-        top->clk = 0;
-        top->eval();
+        tb.fall();
     }
     std::fwrite(obuf.data(), 1, obuf.size(), out);
     const double secs =
         std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-    top->final();
     std::fclose(in);
     if (std::fclose(out) != 0) {
         std::fprintf(stderr, "error: writing %s failed\n", argv[2]);
