@@ -5,6 +5,7 @@
 // axis disable, or axis fault. Signals, timing and that bound: rtl/top/README.md.
 `timescale 1ns / 1ps
 `default_nettype none
+`include "hg_sim.vh"
 
 module hapgate_top #(
     parameter integer CLK_HZ        = 48_000_000, // FPGA clock: a multiple of 1 MHz and of SAMPLE_HZ
@@ -60,7 +61,7 @@ module hapgate_top #(
     parameter integer HOLD_C        = 0,          // 1: interpolators without stage-D copies
     parameter integer LATCH_RAM     = 0,          // 1: commutator's latched torques/limits in block RAM
     parameter integer AXIS_MASK     = 7,          // interpolators built (bit i = axis i); a
-                                                  // cleared bit needs HG_SIM (held joint)
+                                                  // cleared bit: simulation only (held joint)
     parameter integer CAPTURE       = 1,          // 1: raw ADC capture buffer, CAP_* registers
                                                   // (0: they read 0 and ignore writes)
     parameter integer CAP_DEPTH_LOG2 = 10         // CAPTURE = 1: 2**N 16-bit entries (block RAM)
@@ -87,30 +88,8 @@ module hapgate_top #(
     output wire                     bus_data_oe,
     output wire                     bus_ready,
     output wire                     irq
-`ifdef HG_SIM
-    ,
-    // simulation only (the virtual device): what the interpolator of an axis that is not built
-    // (AXIS_MASK bit clear, joint held still) would report: homed position, index latch, count
-    input  wire [95:0]              sim_hold_pos_homed,
-    input  wire [95:0]              sim_hold_index_pos,
-    input  wire [47:0]              sim_hold_index_count
-`ifdef HG_SIM_GATE
-    ,
-    // simulation only: the interpolators' stage clocks and their enables (enc_interp)
-    input  wire                     sim_gclk_a,   // stage A (capture)
-    input  wire                     sim_gclk_b,   // stage B (quadrant, table)
-    input  wire                     sim_gclk_c,   // stage C (count, index, faults)
-    input  wire                     sim_gclk_de,  // stages D and E (velocity, outputs)
-    input  wire                     sim_gclk_comm, // the commutator's datapath (commutator)
-    input  wire                     sim_gclk_bus, // the bus slave and the access-written registers
-    output wire [4:0]               sim_gate_en,  // their enables at the next edge
-                                                  // {comm, DE, C, B, A}
-    output wire                     sim_gate_en_bus  // the bus clock's (a port of its own: it
-                                                  // reads only the bus clock's registers and
-                                                  // the pins, so it is evaluated only when
-                                                  // they change, not at every clock)
-`endif
-`endif
+    `HG_SIM_HOLD_PORTS  // simulation only (rtl/include/hg_sim.vh): held axes' values
+    `HG_SIM_PORTS(6)    // simulation only: stage clocks {bus, comm, interp D+E, C, B, A}
 );
     localparam integer COUNT_BITS  = LUT_BITS + 3 + LINES_LOG2;  // counts per revolution, log2
     localparam integer AB          = ADDR_BITS + 2;              // commutation angle bits
@@ -255,26 +234,18 @@ module hapgate_top #(
     wire [8*NAX-1:0]  c_cal_gear;
     wire [95:0]       hold_pos_homed, hold_index_pos;
     wire [47:0]       hold_index_count;
-`ifdef HG_SIM
-    assign hold_pos_homed   = sim_hold_pos_homed;
-    assign hold_index_pos   = sim_hold_index_pos;
-    assign hold_index_count = sim_hold_index_count;
-`else
-    assign hold_pos_homed   = 96'd0;
-    assign hold_index_pos   = 96'd0;
-    assign hold_index_count = 48'd0;
-`endif
+    assign hold_pos_homed   = `HG_SIM_HOLD(sim_hold_pos_homed, 96'd0);
+    assign hold_index_pos   = `HG_SIM_HOLD(sim_hold_index_pos, 96'd0);
+    assign hold_index_count = `HG_SIM_HOLD(sim_hold_index_count, 48'd0);
     wire unused_hold = &{1'b0, hold_pos_homed, hold_index_pos, hold_index_count};
 
     generate
         if (AXIS_MASK < 1 || AXIS_MASK > 7) begin : g_bad_mask
             hapgate_top_AXIS_MASK_must_be_1_to_7 u_stop ();
         end
-`ifndef HG_SIM
-        if (AXIS_MASK != 7) begin : g_mask_sim_only
-            hapgate_top_AXIS_MASK_below_7_is_simulation_only_define_HG_SIM u_stop ();
+        if (AXIS_MASK != 7 && `HG_SIM_HELD_AXES == 0) begin : g_mask_sim_only
+            hapgate_top_AXIS_MASK_below_7_is_simulation_only u_stop ();
         end
-`endif
     endgenerate
 
     wire [8*NAX-1:0] c_harm_rdata;
@@ -301,12 +272,7 @@ module hapgate_top #(
         .ctl_harm_en(c_harm_en), .cfg_harm_we(c_harm_we), .cfg_harm_addr(harm_addr),
         .cfg_harm_data(harm_wdata), .m_harm_rdata(c_harm_rdata),
         .m_vel_obs(c_vel_obs), .cfg_obs_bw(c_obs_bw), .cfg_obs_type3(c_obs_type3)
-`ifdef HG_SIM
-`ifdef HG_SIM_GATE
-        , .sim_gclk({sim_gclk_de, sim_gclk_c, sim_gclk_b, sim_gclk_a}),
-        .sim_gate_en(sim_gate_en[3:0])
-`endif
-`endif
+        `HG_SIM_BIND(sim_gclk[3:0], sim_gate_en[3:0])
     );
     wire unused_cal_valid = &{1'b0, cal_valid};  // (the registers read the live state)
     wire [95:0] cal_ofs_w, cal_gain_w, cal_stat_w;
@@ -419,11 +385,7 @@ module hapgate_top #(
         .ctl_tq_limit(tq_limit), .wdog_expired(wdog_expired), .irq(irq), .tick(tick),
         .dbg_req(dbg_req), .dbg_we(dbg_we), .dbg_addr(dbg_addr), .dbg_wdata(dbg_wdata),
         .dbg_proto_err(dbg_proto_err)
-`ifdef HG_SIM
-`ifdef HG_SIM_GATE
-        , .sim_gclk(sim_gclk_bus), .sim_gate_en(sim_gate_en_bus)
-`endif
-`endif
+        `HG_SIM_BIND(sim_gclk[5], sim_gate_en[5])
     );
     wire unused_dbg = &{1'b0, tick, dbg_proto_err};
 
@@ -484,11 +446,7 @@ module hapgate_top #(
         .ctl_mode(mode_eff), .ctl_enable(~kill_all), .ctl_torque_limit(tq_limit),
         .axis_fault(fault), .m_frame(m_frame),
         .dac_data(c_data), .dac_addr(c_addr), .dac_wr_n(c_wr_n)
-`ifdef HG_SIM
-`ifdef HG_SIM_GATE
-        , .sim_gclk(sim_gclk_comm), .sim_gate_en(sim_gate_en[4])
-`endif
-`endif
+        `HG_SIM_BIND(sim_gclk[4], sim_gate_en[4])
     );
     wire unused_frame = m_frame;
 

@@ -137,7 +137,8 @@ def build(clk_hz: int, mask: int = 7, trace: bool = False, test_limits: bool = F
                 f"-I{HERE} -I{FW / 'include'}" + "".join(f" -D{d}" for d in defs)),
         ldflags="fw/libhgfw.a -lm",
         inputs=[HERE / "plant.h", HERE / "uart_link.h", HERE / "view_link.h",
-                HERE / "harness_common.h", HERE / "stage_clocks.h", *fw_srcs],
+                HERE / "harness_common.h", HERE / "stage_clocks.h", HERE.parent / "vl_internals.h",
+                *fw_srcs],
         prepare=functools.partial(cosim._fw_lib, defines=defs), vflags=vflags,
         train=functools.partial(_train, clk_hz, mask, test_limits, coarse, vel_obs)
         if pgo and not trace else None)

@@ -29,7 +29,8 @@ from . import funcov, native
 
 HARNESS = TB / "native" / "commutation" / "commutation_harness.cpp"
 SOURCES = [RTL / "commutation" / "sine_lut.v", RTL / "dac_sched" / "dac_sched.v",
-           RTL / "commutation" / "commutator.v"]
+           RTL / "commutation" / "commutator.v",
+           TB / "native" / "commutation" / "dac_sched_skip.v"]  # the HG_SIM_SKIP hook
 REC_IN = np.dtype([("pos", "<u4", 3), ("torque", "<i2", 3), ("offset", "<u2", 3),
                    ("mode", "u1"), ("enable", "u1"), ("fault", "u1"), ("pad0", "u1"),
                    ("limit", "<u2"), ("pad1", "<u2")])
@@ -77,8 +78,9 @@ def build_commutation(cfg: cm.CommutationConfig = cm.CommutationConfig(),
              f"-DSETTLE_CLOCKS={settle_clocks} -O3")
     try:
         return native.verilate_harness("commutation_harness", "commutator", SOURCES, params,
-                                       [HARNESS], cflags=flags, inputs=[Path(params["LUT_FILE"])],
-                                       vflags=["-DHG_SIM", "-DHG_SIM_SKIP"])
+                                       [HARNESS], cflags=flags,
+                                       inputs=[Path(params["LUT_FILE"]), TB / "native" / "vl_internals.h"],
+                                       vflags=["-DHG_SIM_SKIP"])
     except BuildError as exc:
         stops = re.findall(r"\b(\w+_must_\w+|\w+_needs_\w+)\b", exc.text)
         if stops:

