@@ -216,7 +216,7 @@ module commutator #(
     // ---------------------------------------------------------------- stage A: angle, level
     // A function called in stage A's clocked block rather than continuous logic: its inputs are
     // the scheduler's channel (on clk) and the frame's latched state, so in a simulation on
-    // stage clocks (HG_SIM_GATE) continuous logic would be re-evaluated at every clock although
+    // stage clocks (docs/design/SIMULATION.md) continuous logic would be re-evaluated at every clock although
     // only stage A reads it. Synthesis builds the same logic either way.
     function [AB+3:0] stage_a;   // {code, six-step, level +, level -, zero}
         input [2:0]      ch;     // the channel asked for (motor = ch / 2, phase b = ch[0])

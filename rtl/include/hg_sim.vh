@@ -1,10 +1,10 @@
 // SPDX-License-Identifier: Apache-2.0
-// The one simulation-only mechanism of rtl/ (docs/design/simulation.md): macros that expand to
+// The one simulation-only mechanism of rtl/ (docs/design/SIMULATION.md): macros that expand to
 // nothing, or to clk, in synthesis and in every simulation without the defines below. A reader
 // of the design can skip every line that uses them. Defines, set only by the virtual device's
-// and the commutation harness's builds (models/hapgate/device/runner.py, runners/native_comm.py):
-//   HG_SIM       the virtual device's top: axes not built (AXIS_MASK < 7) held by the harness
-//   HG_SIM_GATE  (with HG_SIM) the stage clocks: a module's registers of a stage on a clock the
+// and the commutation harness's builds (models/hapgate/device/runner.py, runners/native_comm.py;
+// the virtual device's held axes are outside rtl/: tb/native/device/held/enc_interp3.v):
+//   HG_SIM_GATE  the virtual device's stage clocks: a module's registers of a stage on a clock the
 //                harness drives as clk in the cycles whose enable the module announced
 //   HG_SIM_SKIP  dac_sched's idle-clock skip hook (tb/native/commutation/dac_sched_skip.v)
 `ifndef HG_SIM_VH
@@ -28,20 +28,6 @@
 `define HG_SIM_BIND(GCLK, EN)
 `define HG_SIM_EN(EXPR)
 `define HG_SIM_GATE_ONLY(TEXT)
-`endif
-
-`ifdef HG_SIM
-// the top's held axes (AXIS_MASK bit clear: an interpolator not built, its joint held still):
-// what its interpolator would report, set by the harness
-`define HG_SIM_HOLD_PORTS , input wire [95:0] sim_hold_pos_homed, input wire [95:0] sim_hold_index_pos, input wire [47:0] sim_hold_index_count
-// the held value: SIM here, SYN (0) in the design, where every axis is built
-`define HG_SIM_HOLD(SIM, SYN) SIM
-// 1: axes may be left out (AXIS_MASK < 7); 0 in the design
-`define HG_SIM_HELD_AXES 1
-`else
-`define HG_SIM_HOLD_PORTS
-`define HG_SIM_HOLD(SIM, SYN) SYN
-`define HG_SIM_HELD_AXES 0
 `endif
 
 `ifdef HG_SIM_SKIP

@@ -1,6 +1,6 @@
 // SPDX-License-Identifier: Apache-2.0
-// The virtual device, closed loop: the Verilated FPGA top (hapgate_top, built with HG_SIM and
-// the scene's AXIS_MASK), the DSP firmware (dsp-fw/src, unchanged) on its ISR and background
+// The virtual device, closed loop: the Verilated FPGA top (hapgate_top, built with HG_SIM_GATE
+// and, for the scene's AXIS_MASK < 7, the held-axis bank held/enc_interp3.v), the DSP firmware (dsp-fw/src, unchanged) on its ISR and background
 // loop over a grid-aligned bus, and the plant (plant.cpp: motors, linkage, hand, encoders).
 // Driven by models/hapgate/device/runner.py; description: tb/native/device/README.md.
 //
@@ -487,15 +487,9 @@ int main(int argc, char** argv) {
     top.trace(bench.tfp.get(), 99);
     bench.tfp->open((outdir + "/trace.vcd").c_str());
 #endif
-    top.sim_hold_pos_homed[0] = cfg.hold_pos_homed[0];
-    top.sim_hold_pos_homed[1] = cfg.hold_pos_homed[1];
-    top.sim_hold_pos_homed[2] = cfg.hold_pos_homed[2];
-    top.sim_hold_index_pos[0] = cfg.hold_index_pos[0];
-    top.sim_hold_index_pos[1] = cfg.hold_index_pos[1];
-    top.sim_hold_index_pos[2] = cfg.hold_index_pos[2];
-    top.sim_hold_index_count = (static_cast<uint64_t>(cfg.hold_index_count[2] & 0xFFFF) << 32) |
-                               (static_cast<uint64_t>(cfg.hold_index_count[1] & 0xFFFF) << 16) |
-                               (cfg.hold_index_count[0] & 0xFFFF);
+#if AXIS_MASK != 7
+    hg_dev::set_held(top, cfg.hold_pos_homed, cfg.hold_index_pos, cfg.hold_index_count);
+#endif
     top.clk = 0;
     top.rst = 1;
     top.bus_ce_n = top.bus_re_n = top.bus_we_n = 1;
