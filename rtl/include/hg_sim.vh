@@ -14,6 +14,10 @@
 // a module's one simulation-only port bundle: N stage clocks in, their N enables (for the next
 // edge) out; written after the last port, without a comma before it
 `define HG_SIM_PORTS(N) , input wire [(N)-1:0] sim_gclk, output wire [(N)-1:0] sim_gate_en
+// the top's bundle: its six stage clocks {bus, comm, interpolator D+E, C, B, A} in, their
+// enables out, the bus clock's on a port of its own (it reads only the bus clock's registers and
+// the pins: apart, Verilator evaluates it only when those change, not at every clock)
+`define HG_SIM_TOP_PORTS , input wire [5:0] sim_gclk, output wire [4:0] sim_gate_en, output wire sim_gate_en_bus
 // the clock of the module's stage I: CLK in the design, the harness's stage clock I here
 `define HG_SIM_CLK(CLK, I) sim_gclk[I]
 // a sub-block's bundle, connected after its last port: its clocks, its enables
@@ -24,6 +28,7 @@
 `define HG_SIM_GATE_ONLY(TEXT) TEXT
 `else
 `define HG_SIM_PORTS(N)
+`define HG_SIM_TOP_PORTS
 `define HG_SIM_CLK(CLK, I) CLK
 `define HG_SIM_BIND(GCLK, EN)
 `define HG_SIM_EN(EXPR)

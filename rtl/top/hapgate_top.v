@@ -86,7 +86,7 @@ module hapgate_top #(
     output wire                     bus_data_oe,
     output wire                     bus_ready,
     output wire                     irq
-    `HG_SIM_PORTS(6)  // simulation only (rtl/include/hg_sim.vh): {bus, comm, interp D+E, C, B, A}
+    `HG_SIM_TOP_PORTS  // simulation only (rtl/include/hg_sim.vh): the stage clocks, enables
 );
     localparam integer COUNT_BITS  = LUT_BITS + 3 + LINES_LOG2;  // counts per revolution, log2
     localparam integer AB          = ADDR_BITS + 2;              // commutation angle bits
@@ -301,7 +301,7 @@ module hapgate_top #(
         .ctl_tq_limit(tq_limit), .wdog_expired(wdog_expired), .irq(irq), .tick(tick),
         .dbg_req(dbg_req), .dbg_we(dbg_we), .dbg_addr(dbg_addr), .dbg_wdata(dbg_wdata),
         .dbg_proto_err(dbg_proto_err)
-        `HG_SIM_BIND(sim_gclk[5], sim_gate_en[5])
+        `HG_SIM_BIND(sim_gclk[5], sim_gate_en_bus)
     );
     wire unused_dbg = &{1'b0, tick, dbg_proto_err};
 

@@ -13,11 +13,11 @@ namespace hg_dev {
 constexpr unsigned kAllGates = 0x3F;   // every stage clock (reset)
 constexpr unsigned kBusGate = 0x20;    // the bus clock: also after the harness changed a bus pin
 
-// The enables the design announced for the next edge, as sim_gate_en bits (the top's one
-// simulation-only port bundle: rtl/include/hg_sim.vh).
+// The enables the design announced for the next edge, as sim_gclk bits (the top's one
+// simulation-only port bundle, rtl/include/hg_sim.vh: the bus clock's on a port of its own).
 template <class Top>
 inline unsigned announced(const Top& t) {
-    return static_cast<unsigned>(t.sim_gate_en);
+    return static_cast<unsigned>(t.sim_gate_en) | (static_cast<unsigned>(t.sim_gate_en_bus) << 5);
 }
 
 // Drive the stage clocks high whose bit is set (with clk's rising edge), or all low (g = 0).
