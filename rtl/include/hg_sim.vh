@@ -17,7 +17,7 @@
 // the top's bundle: its six stage clocks {bus, comm, interpolator D+E, C, B, A} in, their
 // enables out, the bus clock's on a port of its own (it reads only the bus clock's registers and
 // the pins: apart, Verilator evaluates it only when those change, not at every clock)
-`define HG_SIM_TOP_PORTS , input wire [5:0] sim_gclk, output wire [4:0] sim_gate_en, output wire sim_gate_en_bus
+`define HG_SIM_TOP_PORTS , input wire sim_gclk_a, input wire sim_gclk_b, input wire sim_gclk_c, input wire sim_gclk_de, input wire sim_gclk_comm, input wire sim_gclk_bus, output wire [4:0] sim_gate_en, output wire sim_gate_en_bus
 // the clock of the module's stage I: CLK in the design, the harness's stage clock I here
 `define HG_SIM_CLK(CLK, I) sim_gclk[I]
 // a sub-block's bundle, connected after its last port: its clocks, its enables

@@ -238,7 +238,7 @@ module hapgate_top #(
         .ctl_harm_en(harm_en), .cfg_harm_we(harm_we), .cfg_harm_addr(harm_addr),
         .cfg_harm_data(harm_wdata), .m_harm_rdata(harm_rdata),
         .m_vel_obs(vel_obs), .cfg_obs_bw(obs_bw), .cfg_obs_type3(obs_type3)
-        `HG_SIM_BIND(sim_gclk[3:0], sim_gate_en[3:0])
+        `HG_SIM_BIND(({sim_gclk_de, sim_gclk_c, sim_gclk_b, sim_gclk_a}), sim_gate_en[3:0])
     );
     wire unused_cal_valid = &{1'b0, cal_valid};  // (the registers read the live state)
     wire [95:0] cal_ofs_w, cal_gain_w, cal_stat_w;
@@ -301,7 +301,7 @@ module hapgate_top #(
         .ctl_tq_limit(tq_limit), .wdog_expired(wdog_expired), .irq(irq), .tick(tick),
         .dbg_req(dbg_req), .dbg_we(dbg_we), .dbg_addr(dbg_addr), .dbg_wdata(dbg_wdata),
         .dbg_proto_err(dbg_proto_err)
-        `HG_SIM_BIND(sim_gclk[5], sim_gate_en_bus)
+        `HG_SIM_BIND(sim_gclk_bus, sim_gate_en_bus)
     );
     wire unused_dbg = &{1'b0, tick, dbg_proto_err};
 
@@ -362,7 +362,7 @@ module hapgate_top #(
         .ctl_mode(mode_eff), .ctl_enable(~kill_all), .ctl_torque_limit(tq_limit),
         .axis_fault(fault), .m_frame(m_frame),
         .dac_data(c_data), .dac_addr(c_addr), .dac_wr_n(c_wr_n)
-        `HG_SIM_BIND(sim_gclk[4], sim_gate_en[4])
+        `HG_SIM_BIND(sim_gclk_comm, sim_gate_en[4])
     );
     wire unused_frame = m_frame;
 

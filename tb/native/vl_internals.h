@@ -34,48 +34,43 @@ static_assert(hg_vl::same(VERILATOR_VERSION, HG_VL_KNOWN_VERSION),
     bool M##___024root___eval_phase__ico(M##___024root* vlSelf);                     \
     void M##___024root___eval_triggers_vec__act(M##___024root* vlSelf);              \
     void M##___024root___eval_nba(M##___024root* vlSelf)
-// The phases of model M as an hg_vl::Phases value.
-#define HG_VL_PHASES(M)                                                              \
-    hg_vl::Phases<M##___024root> {                                                   \
-        &M##___024root___eval_phase__ico, &M##___024root___eval_triggers_vec__act,   \
-            &M##___024root___eval_nba                                                \
-    }
+// The phases of model M as an hg_vl::Phases type (the functions as template arguments: direct
+// calls, inlined as the generated ___eval inlines them).
+#define HG_VL_PHASES(M)                                                            \
+    hg_vl::Phases<M##___024root, &M##___024root___eval_phase__ico,                 \
+                  &M##___024root___eval_triggers_vec__act, &M##___024root___eval_nba>
 
 namespace hg_vl {
 
-template <class Root>
+template <class Root, bool (*Ico)(Root*), void (*Trig)(Root*), void (*Nba)(Root*)>
 struct Phases {
-    bool (*ico)(Root*);    // input-combinational phase: true while it must run again
-    void (*trig)(Root*);   // the active region's trigger vector from the clocks
-    void (*nba)(Root*);    // the NBA region for the triggers in __VnbaTriggered
-};
-
-// The trigger vector that the generated code computes for the clocks as they are now (the
-// harness has just raised some of them), after which it records them as they are when `low()`
-// has lowered them again (as every edge leaves them). Called once per combination of clocks.
-template <class Root, class Low>
-uint64_t learn_trigger(Root* r, const Phases<Root>& p, Low low) {
-    p.trig(r);
-    const uint64_t t = r->__VactTriggered[0];
-    low();
-    p.trig(r);
-    r->__VactTriggered[0] = 0;
-    return t;
-}
-
-// One rising edge with a learned trigger vector: the input-combinational phase if an input other
-// than a clock changed, then the NBA region of the clocks that rise, once (no register drives a
-// clock, so an NBA evaluation never triggers another).
-template <class Root>
-void eval_edge(Root* r, const Phases<Root>& p, uint64_t trig, bool inputs_changed) {
-    if (inputs_changed) {
-        r->__VicoFirstIteration = 1;
-        while (p.ico(r)) r->__VicoFirstIteration = 0;
+    // The trigger vector that the generated code computes for the clocks as they are now (the
+    // harness has just raised some of them), after which it records them as they are when
+    // `low()` has lowered them again (as every edge leaves them). Called once per combination
+    // of clocks.
+    template <class Low>
+    static uint64_t learn_trigger(Root* r, Low low) {
+        Trig(r);
+        const uint64_t t = r->__VactTriggered[0];
+        low();
+        Trig(r);
+        r->__VactTriggered[0] = 0;
+        return t;
     }
-    r->__VnbaTriggered[0] = trig;
-    p.nba(r);
-    r->__VnbaTriggered[0] = 0;
-}
+
+    // One rising edge with a learned trigger vector: the input-combinational phase if an input
+    // other than a clock changed, then the NBA region of the clocks that rise, once (no register
+    // drives a clock, so an NBA evaluation never triggers another).
+    static void eval_edge(Root* r, uint64_t trig, bool inputs_changed) {
+        if (inputs_changed) {
+            r->__VicoFirstIteration = 1;
+            while (Ico(r)) r->__VicoFirstIteration = 0;
+        }
+        r->__VnbaTriggered[0] = trig;
+        Nba(r);
+        r->__VnbaTriggered[0] = 0;
+    }
+};
 
 // Record a falling edge of the top-level input `clk` in the model's edge detector without
 // evaluating it (nothing in the design works on it).

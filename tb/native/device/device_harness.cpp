@@ -202,7 +202,7 @@ struct Bench {
 
     // Called once, with every clock low (between edges): for each combination of stage clocks,
     // raise them with clk and let the generated code compute its trigger vector
-    // (hg_vl::learn_trigger). Each clock must own one trigger bit of its own, which is checked.
+    // (learn_trigger, tb/native/vl_internals.h). Each clock must own one trigger bit of its own, which is checked.
     void learn_triggers() {
         Vhapgate_top___024root* r = top->rootp;
         const unsigned n = HG_SIM_GATE ? hg_dev::kAllGates + 1 : 1;
@@ -211,7 +211,7 @@ struct Bench {
 #if HG_SIM_GATE
             set_gates(g);
 #endif
-            trig[g] = hg_vl::learn_trigger(r, kPhases, [&] {
+            trig[g] = Vl::learn_trigger(r, [&] {
                 top->clk = 0;
 #if HG_SIM_GATE
                 set_gates(0);
@@ -226,13 +226,13 @@ struct Bench {
         }
     }
 
-    // One rising edge (hg_vl::eval_edge): the input-combinational phase if an input changed,
+    // One rising edge (eval_edge, tb/native/vl_internals.h): the input-combinational phase if an input changed,
     // then the NBA phase of the clocks that rise.
     void eval_edge(unsigned g) {
-        hg_vl::eval_edge(top->rootp, kPhases, trig[g], inputs_changed);
+        Vl::eval_edge(top->rootp, trig[g], inputs_changed);
         inputs_changed = false;
     }
-    static constexpr hg_vl::Phases<Vhapgate_top___024root> kPhases = HG_VL_PHASES(Vhapgate_top);
+    using Vl = HG_VL_PHASES(Vhapgate_top);
 #endif
 
 #if HG_SIM_GATE

@@ -23,7 +23,12 @@ inline unsigned announced(const Top& t) {
 // Drive the stage clocks high whose bit is set (with clk's rising edge), or all low (g = 0).
 template <class Top>
 inline void set_gates(Top& t, unsigned g) {
-    t.sim_gclk = static_cast<decltype(+t.sim_gclk)>(g);
+    t.sim_gclk_a = g & 1U;
+    t.sim_gclk_b = (g >> 1) & 1U;
+    t.sim_gclk_c = (g >> 2) & 1U;
+    t.sim_gclk_de = (g >> 3) & 1U;
+    t.sim_gclk_comm = (g >> 4) & 1U;
+    t.sim_gclk_bus = (g >> 5) & 1U;
 }
 
 #if defined(AXIS_MASK) && AXIS_MASK != 7
