@@ -5,6 +5,7 @@
 // capture edge, else it is dropped and reported (m_proto_err). Timing: rtl/bus/README.md.
 `timescale 1ns / 1ps
 `default_nettype none
+`include "hg_sim.vh"
 
 module emif_slave #(
     parameter integer ADDR_BITS = 8   // word-address lines decoded (the register map spans 64)
@@ -28,14 +29,7 @@ module emif_slave #(
     output reg  [ADDR_BITS-1:0] m_addr,
     output reg  [31:0]          m_wdata,
     output wire                 m_proto_err      // one clock: an access was dropped
-`ifdef HG_SIM_GATE
-    ,
-    // simulation only (the virtual device, tb/native/device/README.md "Stage clocks"): the
-    // bus clock, driven by the harness as clk in the cycles whose enable sim_gate_en announced
-    // after the previous edge or in which it changed a pin; with HG_SIM_GATE undefined: clk
-    input  wire                 sim_gclk,
-    output wire                 sim_gate_en
-`endif
+    `HG_SIM_PORTS(1)  // simulation only (rtl/include/hg_sim.vh): the bus clock
 );
     generate
         if (ADDR_BITS < 6 || ADDR_BITS > 30) begin : g_bad_addr_bits
@@ -43,13 +37,7 @@ module emif_slave #(
         end
     endgenerate
 
-    wire clk_g;   // every register here: clk, or the simulation's bus clock
-`ifdef HG_SIM_GATE
-    assign clk_g = sim_gclk;
-    wire unused_clk = &{1'b0, clk};   // (every register is on the bus clock)
-`else
-    assign clk_g = clk;
-`endif
+    wire clk_g = `HG_SIM_CLK(clk, 0);   // every register here
 
     // ---------------------------------------------------------------- synchronisers
     // stage 0 and 1 are the synchroniser; stage 2 remembers the previous synchronised value.
@@ -126,16 +114,9 @@ module emif_slave #(
     assign s_bus_data_oe = rd_pin & (served_q | (pend & ~pend_we));
     assign s_bus_ready   = (rd_pin | wr_pin) & served_q;
 
-`ifdef HG_SIM_GATE
-    // the bus clock's enable at the next edge, for the pins as they are now: reset, a
-    // synchroniser stage that differs from its pin (a strobe or select on its way in), a
-    // captured access, a protocol error, or a ready to drop. In any other cycle every register
-    // here keeps its value on clk (the stages shift in the values they hold, no access starts).
-    // The harness adds the cycles after it changes a pin.
-    wire sim_settled = (ce_s == {3{~s_bus_ce_n}}) && (re_s == {3{~s_bus_re_n}})
-                       && (we_s == {3{~s_bus_we_n}});
-    assign sim_gate_en = rst | ~sim_settled | pend | both_q | (served_q & ~(rd1 | wr1));
-`endif
+    // simulation only: the bus clock's enable (reset, a synchroniser stage unlike its pin, a
+    // captured access, a protocol error, a ready to drop; tb/native/device/README.md)
+    `HG_SIM_EN((rst | ce_s != {3{~s_bus_ce_n}} | re_s != {3{~s_bus_re_n}} | we_s != {3{~s_bus_we_n}} | pend | both_q | (served_q & ~(rd1 | wr1))))
 endmodule
 
 `default_nettype wire

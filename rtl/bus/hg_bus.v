@@ -4,6 +4,7 @@
 // outputs driven by the testbench.
 `timescale 1ns / 1ps
 `default_nettype none
+`include "hg_sim.vh"
 
 module hg_bus #(
     parameter integer CLK_HZ       = 48_000_000, // FPGA clock: a multiple of 1 MHz
@@ -69,18 +70,12 @@ module hg_bus #(
     output wire [ADDR_BITS-1:0] dbg_addr,
     output wire [31:0]          dbg_wdata,
     output wire                 dbg_proto_err    // observation: a dropped access (one clock)
-`ifdef HG_SIM_GATE
-    ,
-    input  wire                 sim_gclk,        // simulation only: the bus clock (emif_slave)
-    output wire                 sim_gate_en      // its enable at the next edge
-`endif
+    `HG_SIM_PORTS(1)  // simulation only (rtl/include/hg_sim.vh): the bus clock
 );
     wire [ADDR_BITS-1:0] raddr, addr;
     wire [31:0]          rdata, wdata;
     wire                 req, we, perr;
-`ifdef HG_SIM_GATE
-    wire                 en_slave, en_regs;
-`endif
+    `HG_SIM_GATE_ONLY(wire [1:0] sim_en;)  // the slave's and the register file's enables
 
     emif_slave #(.ADDR_BITS(ADDR_BITS)) u_slave (
         .clk(clk), .rst(rst),
@@ -89,9 +84,7 @@ module hg_bus #(
         .s_bus_data_oe(bus_data_oe), .s_bus_ready(bus_ready),
         .m_raddr(raddr), .m_rdata(rdata), .m_req(req), .m_we(we), .m_addr(addr),
         .m_wdata(wdata), .m_proto_err(perr)
-`ifdef HG_SIM_GATE
-        , .sim_gclk(sim_gclk), .sim_gate_en(en_slave)
-`endif
+        `HG_SIM_BIND(sim_gclk, sim_en[0])
     );
 
     hg_regfile #(
@@ -117,13 +110,9 @@ module hg_bus #(
         .ctl_fault_clear(ctl_fault_clear), .ctl_home_arm(ctl_home_arm),
         .ctl_torque(ctl_torque), .ctl_offset(ctl_offset), .ctl_mode(ctl_mode),
         .ctl_tq_limit(ctl_tq_limit), .wdog_expired(wdog_expired), .irq(irq), .tick(tick)
-`ifdef HG_SIM_GATE
-        , .sim_gclk(sim_gclk), .sim_gate_en(en_regs)
-`endif
+        `HG_SIM_BIND(sim_gclk, sim_en[1])
     );
-`ifdef HG_SIM_GATE
-    assign sim_gate_en = en_slave | en_regs;
-`endif
+    `HG_SIM_EN((|sim_en))
 
     assign dbg_req       = req;
     assign dbg_we        = we;

@@ -5,6 +5,7 @@
 // latched together on the servo tick or on demand, the servo-tick interrupt and the watchdog.
 `timescale 1ns / 1ps
 `default_nettype none
+`include "hg_sim.vh"
 
 module hg_regfile #(
     parameter integer CLK_HZ       = 48_000_000, // FPGA clock: a multiple of 1 MHz
@@ -71,13 +72,7 @@ module hg_regfile #(
     output wire                 wdog_expired,    // sticky: all torque to zero
     output wire                 irq,             // servo tick pending (level)
     output reg                  tick             // one clock after each servo tick (observation)
-`ifdef HG_SIM_GATE
-    ,
-    // simulation only (the virtual device, tb/native/device/README.md "Stage clocks"): the bus
-    // clock (emif_slave's) for the registers that change only with an access, and their enable
-    input  wire                 sim_gclk,
-    output wire                 sim_gate_en
-`endif
+    `HG_SIM_PORTS(1)  // simulation only (rtl/include/hg_sim.vh): the bus clock
 );
     // ---------------------------------------------------------------- constants
     localparam integer CLK_PER_US = CLK_HZ / 1_000_000;
@@ -152,12 +147,7 @@ module hg_regfile #(
     // The registers written only by an access (configuration, harmonic table address, error
     // flags) are on clk_g: clk, or the simulation's bus clock. The counters, the snapshot and
     // the watchdog are on clk.
-    wire clk_g;
-`ifdef HG_SIM_GATE
-    assign clk_g = sim_gclk;
-`else
-    assign clk_g = clk;
-`endif
+    wire clk_g = `HG_SIM_CLK(clk, 0);
 
     wire [ADDR_BITS-1:0] wa = s_addr;
     wire hi_zero_w = (wa[ADDR_BITS-1:6] == {(ADDR_BITS - 6){1'b0}});
@@ -561,14 +551,8 @@ module hg_regfile #(
             end
         end
     end
-`ifdef HG_SIM_GATE
-    // the bus clock's enable for this module at the next edge: reset, an access (s_req, which
-    // needs the slave's enable a clock earlier too) or a pulse to clear. Without them every
-    // clk_g register keeps its value on clk: its writes need wr or data_acc, the pulses are 0,
-    // and the error flags hold (no cfg_err_set, s_req, s_proto_err or fault_clr_w).
-    assign sim_gate_en = rst | s_req | s_proto_err | ctl_fault_clear | (|ctl_home_arm) | snap_req
-                         | cfg_err_set;
-`endif
+    // simulation only: the bus clock's enable (reset, an access, a pulse to clear)
+    `HG_SIM_EN((rst | s_req | s_proto_err | ctl_fault_clear | (|ctl_home_arm) | snap_req | cfg_err_set))
 endmodule
 
 `default_nettype wire

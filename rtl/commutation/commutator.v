@@ -11,6 +11,7 @@
 // logic cells on the HX8K; the same codes and times). rtl/boards/README.md, "Fit".
 `timescale 1ns / 1ps
 `default_nettype none
+`include "hg_sim.vh"
 
 module commutator #(
     parameter integer CLK_HZ        = 48_000_000, // FPGA clock (a multiple of 1 kHz)
@@ -47,15 +48,7 @@ module commutator #(
     output wire [DAC_BITS-1:0]            dac_data,
     output wire [2:0]                     dac_addr,
     output wire                           dac_wr_n
-`ifdef HG_SIM_GATE
-    ,
-    // simulation only (the virtual device, tb/native/device/README.md "Stage clocks"): the
-    // datapath's stage clock, driven by the harness as clk in the cycles whose enable
-    // sim_gate_en announced after the previous edge (the frame latch, a request and the clocks
-    // of its pipeline); with HG_SIM_GATE undefined the datapath runs on clk
-    input  wire                           sim_gclk,
-    output wire                           sim_gate_en
-`endif
+    `HG_SIM_PORTS(1)  // simulation only (rtl/include/hg_sim.vh): the datapath's clock
 );
     localparam integer AB    = ADDR_BITS + 2;          // electrical angle bits (the ROM's cycle)
     localparam integer CB    = COUNT_BITS;
@@ -119,15 +112,9 @@ module commutator #(
         end
     endgenerate
 
-    // The datapath's clock: clk in the design; in a HG_SIM_GATE simulation the harness's gated
-    // clock (with the serial multiplier its enable asks for every cycle). The valid pipeline
-    // and the scheduler stay on clk.
-    wire clk_d;
-`ifdef HG_SIM_GATE
-    assign clk_d = sim_gclk;
-`else
-    assign clk_d = clk;
-`endif
+    // The datapath's clock: clk (rtl/include/hg_sim.vh: the virtual device's stage clock). The
+    // valid pipeline and the scheduler are on clk.
+    wire clk_d = `HG_SIM_CLK(clk, 0);
 
     // ---------------------------------------------------------------- scheduler
     wire       req;
@@ -229,7 +216,7 @@ module commutator #(
     // ---------------------------------------------------------------- stage A: angle, level
     // A function called in stage A's clocked block rather than continuous logic: its inputs are
     // the scheduler's channel (on clk) and the frame's latched state, so in a simulation on
-    // stage clocks (HG_SIM_GATE) continuous logic would be re-evaluated at every clock although
+    // stage clocks (docs/design/SIMULATION.md) continuous logic would be re-evaluated at every clock although
     // only stage A reads it. Synthesis builds the same logic either way.
     function [AB+3:0] stage_a;   // {code, six-step, level +, level -, zero}
         input [2:0]      ch;     // the channel asked for (motor = ch / 2, phase b = ch[0])
@@ -417,21 +404,10 @@ module commutator #(
     assign s_ch    = ch_r;
     assign s_data  = word;
 
-`ifdef HG_SIM_GATE
-    // the datapath clock's enable at the next edge (state after this one): reset, the frame
-    // latch, a request, and each stage of its pipeline while its valid is high (va; vb_sim, the
-    // sine ROM's read; lut_valid; vm). A request's pipeline then runs on consecutive clocks
-    // exactly as on clk, and every register it reads was written in one of them; outside them
-    // nothing is read (the scheduler reads word and ch_r in vr's clock: unchanged). The serial
-    // multiplier works outside them: every clock.
-    reg vb_sim;
-    always @(posedge clk) begin
-        if (rst) vb_sim <= 1'b0;
-        else     vb_sim <= va;
-    end
-    assign sim_gate_en = (SERIAL_MUL == 0) ? (rst | m_frame | req | va | vb_sim | lut_valid | vm)
-                                           : 1'b1;
-`endif
+    // simulation only: the datapath clock's enable (reset, the frame latch, a request, each
+    // pipeline stage while its valid is high: va, the ROM's read vb_sim, lut_valid, vm)
+    `HG_SIM_GATE_ONLY(reg vb_sim; always @(posedge clk) vb_sim <= rst ? 1'b0 : va;)
+    `HG_SIM_EN(((SERIAL_MUL == 0) ? (rst | m_frame | req | va | vb_sim | lut_valid | vm) : 1'b1))
 endmodule
 
 `default_nettype wire

@@ -15,6 +15,7 @@
 //                                          the DAC loads on this rising edge; hold >= SKEW - 2)
 `timescale 1ns / 1ps
 `default_nettype none
+`include "hg_sim.vh"
 
 module dac_sched #(
     parameter integer CLK_HZ      = 48_000_000, // FPGA clock: a multiple of 1 kHz, up to 134 MHz
@@ -88,43 +89,7 @@ module dac_sched #(
     reg [CW-1:0] ch_cnt;     // slot number; CHANNELS = no more requests this frame
     reg          wr_go;      // data went out last clock: drop the strobe now (one clock of setup)
 
-`ifdef HG_SIM_SKIP
-    // Simulation only (absent from synthesis, and from every simulation that does not define
-    // HG_SIM_SKIP: the device harness has no use for it): idle-clock skip for the native harness
-    // (tb/native/commutation/). Before a rising edge the harness may write sim_skip = N with
-    // 1 <= N <= sim_room; that edge then advances the frame and slot counters by 1 + N, exactly
-    // as 1 + N ordinary edges would. sim_room is 0 unless the scheduler is idle: every request
-    // answered (sim_pending = 0, s_valid low), no strobe pending or low, no request and no frame
-    // start in this clock; and it ends the 1 + N edges at the latest in the slot's last clock and
-    // before the frame's last, so no slot wrap, request, frame start or DAC port change can fall
-    // in the skipped clocks (the slot wrap needs no skip term). Never written, sim_skip stays 0
-    // and the module behaves as the synthesized one, which has none of this.
-    reg  [FW-1:0] sim_skip /*verilator public_flat_rw*/;  // extra clocks of the next edge
-    reg  [CW:0]   sim_pending;                             // requests not yet answered by s_valid
-    localparam integer SKEW_ROOM_I  = SKEW_CYCLES - 2;
-    localparam integer FRAME_ROOM_I = FRAME_CYCLES - 2;
-    localparam [FW-1:0] SKEW_ROOM   = SKEW_ROOM_I[FW-1:0];
-    localparam [FW-1:0] FRAME_ROOM  = FRAME_ROOM_I[FW-1:0];
-    wire          sim_idle   = sim_pending == {(CW+1){1'b0}} && !s_valid && !wr_go && dac_wr_n
-                               && !m_req && !m_frame;
-    wire [FW-1:0] sim_slot   = {{(FW-SW){1'b0}}, slot_cnt};
-    wire [FW-1:0] room_slot  = (sim_slot < SKEW_ROOM) ? SKEW_ROOM - sim_slot : {FW{1'b0}};
-    wire [FW-1:0] room_frame = (frame_cnt < FRAME_ROOM) ? FRAME_ROOM - frame_cnt : {FW{1'b0}};
-    wire [FW-1:0] sim_room /*verilator public_flat_rd*/ =
-        !sim_idle ? {FW{1'b0}} : ((room_slot < room_frame) ? room_slot : room_frame);
-    generate
-        if (CHANNELS < 2) begin : g_sim_channels  // (so that the slot counter is narrower)
-            dac_sched_HG_SIM_needs_CHANNELS_of_at_least_2 u_stop ();
-        end
-    endgenerate
-    initial sim_skip = {FW{1'b0}};
-    always @(posedge clk) begin
-        if (rst)
-            sim_pending <= {(CW+1){1'b0}};
-        else
-            sim_pending <= sim_pending + {{CW{1'b0}}, m_req} - {{CW{1'b0}}, s_valid};
-    end
-`endif
+    `HG_SIM_SKIP_HOOK  // simulation only (rtl/include/hg_sim.vh): the idle-clock skip
 
     always @(posedge clk) begin
         if (rst || frame_cnt == FRAME_LAST) begin  // frame 0 starts at the last edge with rst high
@@ -132,16 +97,10 @@ module dac_sched #(
             slot_cnt  <= {SW{1'b0}};
             ch_cnt    <= {CW{1'b0}};
         end else begin
-            frame_cnt <= frame_cnt + 1'b1;
-            slot_cnt  <= (slot_cnt == SKEW_LAST) ? {SW{1'b0}} : slot_cnt + 1'b1;
+            frame_cnt <= frame_cnt + 1'b1 `HG_SIM_SKIP_ADD(FW);
+            slot_cnt  <= (slot_cnt == SKEW_LAST) ? {SW{1'b0}} : slot_cnt + 1'b1 `HG_SIM_SKIP_ADD(SW);
             if (slot_cnt == SKEW_LAST && ch_cnt != CH_END)
                 ch_cnt <= ch_cnt + 1'b1;
-`ifdef HG_SIM_SKIP
-            if (sim_skip != {FW{1'b0}}) begin  // the hook: this edge counts 1 + sim_skip clocks
-                frame_cnt <= frame_cnt + 1'b1 + sim_skip;
-                slot_cnt  <= slot_cnt + 1'b1 + sim_skip[SW-1:0];
-            end
-`endif
         end
     end
 

@@ -8,6 +8,7 @@
 // + HARM (the harmonic correction table lookup).
 `timescale 1ns / 1ps
 `default_nettype none
+`include "hg_sim.vh"
 
 module enc_interp #(
     parameter integer LUT_BITS     = 7,         // arcsine LUT codes per 45 deg = 2**LUT_BITS (5..9)
@@ -84,16 +85,7 @@ module enc_interp #(
     output wire [15:0] m_cal_phase,       // signed, 2^-14
     output wire [7:0]  m_cal_gear,        // valid blocks since enable (saturating)
     output wire [15:0] m_cal_updates      // valid blocks since reset (wrapping)
-`ifdef HG_SIM_GATE
-    ,
-    // simulation only (the virtual device, tb/native/device/README.md "Stage clocks"): the
-    // stage clocks {D+E, C, B, A}, driven by the harness as clk in the cycles whose enables
-    // sim_gate_en announced after the previous edge; a stage's registers change only in those
-    // cycles, so the results are the same as with clk everywhere (and with HG_SIM_GATE undefined
-    // every stage runs on clk)
-    input  wire [3:0]  sim_gclk,
-    output wire [3:0]  sim_gate_en
-`endif
+    `HG_SIM_PORTS(4)  // simulation only (rtl/include/hg_sim.vh): stage clocks {D+E, C, B, A}
 );
     localparam integer FB   = LUT_BITS + 1;             // fine bits per quadrant
     localparam integer QCW  = 32 - FB;                  // quadrant counter width
@@ -107,21 +99,11 @@ module enc_interp #(
     localparam [RUNW-1:0] LOSS_N   = LOSS_SAMPLES[RUNW-1:0];
     localparam [QCW-1:0]  QC_TWO   = {{(QCW - 2){1'b0}}, 2'd2};
 
-    // Stage clocks: clk in the design; in a HG_SIM_GATE simulation of the configurations whose
-    // stages work only with their valid (no calibration, delay line or harmonic stage) the
-    // harness's gated clocks, else clk (the enables then ask for every cycle).
-    wire clk_a, clk_b, clk_c, clk_de;
-`ifdef HG_SIM_GATE
-    assign clk_a  = sim_gclk[0];
-    assign clk_b  = sim_gclk[1];
-    assign clk_c  = sim_gclk[2];
-    assign clk_de = sim_gclk[3];
-`else
-    assign clk_a  = clk;
-    assign clk_b  = clk;
-    assign clk_c  = clk;
-    assign clk_de = clk;
-`endif
+    // The stages' clocks: clk (rtl/include/hg_sim.vh: the virtual device's stage clocks)
+    wire clk_a  = `HG_SIM_CLK(clk, 0);
+    wire clk_b  = `HG_SIM_CLK(clk, 1);
+    wire clk_c  = `HG_SIM_CLK(clk, 2);
+    wire clk_de = `HG_SIM_CLK(clk, 3);
 
     // Elaboration-time checks: a bad configuration instantiates a module that does not exist,
     // whose name is the message.
@@ -730,13 +712,9 @@ module enc_interp #(
 
     assign m_fault = |m_faults;
 
-`ifdef HG_SIM_GATE
-    // the enables of the stage clocks at the next edge (state after this one): capture with the
-    // strobe, each stage with its input valid, stages D and E until their valids clear
-    localparam integer GATE = (CAL == 0 && HARM == 0 && ANGLE == 0 && ANGLE_REG == 0) ? 1 : 0;
-    assign sim_gate_en = (GATE != 0) ? {rst | vc | vd, rst | vC, rst | ctl_s[2], s_valid}
-                                     : 4'b1111;
-`endif
+    // simulation only: the stage clocks' enables (capture with the strobe, each stage with its
+    // input valid, D and E until their valids clear; every clock where a stage works without)
+    `HG_SIM_EN(((CAL == 0 && HARM == 0 && ANGLE == 0 && ANGLE_REG == 0) ? {rst | vc | vd, rst | vC, rst | ctl_s[2], s_valid} : 4'b1111))
 endmodule
 
 `default_nettype wire

@@ -4,6 +4,7 @@
 // Latency: 5 clocks from the cycle with adc_strobe high to the cycle with m_valid high (6: CAL = 1).
 `timescale 1ns / 1ps
 `default_nettype none
+`include "hg_sim.vh"
 
 module enc_interp3 #(
     parameter integer CLK_HZ       = 48_000_000, // FPGA clock
@@ -68,11 +69,7 @@ module enc_interp3 #(
     output wire [16*AXES-1:0]   m_cal_phase,
     output wire [8*AXES-1:0]    m_cal_gear,
     output wire [16*AXES-1:0]   m_cal_updates
-`ifdef HG_SIM_GATE
-    ,
-    input  wire [3:0]           sim_gclk,        // simulation only: the stage clocks (enc_interp)
-    output wire [3:0]           sim_gate_en      // their enables, any axis
-`endif
+    `HG_SIM_PORTS(4)  // simulation only (rtl/include/hg_sim.vh): enc_interp's stage clocks
 );
     generate
         if (AXES < 1 || AXES > 3) begin : g_bad_axes
@@ -87,13 +84,9 @@ module enc_interp3 #(
     wire [AXES-1:0] valid;
     assign m_valid = &valid;  // the axes run in lockstep
     wire [AXES-1:0] cal_valid;
-`ifdef HG_SIM_GATE
-    // The axes run in lockstep (m_valid above): one strobe, one reset, the same valid chain, so
-    // every axis announces the same enables and axis 0's are all of them (an OR over the axes
-    // would be evaluated at every edge for nothing; the stage clocks' equivalence checks hold).
-    wire [4*AXES-1:0] gate_en;   // (axes 1.. unread: rtl/lint/waivers.vlt)
-    assign sim_gate_en = gate_en[3:0];
-`endif
+    // simulation only: the axes run in lockstep, so axis 0's enables are every axis's
+    `HG_SIM_GATE_ONLY(wire [4*AXES-1:0] sim_en;)  // (axes 1.. unread: rtl/lint/waivers.vlt)
+    `HG_SIM_EN(sim_en[3:0])
     assign m_cal_valid = &cal_valid;
 
     genvar i;
@@ -130,9 +123,7 @@ module enc_interp3 #(
                 .ctl_harm_en(ctl_harm_en[i]), .cfg_harm_we(cfg_harm_we[i]),
                 .cfg_harm_addr(cfg_harm_addr), .cfg_harm_data(cfg_harm_data),
                 .m_harm_rdata(m_harm_rdata[8*i +: 8])
-`ifdef HG_SIM_GATE
-                , .sim_gclk(sim_gclk), .sim_gate_en(gate_en[4*i +: 4])
-`endif
+                `HG_SIM_BIND(sim_gclk, sim_en[4*i +: 4])
             );
         end
     endgenerate

@@ -5,6 +5,7 @@
 // axis disable, or axis fault. Signals, timing and that bound: rtl/top/README.md.
 `timescale 1ns / 1ps
 `default_nettype none
+`include "hg_sim.vh"
 
 module hapgate_top #(
     parameter integer CLK_HZ        = 48_000_000, // FPGA clock: a multiple of 1 MHz and of SAMPLE_HZ
@@ -59,8 +60,6 @@ module hapgate_top #(
     parameter integer SQ_RAM        = 0,          // 1: interpolators' signal-loss squares from block RAM
     parameter integer HOLD_C        = 0,          // 1: interpolators without stage-D copies
     parameter integer LATCH_RAM     = 0,          // 1: commutator's latched torques/limits in block RAM
-    parameter integer AXIS_MASK     = 7,          // interpolators built (bit i = axis i); a
-                                                  // cleared bit needs HG_SIM (held joint)
     parameter integer CAPTURE       = 1,          // 1: raw ADC capture buffer, CAP_* registers
                                                   // (0: they read 0 and ignore writes)
     parameter integer CAP_DEPTH_LOG2 = 10         // CAPTURE = 1: 2**N 16-bit entries (block RAM)
@@ -87,30 +86,7 @@ module hapgate_top #(
     output wire                     bus_data_oe,
     output wire                     bus_ready,
     output wire                     irq
-`ifdef HG_SIM
-    ,
-    // simulation only (the virtual device): what the interpolator of an axis that is not built
-    // (AXIS_MASK bit clear, joint held still) would report: homed position, index latch, count
-    input  wire [95:0]              sim_hold_pos_homed,
-    input  wire [95:0]              sim_hold_index_pos,
-    input  wire [47:0]              sim_hold_index_count
-`ifdef HG_SIM_GATE
-    ,
-    // simulation only: the interpolators' stage clocks and their enables (enc_interp)
-    input  wire                     sim_gclk_a,   // stage A (capture)
-    input  wire                     sim_gclk_b,   // stage B (quadrant, table)
-    input  wire                     sim_gclk_c,   // stage C (count, index, faults)
-    input  wire                     sim_gclk_de,  // stages D and E (velocity, outputs)
-    input  wire                     sim_gclk_comm, // the commutator's datapath (commutator)
-    input  wire                     sim_gclk_bus, // the bus slave and the access-written registers
-    output wire [4:0]               sim_gate_en,  // their enables at the next edge
-                                                  // {comm, DE, C, B, A}
-    output wire                     sim_gate_en_bus  // the bus clock's (a port of its own: it
-                                                  // reads only the bus clock's registers and
-                                                  // the pins, so it is evaluated only when
-                                                  // they change, not at every clock)
-`endif
-`endif
+    `HG_SIM_TOP_PORTS  // simulation only (rtl/include/hg_sim.vh): the stage clocks, enables
 );
     localparam integer COUNT_BITS  = LUT_BITS + 3 + LINES_LOG2;  // counts per revolution, log2
     localparam integer AB          = ADDR_BITS + 2;              // commutation angle bits
@@ -237,49 +213,10 @@ module hapgate_top #(
     wire [47:0] cal_phase;
     wire        cal_valid;
 
-    // Only the axes in AXIS_MASK are built (one compacted enc_interp3); the slots of the others
-    // show a held joint (sim_hold_*: constant, homed, no fault). The board build has all three.
-    localparam integer NAX = ((AXIS_MASK >> 0) & 1) + ((AXIS_MASK >> 1) & 1) + ((AXIS_MASK >> 2) & 1);
-    wire [8*NAX-1:0]  c_adc_a, c_adc_b;
-    wire [NAX-1:0]    c_index, c_arm, c_homed, c_fault;
-    wire [32*NAX-1:0] c_pos, c_pos_homed, c_vel, c_index_pos, c_vel_obs;
-    wire [4*NAX-1:0]  c_obs_bw;
-    wire [NAX-1:0]    c_obs_type3;
-    wire [NAX-1:0]    c_harm_en, c_harm_we;
-    wire [16*NAX-1:0] c_index_count, c_overspeed_count;
-    wire [3*NAX-1:0]  c_faults;
-    wire [NAX-1:0]    c_cal_en, c_cal_freeze;
-    wire [4*NAX-1:0]  c_cal_mu;
-    wire [16*NAX-1:0] c_cal_ofs_a, c_cal_ofs_b, c_cal_gain_a, c_cal_gain_b, c_cal_phase,
-                      c_cal_updates;
-    wire [8*NAX-1:0]  c_cal_gear;
-    wire [95:0]       hold_pos_homed, hold_index_pos;
-    wire [47:0]       hold_index_count;
-`ifdef HG_SIM
-    assign hold_pos_homed   = sim_hold_pos_homed;
-    assign hold_index_pos   = sim_hold_index_pos;
-    assign hold_index_count = sim_hold_index_count;
-`else
-    assign hold_pos_homed   = 96'd0;
-    assign hold_index_pos   = 96'd0;
-    assign hold_index_count = 48'd0;
-`endif
-    wire unused_hold = &{1'b0, hold_pos_homed, hold_index_pos, hold_index_count};
-
-    generate
-        if (AXIS_MASK < 1 || AXIS_MASK > 7) begin : g_bad_mask
-            hapgate_top_AXIS_MASK_must_be_1_to_7 u_stop ();
-        end
-`ifndef HG_SIM
-        if (AXIS_MASK != 7) begin : g_mask_sim_only
-            hapgate_top_AXIS_MASK_below_7_is_simulation_only_define_HG_SIM u_stop ();
-        end
-`endif
-    endgenerate
-
-    wire [8*NAX-1:0] c_harm_rdata;
+    wire [47:0] cal_ofs_a, cal_ofs_b, cal_gain_a, cal_gain_b, cal_updates;
+    wire [23:0] cal_gear;
     enc_interp3 #(
-        .CLK_HZ(CLK_HZ), .SAMPLE_HZ(SAMPLE_HZ), .AXES(NAX), .LUT_BITS(LUT_BITS),
+        .CLK_HZ(CLK_HZ), .SAMPLE_HZ(SAMPLE_HZ), .AXES(3), .LUT_BITS(LUT_BITS),
         .LUT_FILE(ASIN_FILE), .VEL_LOG2W(VEL_LOG2W), .AMP_MIN(AMP_MIN), .AMP_MAX(AMP_MAX),
         .LOSS_SAMPLES(LOSS_SAMPLES), .CAL(CAL), .CAL_LUT_FILE(CAL_LUT_FILE),
         .CAL_LINES_LOG2(CAL_LINES_LOG2), .CAL_NLOG(CAL_NLOG), .COARSE(COARSE),
@@ -287,26 +224,21 @@ module hapgate_top #(
         .ANGLE(ANGLE), .RATIO_BITS(RATIO_BITS), .RATIO_FILE(RATIO_FILE), .ANGLE_REG(ANGLE_REG),
         .HARM(HARM), .HARM_LOG2(HARM_LOG2)
     ) u_interp (
-        .clk(clk), .rst(rst), .adc_strobe(adc_strobe), .adc_a(c_adc_a), .adc_b(c_adc_b),
-        .enc_index(c_index), .ctl_fault_clear({NAX{fault_clear}}), .ctl_home_arm(c_arm),
-        .m_valid(m_valid), .m_pos(c_pos), .m_pos_homed(c_pos_homed), .m_vel(c_vel),
-        .m_index_pos(c_index_pos), .m_index_count(c_index_count),
-        .m_overspeed_count(c_overspeed_count), .m_homed(c_homed), .m_faults(c_faults),
-        .m_fault(c_fault),
-        .ctl_cal_en(c_cal_en), .ctl_cal_freeze(c_cal_freeze), .cfg_cal_mu(c_cal_mu),
-        .m_cal_valid(cal_valid), .m_cal_ofs_a(c_cal_ofs_a), .m_cal_ofs_b(c_cal_ofs_b),
-        .m_cal_gain_a(c_cal_gain_a), .m_cal_gain_b(c_cal_gain_b), .m_cal_phase(c_cal_phase),
-        .m_cal_gear(c_cal_gear), .m_cal_updates(c_cal_updates),
+        .clk(clk), .rst(rst), .adc_strobe(adc_strobe), .adc_a(adc_a), .adc_b(adc_b),
+        .enc_index(enc_index), .ctl_fault_clear({3{fault_clear}}), .ctl_home_arm(home_arm),
+        .m_valid(m_valid), .m_pos(pos), .m_pos_homed(pos_homed), .m_vel(vel),
+        .m_index_pos(index_pos), .m_index_count(index_count),
+        .m_overspeed_count(overspeed_count), .m_homed(homed), .m_faults(faults),
+        .m_fault(fault),
+        .ctl_cal_en(cal_en), .ctl_cal_freeze(cal_freeze), .cfg_cal_mu(cal_mu),
+        .m_cal_valid(cal_valid), .m_cal_ofs_a(cal_ofs_a), .m_cal_ofs_b(cal_ofs_b),
+        .m_cal_gain_a(cal_gain_a), .m_cal_gain_b(cal_gain_b), .m_cal_phase(cal_phase),
+        .m_cal_gear(cal_gear), .m_cal_updates(cal_updates),
         // harmonic correction (HARM = 1): table and enable from the HARM_* registers
-        .ctl_harm_en(c_harm_en), .cfg_harm_we(c_harm_we), .cfg_harm_addr(harm_addr),
-        .cfg_harm_data(harm_wdata), .m_harm_rdata(c_harm_rdata),
-        .m_vel_obs(c_vel_obs), .cfg_obs_bw(c_obs_bw), .cfg_obs_type3(c_obs_type3)
-`ifdef HG_SIM
-`ifdef HG_SIM_GATE
-        , .sim_gclk({sim_gclk_de, sim_gclk_c, sim_gclk_b, sim_gclk_a}),
-        .sim_gate_en(sim_gate_en[3:0])
-`endif
-`endif
+        .ctl_harm_en(harm_en), .cfg_harm_we(harm_we), .cfg_harm_addr(harm_addr),
+        .cfg_harm_data(harm_wdata), .m_harm_rdata(harm_rdata),
+        .m_vel_obs(vel_obs), .cfg_obs_bw(obs_bw), .cfg_obs_type3(obs_type3)
+        `HG_SIM_BIND(({sim_gclk_de, sim_gclk_c, sim_gclk_b, sim_gclk_a}), sim_gate_en[3:0])
     );
     wire unused_cal_valid = &{1'b0, cal_valid};  // (the registers read the live state)
     wire [95:0] cal_ofs_w, cal_gain_w, cal_stat_w;
@@ -314,59 +246,9 @@ module hapgate_top #(
     genvar ax;
     generate
         for (ax = 0; ax < 3; ax = ax + 1) begin : g_ax
-            // slot of axis ax in the compacted instance
-            localparam integer J = ((AXIS_MASK & ((1 << ax) - 1)) & 1) +
-                                   (((AXIS_MASK & ((1 << ax) - 1)) >> 1) & 1);
-            if (((AXIS_MASK >> ax) & 1) != 0) begin : g_built
-                assign c_adc_a[8*J +: 8]           = adc_a[8*ax +: 8];
-                assign c_adc_b[8*J +: 8]           = adc_b[8*ax +: 8];
-                assign c_index[J]                  = enc_index[ax];
-                assign c_arm[J]                    = home_arm[ax];
-                assign c_cal_en[J]                 = cal_en[ax];
-                assign c_cal_freeze[J]             = cal_freeze[ax];
-                assign c_cal_mu[4*J +: 4]          = cal_mu[4*ax +: 4];
-                assign c_obs_bw[4*J +: 4]          = obs_bw[4*ax +: 4];
-                assign c_obs_type3[J]              = obs_type3[ax];
-                assign c_harm_en[J]                = harm_en[ax];
-                assign c_harm_we[J]                = harm_we[ax];
-                assign harm_rdata[8*ax +: 8]       = c_harm_rdata[8*J +: 8];
-                assign vel_obs[32*ax +: 32]        = c_vel_obs[32*J +: 32];
-                assign pos[32*ax +: 32]            = c_pos[32*J +: 32];
-                assign pos_homed[32*ax +: 32]      = c_pos_homed[32*J +: 32];
-                assign vel[32*ax +: 32]            = c_vel[32*J +: 32];
-                assign index_pos[32*ax +: 32]      = c_index_pos[32*J +: 32];
-                assign index_count[16*ax +: 16]    = c_index_count[16*J +: 16];
-                assign overspeed_count[16*ax +: 16] = c_overspeed_count[16*J +: 16];
-                assign homed[ax]                   = c_homed[J];
-                assign faults[3*ax +: 3]           = c_faults[3*J +: 3];
-                assign fault[ax]                   = c_fault[J];
-                assign cal_ofs_w[32*ax +: 32]  = {c_cal_ofs_b[16*J +: 16], c_cal_ofs_a[16*J +: 16]};
-                assign cal_gain_w[32*ax +: 32] = {c_cal_gain_b[16*J +: 16], c_cal_gain_a[16*J +: 16]};
-                assign cal_phase[16*ax +: 16]  = c_cal_phase[16*J +: 16];
-                assign cal_stat_w[32*ax +: 32] = {c_cal_updates[16*J +: 16], 8'd0,
-                                                  c_cal_gear[8*J +: 8]};
-            end else begin : g_held
-                wire unused_in = &{1'b0, adc_a[8*ax +: 8], adc_b[8*ax +: 8], enc_index[ax],
-                                   home_arm[ax], cal_en[ax], cal_freeze[ax], cal_mu[4*ax +: 4],
-                                   obs_bw[4*ax +: 4], obs_type3[ax], harm_en[ax],
-                                   harm_we[ax]};
-                assign harm_rdata[8*ax +: 8]       = 8'd0;
-                assign vel_obs[32*ax +: 32]        = 32'd0;
-                assign pos[32*ax +: 32]            = hold_pos_homed[32*ax +: 32] +
-                                                     hold_index_pos[32*ax +: 32];
-                assign pos_homed[32*ax +: 32]      = hold_pos_homed[32*ax +: 32];
-                assign vel[32*ax +: 32]            = 32'd0;
-                assign index_pos[32*ax +: 32]      = hold_index_pos[32*ax +: 32];
-                assign index_count[16*ax +: 16]    = hold_index_count[16*ax +: 16];
-                assign overspeed_count[16*ax +: 16] = 16'd0;
-                assign homed[ax]                   = 1'b1;
-                assign faults[3*ax +: 3]           = 3'd0;
-                assign fault[ax]                   = 1'b0;
-                assign cal_ofs_w[32*ax +: 32]      = 32'd0;          // the identity
-                assign cal_gain_w[32*ax +: 32]     = 32'h4000_4000;
-                assign cal_phase[16*ax +: 16]      = 16'd0;
-                assign cal_stat_w[32*ax +: 32]     = 32'd0;
-            end
+            assign cal_ofs_w[32*ax +: 32]  = {cal_ofs_b[16*ax +: 16], cal_ofs_a[16*ax +: 16]};
+            assign cal_gain_w[32*ax +: 32] = {cal_gain_b[16*ax +: 16], cal_gain_a[16*ax +: 16]};
+            assign cal_stat_w[32*ax +: 32] = {cal_updates[16*ax +: 16], 8'd0, cal_gear[8*ax +: 8]};
         end
     endgenerate
     // The interpolator's data outputs are registers held between samples but not reset: until
@@ -419,11 +301,7 @@ module hapgate_top #(
         .ctl_tq_limit(tq_limit), .wdog_expired(wdog_expired), .irq(irq), .tick(tick),
         .dbg_req(dbg_req), .dbg_we(dbg_we), .dbg_addr(dbg_addr), .dbg_wdata(dbg_wdata),
         .dbg_proto_err(dbg_proto_err)
-`ifdef HG_SIM
-`ifdef HG_SIM_GATE
-        , .sim_gclk(sim_gclk_bus), .sim_gate_en(sim_gate_en_bus)
-`endif
-`endif
+        `HG_SIM_BIND(sim_gclk_bus, sim_gate_en_bus)
     );
     wire unused_dbg = &{1'b0, tick, dbg_proto_err};
 
@@ -484,11 +362,7 @@ module hapgate_top #(
         .ctl_mode(mode_eff), .ctl_enable(~kill_all), .ctl_torque_limit(tq_limit),
         .axis_fault(fault), .m_frame(m_frame),
         .dac_data(c_data), .dac_addr(c_addr), .dac_wr_n(c_wr_n)
-`ifdef HG_SIM
-`ifdef HG_SIM_GATE
-        , .sim_gclk(sim_gclk_comm), .sim_gate_en(sim_gate_en[4])
-`endif
-`endif
+        `HG_SIM_BIND(sim_gclk_comm, sim_gate_en[4])
     );
     wire unused_frame = m_frame;
 

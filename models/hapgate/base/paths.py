@@ -9,6 +9,7 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[3]
 RTL = ROOT / "rtl"
+RTL_INCLUDE = RTL / "include"  # hg_sim.vh: the simulation-only macros (`include "hg_sim.vh")
 TB = ROOT / "tb"
 BUILD = ROOT / "build"
 GEN = BUILD / "gen"          # generated tables (.hex) consumed by RTL and models

@@ -7,11 +7,13 @@ import os
 import sys
 import time
 from concurrent.futures import ThreadPoolExecutor
+from dataclasses import replace
 from pathlib import Path
 
 from ..base import toolenv
 from ..base.paths import ROOT
 from ..base.report import table
+from ..device import runner as device_runner
 from ..flows import blocks, boards, flow, fusesoc, stage
 from ..golden import configs
 from ..runners.sim import MissingSimulator, simulators
@@ -58,10 +60,11 @@ def cmd_lint(args: argparse.Namespace) -> int:
         block = blocks.get(name)
         params = block.params()
         jobs += [(flow.lint_verilator, block, params), (flow.lint_icarus, block, params)]
-        if name == "hapgate_top":   # the virtual device's build: simulation-only ports and clocks
-            for mask, defs in ((7, ("HG_SIM", "HG_SIM_GATE")), (5, ("HG_SIM", "HG_SIM_GATE")),
-                               (5, ("HG_SIM",))):
-                jobs.append((flow.lint_verilator, block, params | {"AXIS_MASK": mask}, defs))
+        if name == "hapgate_top":   # the virtual device's builds: stage clocks, held axes
+            for mask, gate in ((7, True), (5, True), (5, False)):
+                sim = replace(block, sources=tuple(str(s) for s in device_runner.sim_sources(mask)))
+                jobs.append((flow.lint_verilator, sim, params,
+                             tuple(d[2:] for d in device_runner.sim_defines(mask, gate))))
         if not args.no_synth:
             targets = block.lint_synth + (block.synth_only if args.table else ())
             jobs += [(flow.synth, block, params, target) for target in targets]

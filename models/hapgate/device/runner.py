@@ -22,7 +22,7 @@ from typing import Any
 
 import numpy as np
 
-from ..base.paths import BUILD, ROOT, ensure
+from ..base.paths import BUILD, GEN, ROOT, ensure
 from ..golden import configs, kinematics
 from ..golden.top import SOURCES, TopConfig
 from ..runners import cosim, funcov, native
@@ -65,12 +65,43 @@ HARNESS = [HERE / "device_harness.cpp", HERE / "harness_common.cpp", HERE / "pla
 # ---------------------------------------------------------------------------------- decisions
 def _top(clk_hz: int, mask: int, coarse: bool = False,
          vel_obs: bool = False) -> tuple[TopConfig, list[Path], dict[str, Any]]:
-    """The top's configuration, sources and parameters of a virtual-device build."""
+    """The top's configuration, sources and parameters of a virtual-device build: the FPGA's
+    top; with axes left out (mask < 7) its interpolator bank replaced by the held-axis bank
+    (tb/native/device/held/enc_interp3.v, docs/design/SIMULATION.md)."""
     point = configs.get("paper").replace(
         clk_hz=clk_hz, angle="quadrature" if coarse else "arcsine",
         velocity="observer" if vel_obs else "fir")
+    return point.top(), sim_sources(mask), point.rtl_params()
+
+
+def sim_sources(mask: int) -> list[Path]:
+    """The virtual device's gateware sources: the top's, with axes left out (mask < 7) the
+    held-axis bank in place of rtl/interp/enc_interp3.v."""
     srcs = [ROOT / "rtl" / s for s in SOURCES]
-    return point.top(), srcs, point.rtl_params() | {"AXIS_MASK": mask}
+    if mask == 7:
+        return srcs
+    bank = ROOT / "rtl" / "interp" / "enc_interp3.v"
+    return [s for s in srcs if s != bank] + [_built_bank(bank), HERE / "held" / "enc_interp3.v"]
+
+
+def _built_bank(bank: Path) -> Path:
+    """rtl/interp/enc_interp3.v as module enc_interp3_built (the held-axis bank instantiates it
+    with the built axes), written into build/gen/."""
+    text = bank.read_text()
+    head = "module enc_interp3 #("
+    if text.count(head) != 1:
+        raise RuntimeError(f"{bank}: expected one '{head}'")
+    out = ensure(GEN / "sim") / "enc_interp3_built.v"
+    new = text.replace(head, "module enc_interp3_built #(")
+    if not out.exists() or out.read_text() != new:
+        out.write_text(new)
+    return out
+
+
+def sim_defines(mask: int, gate: bool) -> list[str]:
+    """The defines of a virtual-device build (rtl/include/hg_sim.vh)."""
+    return ((["-DHG_SIM_GATE"] if gate else [])
+            + ([f"-DHG_AXIS_MASK={mask}"] if mask != 7 else []))
 
 
 def build_gate_equiv(clk_hz: int, mask: int, gate: bool) -> Path:
@@ -79,9 +110,10 @@ def build_gate_equiv(clk_hz: int, mask: int, gate: bool) -> Path:
     _, srcs, params = _top(clk_hz, mask)
     return native.verilate_harness(
         "gate_equiv", "hapgate_top", srcs, params, [HERE / "gate_equiv.cpp"],
-        cflags=f"-std=c++17 -DCLK_HZ={clk_hz} -DHG_SIM_GATE={int(gate)} -I{FW / 'include'}",
+        cflags=(f"-std=c++17 -DCLK_HZ={clk_hz} -DAXIS_MASK={mask} -DHG_SIM_GATE={int(gate)} "
+                f"-I{FW / 'include'}"),
         inputs=[HERE / "stage_clocks.h", *sorted((FW / "include").glob("*.h"))],
-        vflags=["-DHG_SIM"] + (["-DHG_SIM_GATE"] if gate else []))
+        vflags=sim_defines(mask, gate))
 
 
 def pgo_enabled() -> bool:
@@ -114,7 +146,8 @@ def _train(clk_hz: int, mask: int, test_limits: bool, coarse: bool, vel_obs: boo
 def build(clk_hz: int, mask: int = 7, trace: bool = False, test_limits: bool = False,
           coarse: bool = False, vel_obs: bool = False, gate: bool = True,
           pgo: bool | None = None) -> Path:
-    """Verilate the top (HG_SIM, AXIS_MASK) with the harness, plant and firmware (cached).
+    """Verilate the top (the held-axis bank for the axes not in mask) with the harness, plant
+    and firmware (cached).
     test_limits: the firmware built with HG_SCENE_K_MAX_TEST (scene key firmware.test_limits);
     coarse: plain quadrature, the interpolator's fine angle zeroed (run.position);
     vel_obs: the tracking velocity observer built and reported as VEL (run.velocity);
@@ -126,8 +159,7 @@ def build(clk_hz: int, mask: int = 7, trace: bool = False, test_limits: bool = F
         pgo = pgo_enabled()
     cfg, srcs, params = _top(clk_hz, mask, coarse, vel_obs)
     fw_srcs = sorted((FW / "src").glob("*.c")) + sorted((FW / "include").glob("*.h"))
-    vflags = (["-DHG_SIM"] + (["-DHG_SIM_GATE"] if gate else [])
-              + (["--trace"] if trace else []))   # VCD: FST needs liblz4 headers
+    vflags = sim_defines(mask, gate) + (["--trace"] if trace else [])   # VCD (FST needs liblz4)
     defs = (f"HG_SCENE_K_MAX_TEST={K_MAX_TEST:.1f}",) if test_limits else ()
     return native.verilate_harness(
         "device_harness", "hapgate_top", srcs, params, HARNESS,
@@ -139,7 +171,7 @@ def build(clk_hz: int, mask: int = 7, trace: bool = False, test_limits: bool = F
         ldflags="fw/libhgfw.a -lm",
         inputs=[HERE / "plant.h", HERE / "uart_link.h", HERE / "view_link.h",
                 HERE / "harness_common.h", HERE / "stage_clocks.h", HERE / "bus_hal.h",
-                HERE / "dac_word.h", *fw_srcs],
+                HERE / "dac_word.h", HERE.parent / "vl_internals.h", *fw_srcs],
         prepare=functools.partial(cosim._fw_lib, defines=defs), vflags=vflags,
         train=functools.partial(_train, clk_hz, mask, test_limits, coarse, vel_obs)
         if pgo and not trace else None)

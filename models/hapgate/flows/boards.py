@@ -23,7 +23,7 @@ from pathlib import Path
 
 from ..base import cache, toolenv
 from ..base.block import Block, Params
-from ..base.paths import BUILD, RTL, ensure, locked
+from ..base.paths import BUILD, RTL, RTL_INCLUDE, ensure, locked
 from ..base.report import write_csv
 from ..base.tables import write_tables
 from ..golden import configs
@@ -305,7 +305,7 @@ def gate_netlist(board: Board, params: Params) -> Path:
     # configuration (Yosys's generic cells would start at X, which X-pessimism never resolves)
     synth = board.synth if board.gl_device else (
         f"proc; flatten; tribuf; synth -flatten -top {board.top}; setundef -zero -init")
-    key = cache.digest(files=[*blk.source_paths(),
+    key = cache.digest(files=[*blk.source_paths(), RTL_INCLUDE / "hg_sim.vh",
                               *(v for v in params.values() if isinstance(v, Path))],
                        data={k: param_text(v) for k, v in sorted(params.items())}
                        | {"_synth": synth}, length=10)

@@ -15,7 +15,7 @@ from pathlib import Path
 
 from ..base import cache, toolenv
 from ..base.block import Block, Params
-from ..base.paths import BUILD, RTL, ensure, locked
+from ..base.paths import BUILD, RTL, RTL_INCLUDE, ensure, locked
 from ..base.tables import write_tables
 
 WAIVERS = RTL / "lint" / "waivers.vlt"
@@ -48,19 +48,18 @@ def _run(cmd: list[str], cwd: Path | None = None) -> tuple[int, str]:
 
 def lint_verilator(block: Block, params: Params, defines: tuple[str, ...] = ()) -> Finding:
     """verilator --lint-only -Wall (with the waivers); `defines`: a simulation build's
-    (e.g. HG_SIM, HG_SIM_GATE: the virtual device's top), named in the finding's tool."""
+    (e.g. HG_SIM_GATE: the virtual device's top), named in the finding's tool."""
     toolenv.apply()
     write_tables(params)
     t0 = time.perf_counter()
-    cmd = ["verilator", "--lint-only", "-Wall", "--top-module", block.top, str(WAIVERS)]
+    cmd = ["verilator", "--lint-only", "-Wall", "--top-module", block.top, str(WAIVERS),
+           f"-I{RTL_INCLUDE}"]
     cmd += [f"-D{d}" for d in defines]
     cmd += [f"-G{k}={param_text(v)}" for k, v in params.items()]
     cmd += [str(p) for p in block.source_paths()]
     rc, text = _run(cmd)
     problems = [ln for ln in text.splitlines() if ln.startswith("%")]
     tool = "verilator -Wall" + "".join(f" -D{d}" for d in defines)
-    if defines and "AXIS_MASK" in params:
-        tool += f" AXIS_MASK={params['AXIS_MASK']}"
     return Finding(tool, block.name, rc == 0 and not problems,
                    time.perf_counter() - t0, "\n".join(problems))
 
@@ -69,7 +68,8 @@ def lint_icarus(block: Block, params: Params) -> Finding:
     write_tables(params)
     t0 = time.perf_counter()
     out = ensure(BUILD / "lint" / block.name) / "icarus.vvp"
-    cmd = ["iverilog", "-g2005", "-Wall", "-Wno-timescale", "-o", str(out), "-s", block.top]
+    cmd = ["iverilog", "-g2005", "-Wall", "-Wno-timescale", "-o", str(out), "-s", block.top,
+           f"-I{RTL_INCLUDE}"]
     cmd += [f"-P{block.top}.{k}={param_text(v)}" for k, v in params.items()]
     cmd += [str(p) for p in block.source_paths()]
     rc, text = _run(cmd)
@@ -79,7 +79,9 @@ def lint_icarus(block: Block, params: Params) -> Finding:
 
 def yosys_script(block: Block, params: Params, workdir: Path, synth_cmd: str, stat: str) -> str:
     write_tables(params)
-    lines = [f"read_verilog -defer {os.path.relpath(p, workdir)}" for p in block.source_paths()]
+    inc = os.path.relpath(RTL_INCLUDE, workdir)
+    lines = [f"read_verilog -defer -I{inc} {os.path.relpath(p, workdir)}"
+             for p in block.source_paths()]
     if params:  # one chparam: each call elaborates, and defaults may name no real file
         sets = " ".join(f"-set {k} {param_text(v, workdir)}" for k, v in params.items())
         lines.append(f"chparam {sets} {block.top}")
@@ -140,7 +142,7 @@ def netlist(block: Block, params: Params, target: str = "generic", flatten: bool
     flatten either way)."""
     toolenv.apply()
     write_tables(params)
-    key = cache.digest(files=[*block.source_paths(),
+    key = cache.digest(files=[*block.source_paths(), RTL_INCLUDE / "hg_sim.vh",
                               *(v for v in params.values() if isinstance(v, Path))],
                        data={k: param_text(v) for k, v in sorted(params.items())}
                        | {"_target": target} | ({} if flatten else {"_flatten": False}),

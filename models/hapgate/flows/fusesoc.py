@@ -118,6 +118,7 @@ def core_text() -> str:
            "description: Gateware of a 3-DOF haptic joystick (encoder interpolation, "
            "commutation, DSP bus)", "", "filesets:", "  rtl:", "    files:"]
     out += [f"      - rtl/{s}" for s in SOURCES]
+    out += ["      - rtl/include/hg_sim.vh: {is_include_file: true}"]
     out += ["    file_type: verilogSource", "  waivers:", "    files:",
             "      - rtl/lint/waivers.vlt", "    file_type: vlt"]
     for b in boards.BOARDS.values():

@@ -24,7 +24,7 @@ import numpy as np
 
 from ..base import cache, cbuild, toolenv
 from ..base.block import Params
-from ..base.paths import BUILD, RTL, TB, ensure
+from ..base.paths import BUILD, RTL, RTL_INCLUDE, TB, ensure
 from ..base.tables import write_tables
 from ..flows.flow import param_text
 from ..golden import enccal, interp
@@ -75,7 +75,7 @@ def verilate_harness(name: str, top: str, sources: Sequence[Path], params: Param
     cov_flags, cov_sources = covbuild.extra(top, native=not cov_toggle)   # coverage runs
     vflags, sources = [*vflags, *cov_flags], [*sources, *cov_sources]
     key = cache.digest(
-        files=[*sources, *harness, *inputs],
+        files=[*sources, *harness, *inputs, RTL_INCLUDE / "hg_sim.vh"],
         data={k: param_text(v) for k, v in sorted(params.items())} |
         {"_cflags": cflags, "_ldflags": ldflags} |
         ({"_vflags": list(vflags)} if vflags else {}) |
@@ -87,7 +87,7 @@ def verilate_harness(name: str, top: str, sources: Sequence[Path], params: Param
             prepare(bdir)
         cmd = ["verilator", "--cc", "--exe"] + ([] if train else ["--build", "-j", "2"]) + ["-O3",
                "--x-assign", "fast", "--x-initial", "fast", "-Wno-fatal",
-               "--top-module", top, "-Mdir", str(bdir), "-o", name,
+               "--top-module", top, "-Mdir", str(bdir), "-o", name, f"-I{RTL_INCLUDE}",
                "-CFLAGS", f"-O2 {cflags}".strip(),
                "-MAKEFLAGS", "OPT_FAST=-O2 OPT_SLOW=-O2 OPT_GLOBAL=-O2"]
         if ldflags:

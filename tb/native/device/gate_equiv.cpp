@@ -1,6 +1,6 @@
 // SPDX-License-Identifier: Apache-2.0
 // The stage clocks' equivalence check (README "Stage clocks"): the virtual device's top
-// (hapgate_top, HG_SIM, AXIS_MASK) under a seeded random stimulus that the firmware never
+// (hapgate_top; AXIS_MASK < 7: the held-axis bank) under a seeded random stimulus that the firmware never
 // produces — ADC words with clipping and signal loss, index pulses, and bus traffic of every
 // kind: mapped and unmapped reads and writes, FAULT_CLR, SNAP, HOME_ARM, enables, torques,
 // modes, offsets and limits, watchdog keys (good and bad), TICK_DIV and WDOG_TIMEOUT in and out
@@ -125,9 +125,11 @@ int main(int argc, char** argv) {
     }
     Dut d;
     auto& t = *d.top;
-    t.sim_hold_pos_homed[0] = 1000; t.sim_hold_pos_homed[1] = 2000; t.sim_hold_pos_homed[2] = 3000;
-    t.sim_hold_index_pos[0] = 10; t.sim_hold_index_pos[1] = 20; t.sim_hold_index_pos[2] = 30;
-    t.sim_hold_index_count = 0x000100010001ULL;
+#if AXIS_MASK != 7
+    const uint32_t pos_homed[3] = {1000, 2000, 3000}, index_pos[3] = {10, 20, 30},
+                   index_count[3] = {1, 1, 1};
+    hg_dev::set_held(t, pos_homed, index_pos, index_count);
+#endif
     t.bus_ce_n = t.bus_re_n = t.bus_we_n = 1;
     t.clk = 0;
     t.rst = 1;
