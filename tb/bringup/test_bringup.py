@@ -456,7 +456,9 @@ def test_default_bringup_then_the_same_device_renders_the_wall(tmp_path: Path,
     device, calibrated by --apply and enabled by the PC (the operator takes the handle back:
     the scene's hand pushes into the wall again), renders the wall: at rest against it, the
     endpoint force of the motors' torques (the plant's own telemetry) is the wall law at the
-    true endpoint within wall.toml's budget."""
+    true endpoint within wall.toml's budget. The frames are those while the PC holds the
+    forces on: the history is taken before the link closes (Device.close switches the forces
+    off, and the handle then still rests in the wall with zero torque for a few frames)."""
     scene = sc.load(UNALIGNED)
     feed = telemetry.Feed(scene, period_s=0.002, can_pause=False)
     with Server(scene=scene, pace="free", view=feed) as srv:
@@ -467,11 +469,17 @@ def test_default_bringup_then_the_same_device_renders_the_wall(tmp_path: Path,
             dev.enable()                              # the link stays open: polled below
             t_apply = float(feed.state()["t_s"])
             deadline = time.monotonic() + 300.0       # a guard against a stopped device only
+            polled = []
             while float(feed.state()["t_s"]) < t_apply + 0.8 and time.monotonic() < deadline:
-                dev.state()
+                polled.append(dev.state())
                 time.sleep(0.02)
-        hist = feed.history()
+            hist = feed.history()                     # before close() disables the forces
     assert hist["t"][-1] >= t_apply + 0.8, "the device stopped after bring-up"
+    assert polled and all(s.enabled and s.error == 0 for s in polled), polled
     err, samples = _law_error(scene, hist, t_apply + 0.3)
+    with capsys.disabled():
+        print(f"\nwall after bring-up: error {err:.4f} N (budget {WALL_BUDGET_N} N) over {samples} "
+              f"frames at rest; {hist['t'][-1] - t_apply:.3f} s of device time after ENABLE; "
+              f"bring-up {doc['duration_s']:.2f} s of device time")
     assert samples >= 100, samples                    # >= 0.2 s at rest against the wall
     assert err <= WALL_BUDGET_N, err
