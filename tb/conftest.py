@@ -101,6 +101,11 @@ REGRESS: dict[str, str] = {
         "encoder step on three axes, 25 s of device time); tier 1 keeps the encoder step "
         "end to end on unaligned.toml's healthy encoders and the same fields and bands on "
         "captures of the same signals (test_encoder_result_fields_and_bands)",
+    r"^tb/bringup/test_bringup\.py::test_default_bringup_then_the_same_device_renders_the_wall":
+        "the issue's done-when on one served device: every step (65 s of device time) with "
+        "--apply, then the wall; tier 1 keeps bring-up with --apply on unaligned.toml "
+        "(test_unaligned_finds_every_error) and the wall with the calibration it wrote "
+        "(test_after_apply_torque_and_wall)",
     r"^tb/bringup/test_bringup\.py::test_(identified_dynamics_within_budget|encoder_dir_all_"
     r"steps)":
         "bring-up with every step end to end (50-60 s of device time each); tier 1 keeps the "

@@ -18,7 +18,7 @@ from hapgate.base.paths import ROOT
 from hapgate.commands import bringup as bu
 from hapgate.commands import cli
 from hapgate.commands.device import Server
-from hapgate.device import dyntruth, harness, runner
+from hapgate.device import dyntruth, harness, runner, telemetry
 from hapgate.device import scene as sc
 from hapgate.golden import calib, capture, encquality, encsig, pclink
 from hapgate.host import Device
@@ -429,3 +429,57 @@ def test_guided_with_no_hand_admits_its_spring(tmp_path: Path) -> None:
     assert h.guided == ((0.0, 0.0, 0.0, 0.0), (1.0, 0.0, -0.01, 0.0))
     text = harness.plant_config(sc.load(p), runner.start_pose(sc.load(p)))
     assert "hand_kind = 0" in text and "hand_k = 300.0" in text and "hand_path" not in text
+
+
+def _law_error(scene: sc.Scene, h: dict[str, np.ndarray], t_from: float) -> tuple[float, int]:
+    """The largest error of the force the motors put on the endpoint (J^-T tau at the true
+    joint angles) against the wall law at the true endpoint, over the telemetry frames after
+    t_from at rest against the wall (runner.metrics' steady-state rule), and their count."""
+    t, p = h["t"], h["p"]
+    n = np.asarray(scene.env.normal, float)
+    n = n / np.linalg.norm(n)
+    depth = (np.asarray(scene.env.point, float) - p) @ n
+    v = np.gradient(p, t, axis=0)
+    law = np.maximum(0.0, scene.env.k * depth - scene.env.b * (v @ n))
+    f_law = np.where(depth[:, None] > 0, law[:, None] * n, 0.0)
+    f_dev = runner._j_inv_t(h["q"], h["tau"])
+    steady = (t > t_from) & (np.linalg.norm(v, axis=1) < harness.STEADY_SPEED) & \
+        (depth > harness.STEADY_DEPTH)
+    err = np.linalg.norm(f_dev - f_law, axis=1)[steady]
+    return (float(err.max()) if err.size else float("inf")), int(steady.sum())
+
+
+def test_default_bringup_then_the_same_device_renders_the_wall(tmp_path: Path,
+                                                               capsys: Any) -> None:
+    """The issue's "done when" on one served device: unaligned.toml served, `hapgate bringup
+    PORT --apply` with every step (the default) finds every error, exit 0; then the same
+    device, calibrated by --apply and enabled by the PC (the operator takes the handle back:
+    the scene's hand pushes into the wall again), renders the wall: at rest against it, the
+    endpoint force of the motors' torques (the plant's own telemetry) is the wall law at the
+    true endpoint within wall.toml's budget. The frames are those while the PC holds the
+    forces on: the history is taken before the link closes (Device.close switches the forces
+    off, and the handle then still rests in the wall with zero torque for a few frames)."""
+    scene = sc.load(UNALIGNED)
+    feed = telemetry.Feed(scene, period_s=0.002, can_pause=False)
+    with Server(scene=scene, pace="free", view=feed) as srv:
+        rc, text, doc = bringup(srv.port, tmp_path, capsys, "--apply")
+        assert rc == 0 and doc["result"] == "PASS", text
+        assert_found(doc, scene)
+        with Device.open(srv.port) as dev:
+            dev.enable()                              # the link stays open: polled below
+            t_apply = float(feed.state()["t_s"])
+            deadline = time.monotonic() + 300.0       # a guard against a stopped device only
+            polled = []
+            while float(feed.state()["t_s"]) < t_apply + 0.8 and time.monotonic() < deadline:
+                polled.append(dev.state())
+                time.sleep(0.02)
+            hist = feed.history()                     # before close() disables the forces
+    assert hist["t"][-1] >= t_apply + 0.8, "the device stopped after bring-up"
+    assert polled and all(s.enabled and s.error == 0 for s in polled), polled
+    err, samples = _law_error(scene, hist, t_apply + 0.3)
+    with capsys.disabled():
+        print(f"\nwall after bring-up: error {err:.4f} N (budget {WALL_BUDGET_N} N) over {samples} "
+              f"frames at rest; {hist['t'][-1] - t_apply:.3f} s of device time after ENABLE; "
+              f"bring-up {doc['duration_s']:.2f} s of device time")
+    assert samples >= 100, samples                    # >= 0.2 s at rest against the wall
+    assert err <= WALL_BUDGET_N, err
