@@ -145,11 +145,12 @@ def _pgo_build(bdir: Path, makefile: str, exe: Path, train: Callable[[Path], Non
 
 
 def build_interp(cfg: InterpConfig = InterpConfig(), clk_hz: int = interp.MIN_CLK_HZ,
-                 axes: int = 3, sample_hz: int = 1_000_000) -> Path:
-    """Verilate and compile the interpolator harness for this parameter set (cached)."""
+                 axes: int = 3, sample_hz: int = 1_000_000, cov_toggle: bool = False) -> Path:
+    """Verilate and compile the interpolator harness for this parameter set (cached); with
+    cov_toggle a coverage run's build counts port toggles too (short runs only)."""
     params = interp.interp3_params(cfg, clk_hz=clk_hz, sample_hz=sample_hz, axes=axes)
     return verilate_harness("interp_harness", "enc_interp3", SOURCES, params, [HARNESS],
-                            cflags=f"-DAXES={axes}")
+                            cflags=f"-DAXES={axes}", cov_toggle=cov_toggle)
 
 
 @dataclass
@@ -204,8 +205,10 @@ def run_interp(a: np.ndarray, b: np.ndarray, index: np.ndarray | None = None,
                arm_at: Sequence[Sequence[int]] | None = None,
                cal_en: np.ndarray | bool = False, cal_freeze: np.ndarray | bool = False,
                cal_mu: int = 6, harm_table: np.ndarray | None = None,
-               harm_en: np.ndarray | bool = False, obs_bw: int = 6,
-               obs_type3: bool = True) -> NativeRun:
+               harm_en: np.ndarray | bool = False, obs_bw: int | Sequence[int] = 6,
+               obs_type3: bool | Sequence[bool] = True,
+               schedule: dict[int, Sequence[tuple[int, int, bool]]] | None = None,
+               cov_toggle: bool = False) -> NativeRun:
     """Run samples (arrays of shape (n,) for one axis or (n, axes)) through the Verilated RTL.
 
     clear_at / arm_at: per axis, the sample numbers at which a fault clear / home arm pulse is
@@ -215,7 +218,9 @@ def run_interp(a: np.ndarray, b: np.ndarray, index: np.ndarray | None = None,
     for every axis or (axes, HN), signed 1/4 counts), written through the table port and read
     back before the run (`stats["harm_readback_bad"]` counts the entries that differed);
     harm_en: its enable level per sample or constant. obs_bw, obs_type3: the velocity observer's
-    settings for every axis (cfg.vel_obs builds: the vel_obs column)."""
+    settings (cfg.vel_obs builds: the vel_obs column). cal_mu, obs_bw and obs_type3 are one value
+    for every axis or one per axis; schedule changes them during the run: {sample k: per axis
+    (mu, bw, type3)}, driven with sample k. cov_toggle: build_interp's."""
     a = np.asarray(a)
     axes = 1 if a.ndim == 1 else a.shape[1]
     n = a.shape[0]
@@ -225,7 +230,7 @@ def run_interp(a: np.ndarray, b: np.ndarray, index: np.ndarray | None = None,
     if unknown:
         raise ValueError(f"unknown columns {sorted(unknown)}; known: {', '.join(HARNESS_COLUMNS)}")
     cols = [c for c in HARNESS_COLUMNS if c in columns]
-    exe = build_interp(cfg, clk_hz=clk_hz, axes=axes)
+    exe = build_interp(cfg, clk_hz=clk_hz, axes=axes, cov_toggle=cov_toggle)
     rec = pack_interp(a, b, index, axes, clear_at, arm_at, cal_en, cal_freeze, harm_en)
     mask = sum(1 << HARNESS_COLUMNS.index(c) for c in cols)
     dtype = _out_dtype(cols, axes)
@@ -233,7 +238,7 @@ def run_interp(a: np.ndarray, b: np.ndarray, index: np.ndarray | None = None,
         fin, fout = Path(tmp) / "in.bin", Path(tmp) / "out.bin"
         rec.tofile(fin)
         argv = _interp_argv(exe, fin, fout, n, mask, cal_mu, obs_bw, obs_type3, harm_table,
-                            axes, Path(tmp))
+                            axes, Path(tmp), schedule)
         t0 = time.perf_counter()
         out = subprocess.run(argv, capture_output=True, text=True)
         wall = time.perf_counter() - t0
@@ -278,13 +283,26 @@ def _out_dtype(cols: Sequence[str], axes: int) -> np.dtype:
     return np.dtype([(f"{c}{ax}", COLUMN_DTYPES[c]) for ax in range(axes) for c in cols])
 
 
-def _interp_argv(exe: Path, fin: Path | str, fout: Path | str, n: int, mask: int, cal_mu: int,
-                 obs_bw: int, obs_type3: bool, harm_table: np.ndarray | None, axes: int,
-                 tmp: Path) -> list[str]:
-    # CAL_MU carries the observer's settings in bits 13:8 (bit 13: present)
-    obs_cfg = (obs_bw & 15) | (int(obs_type3) << 4)
-    argv = [str(exe), str(fin), str(fout), str(n), str(mask),
-            str((cal_mu & 15) | obs_cfg << 8 | 1 << 13)]
+def _per_axis(v: int | bool | Sequence[int] | Sequence[bool], axes: int, what: str) -> list[int]:
+    vals = [int(x) for x in np.atleast_1d(np.asarray(v, dtype=np.int64))]
+    if len(vals) == 1:
+        return vals * axes
+    if len(vals) != axes:
+        raise ValueError(f"{what}: one value or {axes} (one per axis), got {len(vals)}")
+    return vals
+
+
+def _interp_argv(exe: Path, fin: Path | str, fout: Path | str, n: int, mask: int,
+                 cal_mu: int | Sequence[int], obs_bw: int | Sequence[int],
+                 obs_type3: bool | Sequence[bool], harm_table: np.ndarray | None, axes: int,
+                 tmp: Path,
+                 schedule: dict[int, Sequence[tuple[int, int, bool]]] | None = None
+                 ) -> list[str]:
+    # CAL_MU carries the observer's settings in bits 13:8 (bit 13: present), a word per axis
+    words = [(mu & 15) | ((bw & 15) | t3 << 4) << 8 | 1 << 13 for mu, bw, t3 in
+             zip(_per_axis(cal_mu, axes, "cal_mu"), _per_axis(obs_bw, axes, "obs_bw"),
+                 _per_axis(obs_type3, axes, "obs_type3"), strict=True)]
+    argv = [str(exe), str(fin), str(fout), str(n), str(mask), ",".join(map(str, words))]
     if harm_table is not None:
         h2 = np.atleast_2d(np.asarray(harm_table, dtype=np.int64))
         ht = np.broadcast_to(h2, (axes, h2.shape[1]))
@@ -293,6 +311,17 @@ def _interp_argv(exe: Path, fin: Path | str, fout: Path | str, n: int, mask: int
         ftab = tmp / "harm.bin"
         full.astype(np.int8).tofile(ftab)
         argv.append(str(ftab))
+    if schedule:
+        argv += [] if harm_table is not None else ["-"]
+        rec = np.zeros(len(schedule), dtype=[("k", "<u4"), ("w", "<u2", (axes,))])
+        for j, k in enumerate(sorted(schedule)):
+            if len(schedule[k]) != axes:
+                raise ValueError(f"schedule at sample {k}: {axes} (mu, bw, type3) expected")
+            rec[j] = (k, [(mu & 15) | (bw & 15) << 8 | int(t3) << 12
+                          for mu, bw, t3 in schedule[k]])
+        fs = tmp / "schedule.bin"
+        rec.tofile(fs)
+        argv.append(str(fs))
     return argv
 
 
