@@ -85,12 +85,15 @@ def test_three_axes_independent_bit_exact() -> None:
     harm_en = np.stack([_levels(rng, p) for p in (5_000, 3_000, 8_000)], 1)
     clear_at = [np.sort(rng.choice(N, 6, replace=False)) for _ in range(AXES)]
     arm_at = [np.sort(rng.choice(N, 4, replace=False)) for _ in range(AXES)]
-    # settings: (mu, bw, type3) per axis, distinct, changed at a few samples during the run
-    first = [(3, 4, True), (5, 7, False), (4, 10, True)]
-    change = [N // 4, N // 2 + 777, 3 * N // 4 + 123]
-    later = [[(2, 9, False), (0, 5, True), (6, 12, False)],
-             [(5, 15, True), (1, 3, True), (4, 8, False)],
-             [(12, 11, False), (15, 6, False), (9, 2, True)]]
+    # settings: (mu, bw, type3) per axis, distinct, changed during the run so that every bit of
+    # every axis's settings goes both ways (x, then its complement, then y, its complement, y);
+    # the middle (the calibration's sign changes) runs on the faster shifts
+    first = [(3, 4, True), (6, 7, False), (4, 10, True)]
+    change = [N // 12, N // 6, 11 * N // 12, 23 * N // 24]
+    later = [[(12, 11, False), (9, 8, True), (11, 5, False)],
+             [(5, 6, True), (2, 3, False), (7, 2, False)],
+             [(10, 9, False), (13, 12, True), (8, 13, True)],
+             [(5, 6, True), (2, 3, False), (7, 2, True)]]
     schedule = dict(zip(change, later, strict=True))
     for c in change:        # frozen around a change: no update reads the shift there
         cal_fr[c - 32:c + 32] = True
