@@ -165,3 +165,30 @@ def test_counters_at_their_top() -> None:
         steps = np.concatenate([[0], np.cumsum(np.ones(n - 1, dtype=np.int64))])
         np.testing.assert_array_equal(rtl["overspeed_count"], np.minimum(steps, COUNTER_TOP))
         assert rtl["overspeed_count"][-1] == COUNTER_TOP and steps[-1] > COUNTER_TOP
+
+
+def test_ratio_operands_at_full_width() -> None:
+    """The ratio stage's divider (ANGLE = 1) behind the calibration (CAL = 1: 12-bit operands):
+    gains and offsets learned on a small offset signal (70 codes, -20 codes offset), then
+    frozen while a full-scale flattened signal arrives, so the corrected magnitudes reach 2^10
+    on both channels at once (bounded by (16 * 127 + 512) * 32767 / 2^16 < 2^11, the applied
+    ranges of enccal). Every column bit-exact against the model on every sample."""
+    cfg = interp.InterpConfig(cal=True, ratio=True)
+    n = 30_000
+    k = np.arange(n)
+    late = k >= n // 2
+    phi = 2 * np.pi * (0.02 * k + 0.1)                    # forwards, 0.02 lines per sample
+    amp = np.where(late, 127 * 3.0, 70.0)                 # (late: clipped to a square)
+    ofs = np.where(late, 0.0, -20.0)
+    a = np.clip(np.rint(amp * np.sin(phi) + ofs), -128, 127).astype(np.int8)
+    b = np.clip(np.rint(amp * np.cos(phi) + ofs), -128, 127).astype(np.int8)
+    run = native.run_interp(a, b, None, cfg, columns=native.ALL_COLUMNS, cal_en=True,
+                            cal_freeze=late, cal_mu=3, cov_toggle=True)
+    out = interp.run(a, b, None, cfg, cal_en=True, cal_freeze=late, cal_mu=3)
+    model = native.model_matrix(out) | native.cal_columns(out)
+    bad = native.first_mismatch(run.axis(0), model)
+    assert bad is None, f"first mismatch at sample {bad[0]}, column {bad[1]}: " \
+                        f"RTL {bad[2]} model {bad[3]}"
+    ac, bc = np.abs(out.extra["cal_ac"]), np.abs(out.extra["cal_bc"])
+    assert np.minimum(ac, bc).max() >= 1 << 10, "the smaller operand stays below 2^10"
+    assert np.maximum(ac, bc).max() < 1 << 11
