@@ -137,9 +137,13 @@ def test_three_axes_independent_bit_exact() -> None:
 def test_counters_at_their_top() -> None:
     """The index count wraps 65535 -> 0 and the overspeed count stops at 65535 (spec: 16 bits,
     index wraps, overspeed saturates), on all three axes, against the spec's numbers and the
-    model: index edges every 2 samples (65540 + ax of them) while the signal jumps two quadrants
-    every sample (an overspeed step each, 65540 + ax + ... of them)."""
-    n = 2 * (COUNTER_TOP + 8)
+    model: index edges every 2 samples (65540 before the reset) while the signal jumps two quadrants
+    every sample (an overspeed step each). Then a reset mid-run: the samples in flight are lost
+    (latency - 1 of them at one clock per sample), and from the next sample on every axis
+    restarts from the reset state (counts 0, unhomed, position from the first sample), equal
+    to the model run from there."""
+    n = 2 * (COUNTER_TOP + 8) + 6000
+    r = n - 3000                                          # the reset, before sample r
     k = np.arange(n)
     ax_off = np.arange(AXES)
     # quadrants 0 and 2 alternately: a two-quadrant step at every sample after the first
@@ -148,23 +152,40 @@ def test_counters_at_their_top() -> None:
     a = np.rint(100 * np.sin(phi)).astype(np.int8)
     b = np.rint(100 * np.cos(phi)).astype(np.int8)
     index = (k[:, None] + ax_off) % 2 == 1
+    arm = [[100 + ax] for ax in range(AXES)]              # homed at the next index edge
     cfg = interp.InterpConfig()
-    cols = ("index_count", "overspeed_count")
-    run = native.run_interp(a, b, index, cfg, columns=cols, cov_toggle=True)
+    cols = ("pos", "index_count", "overspeed_count", "homed")
+    run = native.run_interp(a, b, index, cfg, columns=cols, arm_at=arm, reset_at=[r],
+                            cov_toggle=True)
+    # in flight at the reset: the harness drives a sample before a clock edge and reads m_valid
+    # after one, so a sample's result is read latency - 1 iterations after it was driven
+    lost = slice(r - (cfg.latency - 1), r)
     for ax in range(AXES):
-        out = interp.run(a[:, ax], b[:, ax], index[:, ax], cfg)
         rtl = run.axis(ax)
-        bad = native.first_mismatch(rtl, native.model_matrix(out, cols))
-        assert bad is None, f"axis {ax}: first mismatch at sample {bad[0]}, column {bad[1]}: " \
-                            f"RTL {bad[2]} model {bad[3]}"
-        # rising edges of the index so far (the bit counts as high before sample 0)
+        before = interp.run(a[:r, ax], b[:r, ax], index[:r, ax], cfg, arm_at=arm[ax])
+        after = interp.run(a[r:, ax], b[r:, ax], index[r:, ax], cfg)
+        for c in cols:
+            got = rtl[c]
+            assert np.all(got[lost] == (-1 if c == "pos" else (1 << 16) - 1 if c != "homed"
+                                        else 255)), f"axis {ax}: {c} of a lost sample"
+            np.testing.assert_array_equal(got[:lost.start],
+                                          np.asarray(getattr(before, c))[:lost.start],
+                                          err_msg=f"axis {ax}: {c} before the reset")
+            np.testing.assert_array_equal(got[r:], np.asarray(getattr(after, c)),
+                                          err_msg=f"axis {ax}: {c} after the reset")
+        # the spec's numbers: rising edges of the index so far (high before sample 0)
         prev = np.concatenate([[True], index[:-1, ax]])
-        edges = np.cumsum(index[:, ax] & ~prev)
-        np.testing.assert_array_equal(rtl["index_count"], edges % (COUNTER_TOP + 1))
-        assert edges[-1] > COUNTER_TOP + 1 and rtl["index_count"][-1] == edges[-1] - 65536
-        steps = np.concatenate([[0], np.cumsum(np.ones(n - 1, dtype=np.int64))])
-        np.testing.assert_array_equal(rtl["overspeed_count"], np.minimum(steps, COUNTER_TOP))
-        assert rtl["overspeed_count"][-1] == COUNTER_TOP and steps[-1] > COUNTER_TOP
+        edges = np.cumsum(index[:, ax] & ~prev)[:lost.start]
+        np.testing.assert_array_equal(rtl["index_count"][:lost.start], edges % (COUNTER_TOP + 1))
+        assert edges[-1] > COUNTER_TOP + 1
+        steps = np.arange(lost.start)                     # one per sample after the first
+        np.testing.assert_array_equal(rtl["overspeed_count"][:lost.start],
+                                      np.minimum(steps, COUNTER_TOP))
+        assert steps[-1] > COUNTER_TOP
+        assert rtl["homed"][lost.start - 1] == 1
+        # the reset state: the first sample after the reset counts nothing and is not homed
+        assert rtl["overspeed_count"][r] == 0 and rtl["homed"][r] == 0
+        assert rtl["index_count"][r] == 0
 
 
 def test_ratio_operands_at_full_width() -> None:

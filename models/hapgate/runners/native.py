@@ -50,6 +50,7 @@ COLUMN_DTYPES = {"pos": "<i4", "pos_homed": "<i4", "vel": "<i4", "index_pos": "<
                  "cal_ofs_a": "<i2", "cal_ofs_b": "<i2", "cal_gain_a": "<u2", "cal_gain_b": "<u2",
                  "cal_phase": "<i2", "cal_gear": "u1", "cal_updates": "<u2", "vel_obs": "<i4"}
 FLAG_INDEX, FLAG_CLEAR, FLAG_ARM, FLAG_CAL_EN, FLAG_CAL_FREEZE, FLAG_HARM_EN = 1, 2, 4, 8, 16, 32
+FLAG_RESET = 64   # (axis 0's record) a reset before the sample: samples in flight are lost
 
 
 def verilate_harness(name: str, top: str, sources: Sequence[Path], params: Params,
@@ -210,7 +211,7 @@ def run_interp(a: np.ndarray, b: np.ndarray, index: np.ndarray | None = None,
                harm_en: np.ndarray | bool = False, obs_bw: int | Sequence[int] = 6,
                obs_type3: bool | Sequence[bool] = True,
                schedule: dict[int, Sequence[tuple[int, int, bool]]] | None = None,
-               cov_toggle: bool = False) -> NativeRun:
+               reset_at: Sequence[int] | None = None, cov_toggle: bool = False) -> NativeRun:
     """Run samples (arrays of shape (n,) for one axis or (n, axes)) through the Verilated RTL.
 
     clear_at / arm_at: per axis, the sample numbers at which a fault clear / home arm pulse is
@@ -222,7 +223,9 @@ def run_interp(a: np.ndarray, b: np.ndarray, index: np.ndarray | None = None,
     harm_en: its enable level per sample or constant. obs_bw, obs_type3: the velocity observer's
     settings (cfg.vel_obs builds: the vel_obs column). cal_mu, obs_bw and obs_type3 are one value
     for every axis or one per axis; schedule changes them during the run: {sample k: per axis
-    (mu, bw, type3)}, driven with sample k. cov_toggle: build_interp's."""
+    (mu, bw, type3)}, driven with sample k. reset_at: samples before which the harness resets
+    the RTL (two clocks): the samples then in flight are lost, their rows all ones (-1 in
+    the signed columns). cov_toggle: build_interp's."""
     a = np.asarray(a)
     axes = 1 if a.ndim == 1 else a.shape[1]
     n = a.shape[0]
@@ -234,6 +237,8 @@ def run_interp(a: np.ndarray, b: np.ndarray, index: np.ndarray | None = None,
     cols = [c for c in HARNESS_COLUMNS if c in columns]
     exe = build_interp(cfg, clk_hz=clk_hz, axes=axes, cov_toggle=cov_toggle)
     rec = pack_interp(a, b, index, axes, clear_at, arm_at, cal_en, cal_freeze, harm_en)
+    if reset_at is not None:
+        rec[np.asarray(reset_at, dtype=np.int64), 0, 2] |= FLAG_RESET
     mask = sum(1 << HARNESS_COLUMNS.index(c) for c in cols)
     dtype = _out_dtype(cols, axes)
     with tempfile.TemporaryDirectory(dir=ensure(BUILD / "native" / "runs")) as tmp:

@@ -6,7 +6,9 @@
 // usage: interp_harness IN OUT N_SAMPLES COLMASK [CAL_MU [HARM_TABLE [SCHEDULE]]]
 //   IN : N_SAMPLES records of AXES x {int8 a, int8 b, uint8 flags}; flags bit0 index,
 //        bit1 fault clear, bit2 home arm (pulses applied with that sample), bit3 calibration
-//        enable, bit4 calibration freeze (levels captured with that sample; CAL = 1 builds).
+//        enable, bit4 calibration freeze (levels captured with that sample; CAL = 1 builds),
+//        bit5 harmonic enable, bit6 (axis 0's record) a reset of two clocks before the sample:
+//        the samples in flight are lost, their output records all ones.
 //   OUT: N_SAMPLES records of AXES x the selected columns, in this order and size:
 //        pos i32, pos_homed i32, vel i32, index_pos i32, index_count u16, homed u8,
 //        faults u8, overspeed_count u16, cal_ofs_a i16, cal_ofs_b i16, cal_gain_a u16,
@@ -209,6 +211,27 @@ int main(int argc, char** argv) {
             }
             ibuf_len = r * rec_in;
             ibuf_pos = 0;
+        }
+        if (top->adc_strobe && fed < n && (ibuf[ibuf_pos + 2] & 64U)) {
+            // a reset before this sample: the samples in flight are lost (their output records
+            // are all ones), then the sample is presented as the first after the reset
+            ibuf[ibuf_pos + 2] &= static_cast<uint8_t>(~64U);
+            top->ctl_fault_clear = 0;
+            top->ctl_home_arm = 0;
+            top->rst = 1;
+            for (int i = 0; i < 2; ++i) {
+                top->clk = 1; top->eval();
+                top->clk = 0; top->eval();
+                clocks += 1;
+            }
+            top->rst = 0;
+            top->eval();
+            cal_q.clear();
+            for (; got < fed; ++got)
+                for (int ax = 0; ax < AXES; ++ax)
+                    for (int c = 0; c < kNCol; ++c)
+                        if (mask & (1U << c)) put(obuf, ~0ULL, kColumns[c].bytes);
+            continue;
         }
         if (top->adc_strobe && fed < n) {
             uint32_t a = 0, b = 0, idx = 0, clr = 0, arm = 0, cen = 0, cfr = 0, hen = 0;
