@@ -66,6 +66,11 @@ REGRESS: dict[str, str] = {
     r"^tb/device/test_stage_clocks\.py::test_stage_clocks_equal_the_clk_build_on_random_"
     r"stimulus\[6000000-7\]":
         "a second clock and axis mask of the stage-clock equivalence; tier 1 keeps 24 MHz",
+    r"^tb/interp/test_interp3_axes\.py::test_(three_axes_independent|ratio_operands)":
+        "native builds of their own (~20 s: three axes with calibration and observer; ~8 s: "
+        "calibration + ratio stage) for the wrapper's per-axis independence and the divider's "
+        "full-width operands; tier 1 keeps the three-axis calibration run "
+        "(test_calib_native.py) and, in this file, the counters' tops on its shared build",
     r"^tb/interp/test_enc_interp\.py::test_other_lut_density":
         "arcsine densities other than the paper's 7 (the bench sweeps them); tier 1 keeps 7",
     r"^tb/commutation/test_commutator\.py::test_commutator_rtl\[(c50_ob|c16_tc)-":

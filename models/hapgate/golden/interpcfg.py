@@ -167,7 +167,9 @@ def decode(a: np.ndarray, b: np.ndarray, dec: Decoder = Decoder()
     ovs = step == 2
     single = np.flatnonzero((step == 1) | (step == -1))
     last_dir = int(step[single[-1]]) if single.size else dec.last_dir
-    if ovs.any():
+    if ovs.any() and not single.size:       # (no single step yet: the carried direction)
+        step[ovs] = 2 * dec.last_dir
+    elif ovs.any():
         k = np.searchsorted(single, np.flatnonzero(ovs), side="left") - 1
         step[ovs] = 2 * np.where(k >= 0, step[single[np.maximum(k, 0)]], dec.last_dir)
     qc = np.cumsum(step) + (int(q[0]) if dec.q is None else dec.qc)

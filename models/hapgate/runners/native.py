@@ -51,6 +51,7 @@ COLUMN_DTYPES = {"pos": "<i4", "pos_homed": "<i4", "vel": "<i4", "index_pos": "<
                  "cal_ofs_a": "<i2", "cal_ofs_b": "<i2", "cal_gain_a": "<u2", "cal_gain_b": "<u2",
                  "cal_phase": "<i2", "cal_gear": "u1", "cal_updates": "<u2", "vel_obs": "<i4"}
 FLAG_INDEX, FLAG_CLEAR, FLAG_ARM, FLAG_CAL_EN, FLAG_CAL_FREEZE, FLAG_HARM_EN = 1, 2, 4, 8, 16, 32
+FLAG_RESET = 64   # (axis 0's record) a reset before the sample: samples in flight are lost
 
 
 def verilate_harness(name: str, top: str, sources: Sequence[Path], params: Params,
@@ -74,6 +75,8 @@ def verilate_harness(name: str, top: str, sources: Sequence[Path], params: Param
     write_tables(params)
     cov_flags, cov_sources = covbuild.extra(top, native=not cov_toggle)   # coverage runs
     vflags, sources = [*vflags, *cov_flags], [*sources, *cov_sources]
+    if cov_toggle and cov_flags:     # (a toggle build splits its output: a PCH path the wheel
+        vflags += ["--output-split", "0"]           # breaks, as runners/sim.py notes)
     key = cache.digest(
         files=[*sources, *harness, *inputs, RTL_INCLUDE / "hg_sim.vh"],
         data={k: param_text(v) for k, v in sorted(params.items())} |
@@ -146,11 +149,13 @@ def _pgo_build(bdir: Path, makefile: str, exe: Path, train: Callable[[Path], Non
 
 
 def build_interp(cfg: InterpConfig = InterpConfig(), clk_hz: int = interp.MIN_CLK_HZ,
-                 axes: int = 3, sample_hz: int = 1_000_000) -> Path:
-    """Verilate and compile the interpolator harness for this parameter set (cached)."""
+                 axes: int = 3, sample_hz: int = 1_000_000, cov_toggle: bool = False) -> Path:
+    """Verilate and compile the interpolator harness for this parameter set (cached); with
+    cov_toggle a coverage run's build counts port toggles too (short runs only)."""
     params = interp.interp3_params(cfg, clk_hz=clk_hz, sample_hz=sample_hz, axes=axes)
     return verilate_harness("interp_harness", "enc_interp3", SOURCES, params, [HARNESS],
-                            cflags=f"-DAXES={axes} -I{TESTB.parent}", inputs=[TESTB])
+                            cflags=f"-DAXES={axes} -I{TESTB.parent}", inputs=[TESTB],
+                            cov_toggle=cov_toggle)
 
 
 @dataclass
@@ -205,8 +210,10 @@ def run_interp(a: np.ndarray, b: np.ndarray, index: np.ndarray | None = None,
                arm_at: Sequence[Sequence[int]] | None = None,
                cal_en: np.ndarray | bool = False, cal_freeze: np.ndarray | bool = False,
                cal_mu: int = 6, harm_table: np.ndarray | None = None,
-               harm_en: np.ndarray | bool = False, obs_bw: int = 6,
-               obs_type3: bool = True) -> NativeRun:
+               harm_en: np.ndarray | bool = False, obs_bw: int | Sequence[int] = 6,
+               obs_type3: bool | Sequence[bool] = True,
+               schedule: dict[int, Sequence[tuple[int, int, bool]]] | None = None,
+               reset_at: Sequence[int] | None = None, cov_toggle: bool = False) -> NativeRun:
     """Run samples (arrays of shape (n,) for one axis or (n, axes)) through the Verilated RTL.
 
     clear_at / arm_at: per axis, the sample numbers at which a fault clear / home arm pulse is
@@ -216,7 +223,11 @@ def run_interp(a: np.ndarray, b: np.ndarray, index: np.ndarray | None = None,
     for every axis or (axes, HN), signed 1/4 counts), written through the table port and read
     back before the run (`stats["harm_readback_bad"]` counts the entries that differed);
     harm_en: its enable level per sample or constant. obs_bw, obs_type3: the velocity observer's
-    settings for every axis (cfg.vel_obs builds: the vel_obs column)."""
+    settings (cfg.vel_obs builds: the vel_obs column). cal_mu, obs_bw and obs_type3 are one value
+    for every axis or one per axis; schedule changes them during the run: {sample k: per axis
+    (mu, bw, type3)}, driven with sample k. reset_at: samples before which the harness resets
+    the RTL (two clocks): the samples then in flight are lost, their rows all ones (-1 in
+    the signed columns). cov_toggle: build_interp's."""
     a = np.asarray(a)
     axes = 1 if a.ndim == 1 else a.shape[1]
     n = a.shape[0]
@@ -226,15 +237,17 @@ def run_interp(a: np.ndarray, b: np.ndarray, index: np.ndarray | None = None,
     if unknown:
         raise ValueError(f"unknown columns {sorted(unknown)}; known: {', '.join(HARNESS_COLUMNS)}")
     cols = [c for c in HARNESS_COLUMNS if c in columns]
-    exe = build_interp(cfg, clk_hz=clk_hz, axes=axes)
+    exe = build_interp(cfg, clk_hz=clk_hz, axes=axes, cov_toggle=cov_toggle)
     rec = pack_interp(a, b, index, axes, clear_at, arm_at, cal_en, cal_freeze, harm_en)
+    if reset_at is not None:
+        rec[np.asarray(reset_at, dtype=np.int64), 0, 2] |= FLAG_RESET
     mask = sum(1 << HARNESS_COLUMNS.index(c) for c in cols)
     dtype = _out_dtype(cols, axes)
     with tempfile.TemporaryDirectory(dir=ensure(BUILD / "native" / "runs")) as tmp:
         fin, fout = Path(tmp) / "in.bin", Path(tmp) / "out.bin"
         rec.tofile(fin)
         argv = _interp_argv(exe, fin, fout, n, mask, cal_mu, obs_bw, obs_type3, harm_table,
-                            axes, Path(tmp))
+                            axes, Path(tmp), schedule)
         t0 = time.perf_counter()
         out = subprocess.run(argv, capture_output=True, text=True)
         wall = time.perf_counter() - t0
@@ -279,13 +292,26 @@ def _out_dtype(cols: Sequence[str], axes: int) -> np.dtype:
     return np.dtype([(f"{c}{ax}", COLUMN_DTYPES[c]) for ax in range(axes) for c in cols])
 
 
-def _interp_argv(exe: Path, fin: Path | str, fout: Path | str, n: int, mask: int, cal_mu: int,
-                 obs_bw: int, obs_type3: bool, harm_table: np.ndarray | None, axes: int,
-                 tmp: Path) -> list[str]:
-    # CAL_MU carries the observer's settings in bits 13:8 (bit 13: present)
-    obs_cfg = (obs_bw & 15) | (int(obs_type3) << 4)
-    argv = [str(exe), str(fin), str(fout), str(n), str(mask),
-            str((cal_mu & 15) | obs_cfg << 8 | 1 << 13)]
+def _per_axis(v: int | bool | Sequence[int] | Sequence[bool], axes: int, what: str) -> list[int]:
+    vals = [int(x) for x in np.atleast_1d(np.asarray(v, dtype=np.int64))]
+    if len(vals) == 1:
+        return vals * axes
+    if len(vals) != axes:
+        raise ValueError(f"{what}: one value or {axes} (one per axis), got {len(vals)}")
+    return vals
+
+
+def _interp_argv(exe: Path, fin: Path | str, fout: Path | str, n: int, mask: int,
+                 cal_mu: int | Sequence[int], obs_bw: int | Sequence[int],
+                 obs_type3: bool | Sequence[bool], harm_table: np.ndarray | None, axes: int,
+                 tmp: Path,
+                 schedule: dict[int, Sequence[tuple[int, int, bool]]] | None = None
+                 ) -> list[str]:
+    # CAL_MU carries the observer's settings in bits 13:8 (bit 13: present), a word per axis
+    words = [(mu & 15) | ((bw & 15) | t3 << 4) << 8 | 1 << 13 for mu, bw, t3 in
+             zip(_per_axis(cal_mu, axes, "cal_mu"), _per_axis(obs_bw, axes, "obs_bw"),
+                 _per_axis(obs_type3, axes, "obs_type3"), strict=True)]
+    argv = [str(exe), str(fin), str(fout), str(n), str(mask), ",".join(map(str, words))]
     if harm_table is not None:
         h2 = np.atleast_2d(np.asarray(harm_table, dtype=np.int64))
         ht = np.broadcast_to(h2, (axes, h2.shape[1]))
@@ -294,6 +320,17 @@ def _interp_argv(exe: Path, fin: Path | str, fout: Path | str, n: int, mask: int
         ftab = tmp / "harm.bin"
         full.astype(np.int8).tofile(ftab)
         argv.append(str(ftab))
+    if schedule:
+        argv += [] if harm_table is not None else ["-"]
+        rec = np.zeros(len(schedule), dtype=[("k", "<u4"), ("w", "<u2", (axes,))])
+        for j, k in enumerate(sorted(schedule)):
+            if len(schedule[k]) != axes:
+                raise ValueError(f"schedule at sample {k}: {axes} (mu, bw, type3) expected")
+            rec[j] = (k, [(mu & 15) | (bw & 15) << 8 | int(t3) << 12
+                          for mu, bw, t3 in schedule[k]])
+        fs = tmp / "schedule.bin"
+        rec.tofile(fs)
+        argv.append(str(fs))
     return argv
 
 

@@ -3,10 +3,12 @@
 // through the Verilated RTL and writes the per-sample outputs. The path for 10^7..10^9 samples
 // (cocotb pays ~15 us of Python per clock). Driven by models/hapgate/runners/native.py.
 //
-// usage: interp_harness IN OUT N_SAMPLES COLMASK [CAL_MU]
+// usage: interp_harness IN OUT N_SAMPLES COLMASK [CAL_MU [HARM_TABLE [SCHEDULE]]]
 //   IN : N_SAMPLES records of AXES x {int8 a, int8 b, uint8 flags}; flags bit0 index,
 //        bit1 fault clear, bit2 home arm (pulses applied with that sample), bit3 calibration
-//        enable, bit4 calibration freeze (levels captured with that sample; CAL = 1 builds).
+//        enable, bit4 calibration freeze (levels captured with that sample; CAL = 1 builds),
+//        bit5 harmonic enable, bit6 (axis 0's record) a reset of two clocks before the sample:
+//        the samples in flight are lost, their output records all ones.
 //   OUT: N_SAMPLES records of AXES x the selected columns, in this order and size:
 //        pos i32, pos_homed i32, vel i32, index_pos i32, index_count u16, homed u8,
 //        faults u8, overspeed_count u16, cal_ofs_a i16, cal_ofs_b i16, cal_gain_a u16,
@@ -15,6 +17,10 @@
 //   CAL_MU: the calibration adaptation shift of every axis (default 6) in bits 3:0; with bit 13
 //        set, bits 12:8 are the velocity observer's settings of every axis, bw | type3 << 4
 //        (VEL_OBS = 1 builds; default bw 6, type III; vel_obs reads 0 otherwise).
+//        AXES such words separated by commas: one per axis (axis 0 first).
+//   HARM_TABLE: AXES x 256 signed bytes written through the table port ("-": none).
+//   SCHEDULE: per-axis settings changed during the run: records of uint32 sample k, then AXES x
+//        uint16 (mu | bw << 8 | type3 << 12), driven with sample k (k ascending).
 // Prints "samples=N clocks=C seconds=S" on stdout.
 #include <array>
 #include <chrono>
@@ -24,6 +30,7 @@
 #include <cstring>
 #include <deque>
 #include <memory>
+#include <utility>
 #include <vector>
 
 #include "Venc_interp3.h"
@@ -67,8 +74,8 @@ void put(std::vector<uint8_t>& buf, T value, int bytes) {
 }  // namespace
 
 int main(int argc, char** argv) {
-    if (argc < 5 || argc > 7) {
-        std::fprintf(stderr, "usage: %s IN OUT N_SAMPLES COLMASK [CAL_MU [HARM_TABLE]]\n"
+    if (argc < 5 || argc > 8) {
+        std::fprintf(stderr, "usage: %s IN OUT N_SAMPLES COLMASK [CAL_MU [HARM_TABLE [SCHEDULE]]]\n"
                      "  (N_SAMPLES 0: until the end of IN, e.g. a pipe)\n", argv[0]);
         return 2;
     }
@@ -100,26 +107,56 @@ int main(int argc, char** argv) {
     top->ctl_harm_en = top->cfg_harm_we = 0;
     top->cfg_harm_addr = top->cfg_harm_data = 0;
     {
-        const unsigned mv = (argc >= 6) ? static_cast<unsigned>(std::strtoul(argv[5], nullptr, 0)) : 6U;
-        const unsigned mu = mv & 15U;
-        const unsigned oc = ((mv >> 13) & 1U) ? ((mv >> 8) & 31U) : 0x16U;
-        uint32_t bws = 0, t3s = 0;
+        // one word for every axis, or AXES words separated by commas
+        const char* p = (argc >= 6) ? argv[5] : "6";
+        uint32_t mus = 0, bws = 0, t3s = 0;
+        unsigned mv = 6U;
         for (int ax = 0; ax < AXES; ++ax) {
+            if (ax == 0 || *p == ',') {
+                char* end = nullptr;
+                mv = static_cast<unsigned>(std::strtoul(*p == ',' ? p + 1 : p, &end, 0));
+                p = end;
+            }
+            const unsigned oc = ((mv >> 13) & 1U) ? ((mv >> 8) & 31U) : 0x16U;
+            mus |= (mv & 15U) << (4 * ax);
             bws |= (oc & 15U) << (4 * ax);
             t3s |= ((oc >> 4) & 1U) << ax;
         }
+        if (*p != '\0') {
+            std::fprintf(stderr, "error: CAL_MU %s: 1 or %d comma-separated words\n", argv[5],
+                         AXES);
+            return 2;
+        }
+        top->cfg_cal_mu = mus;
         top->cfg_obs_bw = bws;
         top->cfg_obs_type3 = t3s;
-        uint32_t mus = 0;
-        for (int ax = 0; ax < AXES; ++ax) mus |= mu << (4 * ax);
-        top->cfg_cal_mu = mus;
     }
+    // the settings schedule (SCHEDULE): (sample, AXES x uint16) records
+    std::vector<std::pair<uint64_t, std::array<uint16_t, AXES>>> sched;
+    if (argc == 8) {
+        FILE* fs = std::fopen(argv[7], "rb");
+        if (!fs) {
+            std::fprintf(stderr, "error: cannot open %s\n", argv[7]);
+            return 2;
+        }
+        uint32_t k = 0;
+        std::array<uint16_t, AXES> w{};
+        while (std::fread(&k, 4, 1, fs) == 1) {
+            if (std::fread(w.data(), 2, AXES, fs) != AXES) {
+                std::fprintf(stderr, "error: %s: a partial record\n", argv[7]);
+                return 2;
+            }
+            sched.emplace_back(k, w);
+        }
+        std::fclose(fs);
+    }
+    size_t sched_pos = 0;
     top->eval();
     tb.hold_reset(4);
     // harmonic table (HARM = 1 builds): AXES x 256 signed bytes, written through the table
     // port, then every entry read back (two clocks each), all while in reset (no sample in flight)
     unsigned harm_bad = 0;
-    if (argc == 7) {
+    if (argc >= 7 && std::strcmp(argv[6], "-") != 0) {
         std::vector<uint8_t> tab(256 * AXES);
         FILE* ft = std::fopen(argv[6], "rb");
         if (!ft || std::fread(tab.data(), 1, tab.size(), ft) != tab.size()) {
@@ -166,6 +203,27 @@ int main(int argc, char** argv) {
             ibuf_len = r * rec_in;
             ibuf_pos = 0;
         }
+        if (top->adc_strobe && fed < n && (ibuf[ibuf_pos + 2] & 64U)) {
+            // a reset before this sample: the samples in flight are lost (their output records
+            // are all ones), then the sample is presented as the first after the reset
+            ibuf[ibuf_pos + 2] &= static_cast<uint8_t>(~64U);
+            top->ctl_fault_clear = 0;
+            top->ctl_home_arm = 0;
+            top->rst = 1;
+            for (int i = 0; i < 2; ++i) {
+                top->clk = 1; top->eval();
+                top->clk = 0; top->eval();
+                clocks += 1;
+            }
+            top->rst = 0;
+            top->eval();
+            cal_q.clear();
+            for (; got < fed; ++got)
+                for (int ax = 0; ax < AXES; ++ax)
+                    for (int c = 0; c < kNCol; ++c)
+                        if (mask & (1U << c)) put(obuf, ~0ULL, kColumns[c].bytes);
+            continue;
+        }
         if (top->adc_strobe && fed < n) {
             uint32_t a = 0, b = 0, idx = 0, clr = 0, arm = 0, cen = 0, cfr = 0, hen = 0;
             for (int ax = 0; ax < AXES; ++ax) {
@@ -180,6 +238,19 @@ int main(int argc, char** argv) {
                 hen |= static_cast<uint32_t>((r[2] >> 5) & 1U) << ax;
             }
             ibuf_pos += rec_in;
+            if (sched_pos < sched.size() && sched[sched_pos].first == fed) {
+                uint32_t mus = 0, bws = 0, t3s = 0;
+                for (int ax = 0; ax < AXES; ++ax) {
+                    const unsigned w = sched[sched_pos].second[ax];
+                    mus |= (w & 15U) << (4 * ax);
+                    bws |= ((w >> 8) & 15U) << (4 * ax);
+                    t3s |= ((w >> 12) & 1U) << ax;
+                }
+                top->cfg_cal_mu = mus;
+                top->cfg_obs_bw = bws;
+                top->cfg_obs_type3 = t3s;
+                ++sched_pos;
+            }
             top->adc_a = a;
             top->adc_b = b;
             top->enc_index = idx;
