@@ -48,6 +48,10 @@ def _rank(item: pytest.Item) -> int:
 REGRESS: dict[str, str] = {
     r"\[(.*-)?icarus(-.*)?\]$":
         "Icarus, the second simulator: the same bit-exact checks run on Verilator in tier 1",
+    r"^tb/top/test_top\.py::test_top_(bit_exact|homed_truth)\[quad-":
+        "the whole FPGA in plain quadrature, a sweep configuration no board ships (its own "
+        "build); tier 1 keeps the top's bit-exact and truth runs of paper, hx8k, ecp5, hires "
+        "and observer, and plain quadrature's interpolator (tb/interp/test_interp_coarse.py)",
     r"^tb/top/test_top_netlist\.py::":
         "the top's post-synthesis netlists beside the RTL; tier 1 keeps the RTL bit-exact runs",
     r"^tb/interp/test_enc_interp_netlist\.py::":
