@@ -52,3 +52,21 @@ def test_at_most_one_simulation_port_bundle_per_module() -> None:
             name = mod.split(None, 1)[0]
             n = sum(len(re.findall(rf"`{b}\b", body)) for b in BUNDLES)
             assert n <= 1, f"{p}: module {name} has {n} simulation port bundles"
+
+
+def _header(path) -> list[str]:
+    """The module's parameter and port list: from `module enc_interp3 #(` to the `);` that
+    ends it, comments and blank lines included."""
+    lines = path.read_text().splitlines()
+    start = next(i for i, ln in enumerate(lines) if ln.startswith("module enc_interp3 #("))
+    end = next(i for i in range(start, len(lines)) if lines[i] == ");")
+    return lines[start + 1:end]
+
+
+def test_the_held_bank_has_the_rtl_banks_parameters_and_ports() -> None:
+    """tb/native/device/held/enc_interp3.v is compiled in place of rtl/interp/enc_interp3.v for
+    scenes that leave axes out, so its header is a copy of the RTL bank's: held line for line
+    here (a parameter or port added to one alone fails)."""
+    held = _header(ROOT / "tb" / "native" / "device" / "held" / "enc_interp3.v")
+    rtl = _header(RTL / "interp" / "enc_interp3.v")
+    assert len(rtl) > 40 and held == rtl
