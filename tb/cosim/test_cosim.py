@@ -52,13 +52,24 @@ def assert_torque_and_force(c: cosim.Check) -> None:
 def test_wall_normal_run(rate: int) -> None:
     r = run("wall", rate)
     assert r.ok, r.fails
-    assert np.all(r.isr["err"] == 0), "the firmware latched an error in a normal run"
+    assert np.all(r.ticks["err"] == 0), "the firmware latched an error in a normal run"
     assert int(r.num("status")) & STICKY == 0 and int(r.num("irq")) & MISSED == 0
     # one ISR per servo tick for the whole run (none missed, none extra); the first tick comes one
     # period after the firmware's TICK_DIV write
-    assert r.num("sim_s") * rate - 2 < r.num("ticks") <= r.num("sim_s") * rate
+    assert r.simulated_s * rate - 2 < r.num("ticks") <= r.simulated_s * rate
+    assert len(r.ticks) == len(r.isr) == r.num("ticks")
     ticks = np.diff(r.isr["irq_edge"])
     assert np.all(ticks == CFG.clk_hz // rate)
+    # the engine's enable: the tick before scene time 0 (the push start), not earlier; the firmware
+    # drives from the next tick on
+    drive = np.flatnonzero(r.ticks["drive"] == 1)
+    assert -1.0 / rate <= r.num("enabled_t") < 0 and r.ticks["t"][drive[0]] == 0.0
+    assert np.all(np.diff(drive) == 1)
+    # the firmware's wall (env_*, from the scene through hapgate.golden.kinematics) is the plane
+    # the harness's check builds with the plant's kinematics
+    p0, n, _ = cosim.wall_plane(r.scene)
+    assert np.allclose(r.vec("wall_p0"), p0, rtol=0, atol=1e-12)
+    assert np.allclose(r.vec("wall_n"), n, rtol=0, atol=1e-12)
     c = checked("wall", rate)
     assert_torque_and_force(c)
     # the trajectory really penetrates, and the force follows k * depth out of the wall
@@ -87,8 +98,9 @@ def test_bus_ready_mode_same_result() -> None:
     assert_torque_and_force(cosim.check(b))
     # the snapshot is latched at the tick, whatever the access timing: identical commands
     assert len(a.isr) == len(b.isr)
-    for col in ("code0", "code1", "code2", "err"):
+    for col in ("code0", "code1", "code2"):
         assert np.array_equal(a.isr[col], b.isr[col])
+    assert np.array_equal(a.ticks["err"], b.ticks["err"])
 
 
 def reaction(r: cosim.CosimRun, channels: list[int]) -> int:
@@ -116,7 +128,7 @@ def test_watchdog_not_petted() -> None:
     # expiry exactly WDOG_TIMEOUT (10 ms reset value) after the last key that reached the FPGA
     # (its strobe rose at last_key_rise; captured 3 edges after the fall, applied 1 later)
     timeout = 10_000 * CFG.clk_hz // 1_000_000
-    assert abs(cause - r.num("last_key_rise") - timeout) <= 2
+    assert abs(cause - r.num("last_key_edge") - timeout) <= 2
     ch = list(range(6))
     assert nonzero_before(r, ch)
     assert 0 <= reaction(r, ch) <= BOUND
@@ -135,9 +147,9 @@ def test_dsp_hang() -> None:
     assert all_zero_after(r, r.num("cause_edge") + BOUND, ch)
     assert int(r.num("status")) & (1 << 12)
     # the resumed firmware sees SEQ jumped by ~10 ticks: OVERRUN, and writes zero torque
-    last = r.isr[-1]
+    last, codes = r.ticks[-1], r.isr[-1]
     assert last["err"] == OVERRUN and last["drive"] == 0
-    assert last["code0"] == last["code1"] == last["code2"] == 0
+    assert codes["code0"] == codes["code1"] == codes["code2"] == 0
 
 
 def test_encoder_dropout() -> None:
@@ -164,6 +176,23 @@ def test_negative_control_commutation_offset() -> None:
     c = checked("miscal")
     assert np.any(c.torque_err[:, 0] > c.torque_budget[:, 0])
     assert np.all(c.torque_err[:, 1:] <= c.torque_budget[:, 1:])
+
+
+def test_a_wrong_firmware_wall_fails_the_force_check(tmp_path, monkeypatch) -> None:
+    """The force check has power: a run configuration that gives the firmware a wall 10 % stiffer
+    (env_k) than the scene's fails the harness's force check (its reference is the scene's wall,
+    cosim_wall_at/cosim_wall_k) and the independent one, while the torques still match their
+    commands (the firmware did what it was told)."""
+    scene = tmp_path / "stiff.toml"
+    scene.write_text("[run]\nduration_s = 0.0745\n")
+    make = cosim.run_config
+    monkeypatch.setattr(cosim, "run_config",
+                        lambda sc: make(sc).replace("env_k = 2000.0\n", "env_k = 2200.0\n"))
+    r = cosim.run(scene)
+    assert not r.ok and "force within budget" in r.fails, r.fails
+    c = cosim.check(r)
+    assert np.all(c.torque_err <= c.torque_budget)
+    assert np.any(force_err(c) > c.force_budget)
 
 
 def test_bus_throughput_and_integrity() -> None:

@@ -18,6 +18,9 @@ from ..base.paths import ROOT, TB
 from ..golden import encsig, interp, kinematics, pclink
 from ..golden.interp import InterpConfig
 from ..runners import cosim
+from ..runners.records import FRAME_DT as FRAME_DT  # re-exported: runner, model, the tests
+from ..runners.records import LOAD_DT as LOAD_DT
+from ..runners.records import TICK_DT as TICK_DT
 from .scene import PcCfg
 
 HERE = TB / "native" / "device"
@@ -45,16 +48,6 @@ ENERGY_MIN_J = 1e-9          # energy_drift_frac only for a scene that starts mo
 STEADY_AFTER_S, STEADY_SPEED, STEADY_DEPTH = 5e-3, 2e-2, 2e-4
 CODE_FS = 32767              # firmware torque code at full scale
 
-FRAME_DT = np.dtype([("t", "<f8"), ("q", "<f8", 3), ("p", "<f8", 3), ("f_hand", "<f8", 3),
-                     ("tau", "<f8", 3), ("i_ab", "<f8", 6), ("energy", "<f8"),
-                     ("dac", "<i2", 6), ("pad", "<i2"),
-                     ("pad2", "<u4")], align=True)
-TICK_DT = np.dtype([("t", "<f8"), ("q_fw", "<f8", 3), ("q_true", "<f8", 3), ("p_fw", "<f8", 3),
-                    ("f_fw", "<f8", 3), ("tau_fw", "<f8", 3), ("pos_err", "<i4", 3),
-                    ("pos", "<i4", 3), ("status", "<u4"), ("err", "u1"), ("err_axis", "u1"),
-                    ("drive", "u1"),
-                    ("pad", "u1")], align=True)
-LOAD_DT = np.dtype([("edge", "<i8"), ("ch", "<i4"), ("code", "<i4")])
 
 
 class DeviceError(RuntimeError):

@@ -31,6 +31,7 @@ from ..base.paths import ROOT, TB, ensure
 from ..golden import commutation, configs, encsig, interp, kinematics
 from ..golden.top import SOURCES, TopConfig
 from . import native
+from .records import LOAD_DT, TICK_DT
 
 HERE = TB / "native" / "cosim"
 DEVICE = TB / "native" / "device"     # the shared bus master, DAC word and plant
@@ -44,6 +45,7 @@ SCENARIOS = ("wall", "wdog", "hang", "dropout", "miscal", "bus")   # SCENES/NAME
 ERR_NONE, ERR_AXIS_FAULT, ERR_WATCHDOG = 0, 2, 6   # dsp-fw/README.md, "latched error codes"
 STAT_FAULT0, STAT_WDOG = 1 << 0, 1 << 12           # rtl/regs/REGISTERS.md, STATUS
 KT, AMP_GAIN, DAC_FS_V, CODE_FS = 0.06, 0.8, 10.0, 32767   # dsp-fw/README.md motor defaults
+ENV_WALL = 1                                       # hg_proto.h HG_SCENE_WALL (run key env_kind)
 
 
 @dataclass(frozen=True)
@@ -155,13 +157,32 @@ def load(scene: str | Path) -> CosimScene:
                       BusTiming(b["setup"], b["strobe"], b["hold"], b["use_ready"]))
 
 
+def _rad(deg: list[float]) -> list[float]:
+    return [x * math.pi / 180.0 for x in deg]
+
+
+def wall_plane(sc: CosimScene) -> tuple[np.ndarray, np.ndarray, float]:
+    """The scene's wall: its point (wall.at of the way from the free to the deep endpoint), its
+    unit normal (from deep to free: into free space), m, and its stiffness, N/m (b = 0)."""
+    pf = kinematics.fk(np.array(_rad(sc.get("hand", "free_deg"))))
+    pd = kinematics.fk(np.array(_rad(sc.get("hand", "deep_deg"))))
+    at = float(sc.get("wall", "at"))   # type: ignore[arg-type]
+    return pf + at * (pd - pf), (pf - pd) / np.linalg.norm(pf - pd), float(sc.get("wall", "k"))
+
+
 def run_config(sc: CosimScene) -> str:
     """The scene as the harness's run configuration (hg_dev::parse_run, cosim_* keys). Scene time
-    0 is the start of the push; the poses in rad as the harness's deg() computes them."""
+    0 is the start of the push; the poses in rad as the harness's deg() computes them. The
+    firmware's wall is the env_* keys (`wall_plane`, as the device harness's run configuration
+    gives its environment); cosim_wall_at and cosim_wall_k are the scene's wall again, from which
+    the harness builds its check's reference with the plant's kinematics."""
     v = sc.values
     def rad(d: list[float]) -> str:
-        return " ".join(repr(x * math.pi / 180.0) for x in d)
+        return " ".join(repr(x) for x in _rad(d))
+    def vec(x: np.ndarray) -> str:
+        return " ".join(repr(float(c)) for c in x)
     b = sc.bus
+    p0, n, k = wall_plane(sc)
     lines = [f"servo_hz = {v['run']['servo_hz']}", f"duration_s = {v['run']['duration_s']!r}",
              "progress_s = 0",
              f"cosim_kind = {KINDS.index(v['run']['kind'])}",
@@ -170,7 +191,9 @@ def run_config(sc: CosimScene) -> str:
              f"q0 = {rad(v['hand']['free_deg'])}", f"cosim_q_deep = {rad(v['hand']['deep_deg'])}",
              f"cosim_push = {v['hand']['in_s']!r} {v['hand']['hold_s']!r}",
              f"cosim_seed = {v['hand']['seed']}",
-             f"cosim_wall_at = {v['wall']['at']!r}", f"env_k = {v['wall']['k']!r}",
+             f"cosim_wall_at = {v['wall']['at']!r}", f"cosim_wall_k = {v['wall']['k']!r}",
+             f"env_kind = {ENV_WALL}", f"env_point = {vec(p0)}", f"env_normal = {vec(n)}",
+             f"env_k = {k!r}", "env_b = 0.0",
              "comm_err = " + " ".join(str(c) for c in v["firmware"]["comm_err"])]
     lines += [f"fault = {f['at_s']!r} {f['kind']} {f['axis']}" for f in sc.faults]
     return "\n".join(lines) + "\n"
@@ -218,9 +241,11 @@ class CosimRun:
     ok: bool                      # the harness's own verdict (exit code 0 and result=PASS)
     summary: dict[str, str]       # key=value lines of its stdout
     frames: np.ndarray            # structured, one row per DAC frame (frames.csv)
-    isr: np.ndarray               # structured, one row per ISR call (isr.csv)
-    loads: np.ndarray             # structured: edge i8, ch i4, code i4 (every DAC load)
+    ticks: np.ndarray             # TICK_DT, one per ISR call (ticks.bin, the scenario engine's)
+    isr: np.ndarray               # structured, the same rows: irq/start/end edges, codes (isr.csv)
+    loads: np.ndarray             # LOAD_DT, every DAC load (loads.bin)
     wall_s: float                 # wall-clock time of the harness process
+    scene: CosimScene             # what was run (the overrides applied)
     fails: list[str] = field(default_factory=list)
     warns: list[str] = field(default_factory=list)
     fault: str = ""               # the scene's fault kind ("": a normal run)
@@ -230,6 +255,11 @@ class CosimRun:
 
     def vec(self, key: str) -> np.ndarray:
         return np.array([float(x) for x in self.summary[key].split(",")])
+
+    @property
+    def simulated_s(self) -> float:
+        """Simulated time from reset: the homing sweep and the scene (sim_s: the scene's)."""
+        return self.num("clocks") / self.num("clk_hz")
 
 
 def run(scene: str | Path = "wall", rate_hz: int | None = None, bus: BusTiming | None = None,
@@ -257,14 +287,14 @@ def run(scene: str | Path = "wall", rate_hz: int | None = None, bus: BusTiming |
         wall = time.perf_counter() - t0
         if proc.returncode not in (0, 1) or "result=" not in proc.stdout:
             raise RuntimeError(f"co-sim harness failed ({proc.returncode}): {proc.stderr.strip()}")
-        load_dt = [("edge", "<i8"), ("ch", "<i4"), ("code", "<i4")]
         if sc.get("run", "kind") == "bus":   # no firmware, no frames
             frames = isr = np.zeros(0)
-            loads = np.zeros(0, dtype=load_dt)
+            ticks, loads = np.zeros(0, dtype=TICK_DT), np.zeros(0, dtype=LOAD_DT)
         else:
             frames = np.genfromtxt(out / "frames.csv", delimiter=",", names=True, dtype=None)
             isr = np.genfromtxt(out / "isr.csv", delimiter=",", names=True, dtype=None)
-            loads = np.fromfile(out / "loads.bin", dtype=load_dt)
+            ticks = np.fromfile(out / "ticks.bin", dtype=TICK_DT)
+            loads = np.fromfile(out / "loads.bin", dtype=LOAD_DT)
     summary: dict[str, str] = {}
     fails, warns = [], []
     for line in proc.stdout.splitlines():
@@ -276,8 +306,13 @@ def run(scene: str | Path = "wall", rate_hz: int | None = None, bus: BusTiming |
             k, _, v = kv.partition("=")
             summary[k] = v
     ok = proc.returncode == 0 and summary.get("result") == "PASS"
-    return CosimRun(scenario, rate_hz, ok, summary, np.atleast_1d(frames), np.atleast_1d(isr),
-                    loads, wall, fails, warns, sc.faults[0]["kind"] if sc.faults else "")
+    isr = np.atleast_1d(isr)
+    if sc.get("run", "kind") != "bus" and (int(summary["tick_bytes"]) != TICK_DT.itemsize
+                                            or len(ticks) != len(isr)):
+        raise RuntimeError(f"co-sim harness: {len(ticks)} ticks of {summary['tick_bytes']} bytes "
+                           f"(TICK_DT: {TICK_DT.itemsize}) beside {len(isr)} ISR rows")
+    return CosimRun(scenario, rate_hz, ok, summary, np.atleast_1d(frames), ticks, isr,
+                    loads, wall, sc, fails, warns, sc.faults[0]["kind"] if sc.faults else "")
 
 
 # ---------------------------------------------------------------------------- independent check
@@ -345,7 +380,7 @@ def check(r: CosimRun, cfg: TopConfig | None = None) -> Check:
     tau = t_rec[fs] * nm_per_code
     jac = kinematics.jacobian(qs)
     force = np.linalg.solve(np.swapaxes(jac, -1, -2), tau[..., None])[..., 0]
-    n, p0, k = r.vec("wall_n"), r.vec("wall_p0"), r.num("wall_k")
+    p0, n, k = wall_plane(r.scene)   # the scene's, not the harness's
     depth = (p0 - kinematics.fk(qs)) @ n
     mag = np.where(f["drive"][fs] == 1, k * np.maximum(depth, 0.0), 0.0)
     expected = n[None, :] * mag[:, None]
@@ -362,14 +397,11 @@ def check(r: CosimRun, cfg: TopConfig | None = None) -> Check:
 
 
 def home_error(r: CosimRun) -> np.ndarray:
-    """Firmware joint angle minus the truth, counts, at the last driving tick before the push
-    (the joints stand still at the free pose there)."""
-    i = r.isr
-    clk = r.num("clk_hz")
-    k = np.flatnonzero((i["drive"] == 1) & (i["irq_edge"] / clk < r.num("t_push")))[-1]
-    qf = np.array([i[f"qf{j}"][k] for j in range(3)])
-    qt = np.array([i[f"qt{j}"][k] for j in range(3)])
-    return (qf - qt) * 2**20 / (2 * np.pi)
+    """Firmware joint angle minus the truth of its sample, counts, at the first driving tick
+    (the tick at the push start: its sample is the last before the push, the joints at rest at
+    the free pose)."""
+    t = r.ticks[np.flatnonzero(r.ticks["drive"] == 1)[0]]
+    return (t["q_fw"] - t["q_true"]) * 2**20 / (2 * np.pi)
 
 
 def interp_budget_counts(amplitude: float = 110.0, sweep_lines: int = 4) -> float:
@@ -408,7 +440,7 @@ def _row(r: CosimRun, c: Check | None) -> list[object]:
     if r.fault:
         clocks = int(r.summary["reaction_clocks"])
         react = f"{clocks / r.num('clk_hz') * 1e6:.2f} us ({clocks} clk)"
-    return [f"{r.scenario} @ {r.rate_hz} Hz", f"{r.num('sim_s') * 1e3:.1f} ms",
+    return [f"{r.scenario} @ {r.rate_hz} Hz", f"{r.simulated_s * 1e3:.1f} ms",
             f"{r.num('wall_s'):.2f} s", f"{tx / r.num('wall_s') / 1e3:.0f} k",
             int(r.num("ticks")), f"{ferr * 1e3:.2f} mN", react,
             "PASS" if r.ok else "FAIL " + "; ".join(r.fails)]
@@ -467,7 +499,7 @@ def bench_section(quick: bool = False) -> bool:
             ok = ok and r.ok
             tx = r.num("bus_reads") + r.num("bus_writes")
             rows.append([f"{rate} Hz", "ready" if bus.use_ready else
-                         f"{bus.setup}/{bus.strobe}/{bus.hold}", f"{r.num('sim_s') * 1e3:.0f} ms",
+                         f"{bus.setup}/{bus.strobe}/{bus.hold}", f"{r.simulated_s * 1e3:.0f} ms",
                          f"{r.num('wall_s'):.2f} s", int(tx), f"{tx / r.num('wall_s') / 1e3:.1f} k",
                          f"{r.num('clocks') / r.num('wall_s') / 1e6:.2f} M",
                          f"{r.num('sim_per_wall'):.4f}", "PASS" if r.ok else "FAIL"])
@@ -477,7 +509,7 @@ def bench_section(quick: bool = False) -> bool:
         tx = r.num("bus_reads") + r.num("bus_writes")
         timing = "ready" if bus.use_ready else f"{bus.setup}/{bus.strobe}/{bus.hold}"
         rows.append(["bus only", timing,
-                     f"{r.num('sim_s') * 1e3:.0f} ms", f"{r.num('wall_s'):.2f} s", int(tx),
+                     f"{r.simulated_s * 1e3:.0f} ms", f"{r.num('wall_s'):.2f} s", int(tx),
                      f"{tx / r.num('wall_s') / 1e3:.1f} k",
                      f"{r.num('clocks') / r.num('wall_s') / 1e6:.2f} M",
                      f"{r.num('sim_per_wall'):.4f}", "PASS" if r.ok else "FAIL"])

@@ -20,8 +20,10 @@
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
+#include <ctime>
 #include <random>
 #include <string>
+#include <vector>
 
 #include "cosim.h"
 #include "dac_word.h"
@@ -187,17 +189,14 @@ struct Trajectory {
         const Vec3 a = q(t - h), b = q(t + h);
         return {(b[0] - a[0]) / (2 * h), (b[1] - a[1]) / (2 * h), (b[2] - a[2]) / (2 * h)};
     }
-    double lines(double t, int i) const { return (q(t)[i] - q_index[i]) / (2 * kPi) * kLines; }
 };
 
 double edge_time(uint64_t e) { return static_cast<double>(e) / CLK_HZ; }
 
-struct IsrRec {
+// What the co-simulation's checks need of each ISR call beyond the engine's record (TickRec, the
+// same index in Scenario::ticks): its edges and the DAC codes the firmware computed.
+struct IsrEdges {
     uint64_t irq_edge, start, end;
-    uint8_t err, err_axis;
-    bool drive;
-    uint32_t status;
-    float p[3], f[3], tau[3], q[3];
     int16_t code[3];
 };
 
@@ -206,7 +205,6 @@ struct Frame {
     int code[6];
     int n = 0;
 };
-
 
 }  // namespace
 
@@ -275,8 +273,8 @@ int main(int argc, char** argv) {
                s_hang = fkind == hg_dev::FaultKind::hang, s_drop = fkind == hg_dev::FaultKind::dropout;
 
     const uint64_t seed = co.seed;
-    const double kWallK = run.env_k;   // N/m, the wall's stiffness (b = 0)
     Trajectory tr(seed, run);
+    for (int i = 0; i < 3; ++i) run.q_index[i] = tr.q_index[i];   // the firmware's calibration (fw_config)
     {
         char text[96], err[256] = {0};
         std::snprintf(text, sizeof text, "enc_amplitude = %.17g %.17g %.17g\n", kAdcR, kAdcR, kAdcR);
@@ -289,7 +287,11 @@ int main(int argc, char** argv) {
     const double t_fault = s_wall ? 0.0 : tr.t_push + run.faults[0].at_s;   // scene time from the push
     const int drop_axis = s_drop ? run.faults[0].axis : 0;
 
-    // wall plane: through a point 45 % of the way from the free to the deep pose, normal into free space
+    // The check's reference wall, the scene's (cosim_wall_at, cosim_wall_k; b = 0) through the
+    // plant's kinematics: through the point wall_at of the way from the free to the deep pose,
+    // normal into free space. The firmware gets its wall from the env_* keys (cosim.run_config
+    // writes both from the scene), so a wrong env_* is a failed force check.
+    const double kWallK = co.wall_k;   // N/m
     const Vec3 pf = fk(tr.q_free), pd = fk(tr.q_deep);
     Vec3 nrm{}, p0{};
     {
@@ -302,13 +304,20 @@ int main(int argc, char** argv) {
         }
     }
 
+    constexpr uint64_t kD = CLK_HZ / 1000000;
+    static_assert(CLK_HZ % 1000000 == 0, "CLK_HZ must be a whole number of MHz");
     Testbench bench;
     tb = &bench;
     bool dropout_on = false;
+    // the true joint angles of the samples captured at each grid point (a ring): the snapshot of
+    // a tick at grid point g holds the sample of grid point g - 1 (tb/native/device/README.md)
+    constexpr size_t kRing = 64;
+    std::vector<Vec3> q_ring(kRing);
     bench.adc = [&](uint64_t cap, uint32_t& a, uint32_t& b, uint32_t& idx) {
-        const double t = edge_time(cap);
+        const Vec3 q = tr.q(edge_time(cap));
+        q_ring[(cap / kD) % kRing] = q;
         for (int i = 0; i < 3; ++i) {
-            const double x = tr.lines(t, i);
+            const double x = (q[i] - tr.q_index[i]) / (2 * kPi) * kLines;
             int8_t ca = 0, cb = 0;
             hg_plant_encode1(g_plant, i, x, 0.0, 0.0, &ca, &cb);
             if (dropout_on && i == drop_axis) ca = cb = 0;
@@ -322,15 +331,10 @@ int main(int argc, char** argv) {
     bench.reset();
 
     const auto w0 = std::chrono::steady_clock::now();
+    const std::clock_t c0 = std::clock();
     // ---------------------------------------------------------------- firmware init (board code)
     hg_servo_cfg_t cfg;
-    hg_servo_default_cfg(&cfg);
-    cfg.rate_hz = rate;
-    cfg.fpga_clk_hz = CLK_HZ;
-    for (int i = 0; i < 3; ++i)  // q = index_to_zero counts before the index (calibration)
-        cfg.cal.axis[i].index_to_zero = static_cast<int32_t>(std::lround(-tr.q_index[i] / (2 * kPi) * HG_ENC_COUNTS_PER_REV));
-    for (int i = 0; i < 3; ++i)  // a commutation offset error (the calibration sets motor[].comm_offset)
-        cfg.cal.axis[i].comm_offset = static_cast<uint32_t>(cfg.cal.axis[i].comm_offset + run.comm_err[i]) & 1023u;
+    hg_dev::fw_config(run, CLK_HZ, &cfg);
     static hg_servo_t s;
     const uint8_t init_err = hg_servo_init(&s, &cfg);
     const uint32_t dac_skew = fpga_read32(HG_WORD(offsetof(hapgate_t, DAC_SKEW))),
@@ -340,23 +344,19 @@ int main(int argc, char** argv) {
     fpga_write32(HG_REG_CTRL, HG_CTRL_HOME_ARM);  // arm homing of all three axes
     hg_servo_isr_ctx = &s;
 
-    std::vector<IsrRec> isrs;
-    int64_t homed_isr = -1;
-    uint64_t enable_edge = 0, fault_edge_cmd = 0;
-    uint32_t idx_pos[3] = {0, 0, 0}, status_after = 0;
-    bool enabled_once = false;
-    // whole microseconds: the push starts on one, the scene's duration is a whole number of them
-    const uint64_t end_edge = static_cast<uint64_t>(std::llround(tr.t_push * 1e6) + std::llround(run.duration_s * 1e6)) *
-                              (CLK_HZ / 1000000);
-    uint64_t post_hang_status_edge = 0;
-    // the scene's fault, run by the shared engine (harness_common.h) on the 1 us grid, scene time 0
-    // at the push: every watchdog key write lost, the DSP hung (it resumes 2 ms after the expiry),
-    // or an axis's signal gone
-    constexpr uint64_t kD = CLK_HZ / 1000000;
-    static_assert(CLK_HZ % 1000000 == 0, "CLK_HZ must be a whole number of MHz");
+    // The shared scenario engine (harness_common.h) on the 1 us grid, scene time 0 at the push:
+    // the scene's fault (every watchdog key write lost, the DSP hung: it resumes 2 ms after the
+    // expiry, or an axis's signal gone), the ISR records (ticks.bin) and the enable.
     static hg_dev::Scenario sc;
-    sc.start(run, std::llround(tr.t_push * 1e6), static_cast<int64_t>(kD));
+    const int64_t scene0_us = std::llround(tr.t_push * 1e6);
+    sc.start(run, scene0_us, static_cast<int64_t>(kD));
     cosim::scenario = &sc;
+    std::vector<IsrEdges> isrs;   // isrs[k] and sc.ticks[k]: the same ISR call
+    uint64_t fault_edge_cmd = 0;
+    uint32_t status_after = 0;
+    // whole microseconds: the push starts on one, the scene's duration is a whole number of them
+    const uint64_t end_edge = static_cast<uint64_t>(scene0_us + std::llround(run.duration_s * 1e6)) * kD;
+    uint64_t post_hang_status_edge = 0;
 
     while (bench.edge < end_edge) {
         bench.tick();
@@ -376,57 +376,28 @@ int main(int argc, char** argv) {
             post_hang_status_edge = bench.edge;
         }
         if (!call) continue;
-        IsrRec r{};
+        IsrEdges r{};
         r.irq_edge = rose ? bench.irq_rise_edge : bench.edge;
         r.start = bench.edge;
         current_isr = static_cast<int64_t>(isrs.size());
         hg_servo_isr();
         current_isr = -1;
         r.end = bench.edge;
-        r.err = s.err;
-        r.err_axis = s.err_axis;
-        r.drive = s.enabled && s.err == HG_ERR_NONE;
-        r.status = s.status;
-        for (int i = 0; i < 3; ++i) {
-            r.p[i] = s.p[i];
-            r.f[i] = s.f[i];
-            r.tau[i] = s.tau[i];
-            r.code[i] = s.code[i];
-            r.q[i] = s.q[i];
-        }
+        for (int i = 0; i < 3; ++i) r.code[i] = s.code[i];
         isrs.push_back(r);
-        // ---- background loop (between ticks): homing, then enable the wall
-        if (!enabled_once && edge_time(bench.edge) >= tr.t_home) {  // the sweep is over
-            const uint32_t homed = HG_STAT_HOMED(0) | HG_STAT_HOMED(1) | HG_STAT_HOMED(2);
-            if (homed_isr < 0 && (s.status & homed) == homed) {
-                homed_isr = static_cast<int64_t>(isrs.size()) - 1;
-            } else if (homed_isr >= 0) {  // one tick later: the snapshot holds the index latch
-                for (uint32_t i = 0; i < 3; ++i) {
-                    idx_pos[i] = fpga_read32(HG_REG_AXIS(i, HG_AX_IDX_POS));
-                    hg_enc_home(&s.cfg.enc[i], static_cast<int32_t>(idx_pos[i]));
-                }
-                hg_scene_t wall{};
-                wall.type = HG_SCENE_WALL;
-                for (int i = 0; i < 3; ++i) {
-                    wall.p0[i] = static_cast<hg_real>(p0[i]);
-                    wall.n[i] = static_cast<hg_real>(nrm[i]);
-                }
-                wall.k = static_cast<hg_real>(kWallK);
-                wall.b = 0;
-                const int sc = hg_servo_set_scene(&s, &wall);
-                const int en = hg_servo_enable(&s, true);
-                if (sc != 0 || en != 0) {
-                    std::fprintf(stderr, "error: scene %d enable %d refused\n", sc, en);
-                    return 1;
-                }
-                enabled_once = true;
-                enable_edge = bench.edge;
-            }
+        const int64_t tick_g = static_cast<int64_t>(r.irq_edge / kD);
+        // ---- background loop: homing, then the scene and enable at the tick before scene time 0
+        if (sc.after_isr(s, tick_g, q_ring[static_cast<size_t>(tick_g - 1) % kRing].data())) {
+            const int rc = hg_dev::fw_home_scene_enable(&s, run, true);
+            if (rc != 0) return rc;
+            sc.enabled(sc.scene_t(static_cast<int64_t>(bench.edge / kD)));
         }
     }
     if (!status_after) status_after = fpga_read32(HG_REG_STATUS);
     const uint32_t irq_reg = fpga_read32(HG_REG_IRQ);
     const double wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - w0).count();
+    const double cpu_s = static_cast<double>(std::clock() - c0) / CLOCKS_PER_SEC;  // one core
+    const std::vector<hg_dev::TickRec>& ticks = sc.ticks;
 
     // ---------------------------------------------------------------- DAC frames
     const uint64_t frame = dac_frame, skew = dac_skew;
@@ -450,29 +421,27 @@ int main(int argc, char** argv) {
     struct TW { uint64_t fall, rise; int16_t v; int64_t isr; };
     std::vector<TW> tw[3];
     uint32_t tq_limit[3] = {0, 0, 0};
-    uint64_t last_key_rise = 0;
     for (const auto& w : bus_writes) {
         for (uint32_t i = 0; i < 3; ++i) {
             if (w.addr == HG_REG_AXIS(i, HG_AX_TORQUE))
                 tw[i].push_back({w.fall, w.rise, static_cast<int16_t>(w.data & 0xFFFFU), w.isr});
             if (w.addr == HG_REG_AXIS(i, HG_AX_TQ_LIMIT)) tq_limit[i] = w.data;
         }
-        if (w.addr == HG_REG_WDOG && !w.dropped) last_key_rise = w.rise;
     }
     auto clampt = [&](int v, int i) { const int l = static_cast<int>(tq_limit[i]); return std::clamp(v, -l, l); };
 
     // ---------------------------------------------------------------- homing error
-    // firmware joint angle minus the truth at the last tick before the push (standstill at
-    // q_free), in counts. The interpolator latches the quadrant the sign bits show at the index
-    // edge; on a slow approach that is the quadrant before the index quadrant (see README).
+    // firmware joint angle minus the truth of its sample at the first driving tick (the tick at
+    // the push start: its sample is the last before the push, the joints at rest at q_free), in
+    // counts. The interpolator latches the quadrant the sign bits show at the index edge; on a
+    // slow approach that is the quadrant before the index quadrant (see README).
     double home_err[3] = {0, 0, 0};
     {
-        const IsrRec* ref = nullptr;
-        for (const auto& r : isrs)
-            if (r.drive && edge_time(r.irq_edge) < tr.t_push) ref = &r;
-        if (!ref) { std::fprintf(stderr, "error: no standstill tick after enable\n"); return 1; }
-        const Vec3 qt = tr.q(edge_time(ref->irq_edge));
-        for (int i = 0; i < 3; ++i) home_err[i] = (double(ref->q[i]) - qt[i]) * HG_ENC_COUNTS_PER_REV / (2 * kPi);
+        const hg_dev::TickRec* ref = nullptr;
+        for (const auto& r : ticks)
+            if (r.drive) { ref = &r; break; }
+        if (!ref) { std::fprintf(stderr, "error: no driving tick after enable\n"); return 1; }
+        for (int i = 0; i < 3; ++i) home_err[i] = (ref->q_fw[i] - ref->q_true[i]) * HG_ENC_COUNTS_PER_REV / (2 * kPi);
     }
     // interpolation accuracy at this ADC amplitude, counts: the arcsine table assumes R = 127, so
     // the fine angle is asin(g sin t) instead of t (worst at 45 deg, g = R/127), plus 1/2 LUT
@@ -522,12 +491,14 @@ int main(int argc, char** argv) {
             amb = amb || tlo[i] != thi[i];
         }
         const bool same = isr_of[0] == isr_of[1] && isr_of[1] == isr_of[2] && isr_of[0] >= 0;
-        const IsrRec* ir = same ? &isrs[static_cast<size_t>(isr_of[0])] : nullptr;
-        const Vec3 qs = ir ? tr.q(edge_time(ir->irq_edge)) : Vec3{0, 0, 0};
+        const size_t k = same ? static_cast<size_t>(isr_of[0]) : 0;
+        const IsrEdges* ir = same ? &isrs[k] : nullptr;
+        const hg_dev::TickRec* tk = same ? &ticks[k] : nullptr;
+        const Vec3 qs = tk ? Vec3{tk->q_true[0], tk->q_true[1], tk->q_true[2]} : Vec3{0, 0, 0};
         std::fprintf(fcsv, "%llu,%d,%d,%d,%d,%d,%d,%.12g,%.12g,%.12g,%d,%d,%d,%d,%d,%d,%lld,%d,%.12g,%.12g,%.12g\n",
                      static_cast<unsigned long long>(L), f.code[0], f.code[1], f.code[2], f.code[3], f.code[4],
                      f.code[5], q[0], q[1], q[2], tlo[0], tlo[1], tlo[2], thi[0], thi[1], thi[2],
-                     ir ? static_cast<long long>(ir->irq_edge) : -1LL, ir ? int(ir->drive) : 0, qs[0], qs[1], qs[2]);
+                     ir ? static_cast<long long>(ir->irq_edge) : -1LL, tk ? int(tk->drive) : 0, qs[0], qs[1], qs[2]);
         if (L == 0 || L >= normal_end) continue;
         // (b1) torque reconstruction: amplifier third phase -(a + b), sinusoidal windings
         double trec[3], tbud[3];
@@ -560,7 +531,7 @@ int main(int argc, char** argv) {
             for (int m = 0; m < 3; ++m) F[i] += JiT[i][m] * tau[m];
         const Vec3 ps = fk(qsr);
         const double d = dot({p0[0] - ps[0], p0[1] - ps[1], p0[2] - ps[2]}, nrm);
-        const double fmag = ir->drive ? kWallK * std::max(0.0, d) : 0.0;
+        const double fmag = tk->drive ? kWallK * std::max(0.0, d) : 0.0;
         Vec3 err{};
         for (int i = 0; i < 3; ++i) err[i] = F[i] - nrm[i] * fmag;
         const double en = std::sqrt(dot(err, err));
@@ -581,27 +552,20 @@ int main(int argc, char** argv) {
     }
     std::fclose(fcsv);
 
+    // the engine's records (ticks.bin), and beside them, row for row, the ISRs' edges and codes
+    sc.finish(outdir);
     FILE* icsv = std::fopen((outdir + "/isr.csv").c_str(), "w");
-    std::fprintf(icsv, "irq_edge,start,end,err,err_axis,drive,status,p0,p1,p2,f0,f1,f2,tau0,tau1,tau2,code0,code1,code2,qt0,qt1,qt2,qf0,qf1,qf2\n");
-    for (const auto& r : isrs) {
-        const Vec3 qt = tr.q(edge_time(r.irq_edge));
-        std::fprintf(icsv, "%llu,%llu,%llu,%u,%u,%d,%u,%.9g,%.9g,%.9g,%.9g,%.9g,%.9g,%.9g,%.9g,%.9g,%d,%d,%d,%.12g,%.12g,%.12g,%.9g,%.9g,%.9g\n",
-                     static_cast<unsigned long long>(r.irq_edge), static_cast<unsigned long long>(r.start),
-                     static_cast<unsigned long long>(r.end), r.err, r.err_axis, int(r.drive), r.status,
-                     double(r.p[0]), double(r.p[1]), double(r.p[2]), double(r.f[0]), double(r.f[1]), double(r.f[2]),
-                     double(r.tau[0]), double(r.tau[1]), double(r.tau[2]), r.code[0], r.code[1], r.code[2],
-                     qt[0], qt[1], qt[2], double(r.q[0]), double(r.q[1]), double(r.q[2]));
-    }
+    if (!icsv) { std::fprintf(stderr, "error: cannot write %s\n", outdir.c_str()); return 3; }
+    std::fprintf(icsv, "irq_edge,start,end,code0,code1,code2\n");
+    for (const auto& r : isrs)
+        std::fprintf(icsv, "%llu,%llu,%llu,%d,%d,%d\n", static_cast<unsigned long long>(r.irq_edge),
+                     static_cast<unsigned long long>(r.start), static_cast<unsigned long long>(r.end), r.code[0],
+                     r.code[1], r.code[2]);
     std::fclose(icsv);
-    FILE* lb = std::fopen((outdir + "/loads.bin").c_str(), "wb");
-    for (const auto& ld : bench.loads) {
-        const int64_t e = static_cast<int64_t>(ld.edge);
-        const int32_t ad = ld.addr, c = ld.code;
-        std::fwrite(&e, 8, 1, lb);
-        std::fwrite(&ad, 4, 1, lb);
-        std::fwrite(&c, 4, 1, lb);
-    }
-    std::fclose(lb);
+    std::vector<hg_dev::LoadRec> lrec;
+    lrec.reserve(bench.loads.size());
+    for (const auto& ld : bench.loads) lrec.push_back({static_cast<int64_t>(ld.edge), ld.addr, ld.code});
+    hg_dev::write_file(outdir, "loads.bin", lrec.data(), lrec.size() * sizeof(hg_dev::LoadRec));
 
     // ---------------------------------------------------------------- safety reaction
     // per channel: the first load at or after the cause from which on every load is zero
@@ -623,8 +587,8 @@ int main(int argc, char** argv) {
     }
     // after the firmware latched its error every channel must be zero (one frame later)
     uint64_t latch_edge = 0;
-    for (const auto& r : isrs)
-        if (r.err != HG_ERR_NONE) { latch_edge = r.end; break; }
+    for (size_t k = 0; k < ticks.size(); ++k)
+        if (ticks[k].err != HG_ERR_NONE) { latch_edge = isrs[k].end; break; }
     bool all_zero_after_latch = true;
     for (const auto& ld : bench.loads)
         if (latch_edge && ld.edge > latch_edge + bound && ld.code) all_zero_after_latch = false;
@@ -637,7 +601,7 @@ int main(int argc, char** argv) {
     need(clk_khz == CLK_HZ / 1000, "CLK_KHZ");
     need(frame_timing_ok && !frames.empty(), "DAC frame timing");
     need(bus_stats.not_oe == 0, "bus_data_oe low during a read");
-    need(enabled_once, "homing/enable");
+    need(sc.is_enabled(), "homing/enable");
     need(max_terr_ratio <= 1.0, "torque reconstruction within budget");
     need(max_ferr_ratio <= 1.0, "force within budget");
     need(n_wall > 0 && max_depth > 0, "the trajectory penetrates the wall");
@@ -661,10 +625,11 @@ int main(int argc, char** argv) {
         need(reaction >= 0 && reaction <= static_cast<int64_t>(bound), "zero torque within one frame");
         need(latch_edge != 0 && all_zero_after_latch, "firmware latched an error and all torque is zero");
     }
+    const uint64_t last_key = static_cast<uint64_t>(sc.last_key_edge());   // the last key write that arrived
     if (s_wdog) {
         need(fw_err == HG_ERR_WATCHDOG, "firmware error WATCHDOG");
         need((status_after & HG_STAT_WDOG) != 0, "STATUS.WDOG set");
-        need(cause_edge > last_key_rise && cause_edge - last_key_rise <= 10000ULL * (CLK_HZ / 1000000) + 8,
+        need(cause_edge > last_key && cause_edge - last_key <= 10000ULL * (CLK_HZ / 1000000) + 8,
              "expiry = last key + WDOG_TIMEOUT");
     }
     if (s_hang) {
@@ -676,20 +641,21 @@ int main(int argc, char** argv) {
         need((status_after & HG_STAT_FAULT(drop_axis)) != 0, "STATUS.FAULT set");
     }
 
-    const double sim_s = edge_time(bench.edge);
+    // the shared summary (scene time simulated, records, firmware state, enable, watchdog key),
+    // then the co-simulation's own lines (cosim.py reads both)
+    hg_dev::print_summary({CLK_HZ, 7, run.duration_s, wall_s, cpu_s, bench.edge, frames.size(), ticks.size(),
+                           bench.loads.size(), init_err, fw_err, fw_axis, sc.enable_t(), wdog_us, last_key, scene0_us,
+                           dac_skew, dac_frame, kD});
+    const double all_s = edge_time(bench.edge);   // from reset: the homing sweep, then the scene
     const uint64_t tx = bus_stats.reads + bus_stats.writes;
-    std::printf("scenario=%s rate_hz=%u clk_hz=%d setup=%d strobe=%d hold=%d ready=%d\n", scenario.c_str(), rate,
-                CLK_HZ, bus_timing.setup, bus_timing.strobe, bus_timing.hold, int(bus_timing.use_ready));
-    std::printf("sim_s=%.9g wall_s=%.6g clocks=%llu bus_reads=%llu bus_writes=%llu dropped=%llu tx_per_s=%.6g sim_per_wall=%.6g\n",
-                sim_s, wall_s, static_cast<unsigned long long>(bench.edge),
+    std::printf("scenario=%s rate_hz=%u setup=%d strobe=%d hold=%d ready=%d\n", scenario.c_str(), rate,
+                bus_timing.setup, bus_timing.strobe, bus_timing.hold, int(bus_timing.use_ready));
+    std::printf("bus_reads=%llu bus_writes=%llu dropped=%llu tx_per_s=%.6g sim_per_wall=%.6g tq_limit=%u\n",
                 static_cast<unsigned long long>(bus_stats.reads), static_cast<unsigned long long>(bus_stats.writes),
-                static_cast<unsigned long long>(bus_stats.dropped), tx / wall_s, sim_s / wall_s);
-    std::printf("ticks=%zu frames=%zu loads=%zu enable_edge=%llu dac_skew=%u dac_frame=%u tq_limit=%u\n", isrs.size(),
-                frames.size(), bench.loads.size(), static_cast<unsigned long long>(enable_edge), dac_skew, dac_frame,
-                tq_limit[0]);
-    std::printf("t_push=%.9g t_fault=%.9g\n", tr.t_push, s_wall ? 0.0 : t_fault);
-    std::printf("seed=%llu powerup_deg=%.9g,%.9g,%.9g\n", static_cast<unsigned long long>(seed),
-                tr.powerup[0] * 180 / kPi, tr.powerup[1] * 180 / kPi, tr.powerup[2] * 180 / kPi);
+                static_cast<unsigned long long>(bus_stats.dropped), tx / wall_s, all_s / wall_s, tq_limit[0]);
+    std::printf("t_fault=%.9g seed=%llu powerup_deg=%.9g,%.9g,%.9g\n", s_wall ? 0.0 : t_fault,
+                static_cast<unsigned long long>(seed), tr.powerup[0] * 180 / kPi, tr.powerup[1] * 180 / kPi,
+                tr.powerup[2] * 180 / kPi);
     std::printf("wall_k=%.9g wall_n=%.12g,%.12g,%.12g wall_p0=%.12g,%.12g,%.12g q_index=%.12g,%.12g,%.12g\n", kWallK,
                 nrm[0], nrm[1], nrm[2], p0[0], p0[1], p0[2], tr.q_index[0], tr.q_index[1], tr.q_index[2]);
     std::printf("home_err_counts=%.3f,%.3f,%.3f interp_budget_counts=%.4f\n", home_err[0], home_err[1], home_err[2], interp_cnt);
@@ -698,12 +664,12 @@ int main(int argc, char** argv) {
                 static_cast<unsigned long long>(n_tq), max_terr, max_terr_ratio, static_cast<unsigned long long>(n_force),
                 static_cast<unsigned long long>(n_torn), static_cast<unsigned long long>(n_wall), max_ferr, max_ferr_ratio,
                 max_free, max_depth, max_force, min_cos);
-    std::printf("fw_err=%u fw_err_axis=%u status=%u irq=%u fault_cmd_edge=%llu cause_edge=%llu reaction_clocks=%lld bound_clocks=%llu "
-                "latch_edge=%llu last_key_rise=%llu post_hang_status_edge=%llu\n",
-                fw_err, fw_axis, status_after, irq_reg, static_cast<unsigned long long>(fault_edge_cmd),
+    std::printf("status=%u irq=%u fault_cmd_edge=%llu cause_edge=%llu reaction_clocks=%lld bound_clocks=%llu "
+                "latch_edge=%llu post_hang_status_edge=%llu\n",
+                status_after, irq_reg, static_cast<unsigned long long>(fault_edge_cmd),
                 static_cast<unsigned long long>(cause_edge), static_cast<long long>(reaction),
                 static_cast<unsigned long long>(bound), static_cast<unsigned long long>(latch_edge),
-                static_cast<unsigned long long>(last_key_rise), static_cast<unsigned long long>(post_hang_status_edge));
+                static_cast<unsigned long long>(post_hang_status_edge));
     for (const auto& f : fails) std::printf("fail=%s\n", f.c_str());
     std::printf("result=%s\n", fails.empty() ? "PASS" : "FAIL");
     return fails.empty() ? 0 : 1;

@@ -105,6 +105,7 @@ bool parse_run(const std::string& text, RunCfg& c, std::string& err, Keys keys) 
         else if (cosim_keys && key == "cosim_q_deep" && need(3)) std::copy(v.begin(), v.end(), co.q_deep);
         else if (cosim_keys && key == "cosim_push" && need(2)) { co.t_in = v[0]; co.t_hold = v[1]; }
         else if (cosim_keys && key == "cosim_wall_at" && need(1)) co.wall_at = v[0];
+        else if (cosim_keys && key == "cosim_wall_k" && need(1)) co.wall_k = v[0];
         else if (cosim_keys && key == "cosim_seed" && need(1)) co.seed = static_cast<uint64_t>(v[0]);
         else if (err.empty()) err = "unknown key " + key;
         if (!err.empty()) return false;

@@ -90,15 +90,16 @@ struct RunCfg {
     int vel_log2w = 8, amp_min = 40, amp_max = 170, loss_samples = 16, lut_bits = 7;
     int coarse = 0;
     // co-simulation only (cosim_harness.cpp, keys cosim_*; the others refuse them): its scripted
-    // hand, wall and bus master (tb/native/cosim/README.md "Scenes"). There, scene time 0 is the
-    // start of the push, q0 the free pose, env_k the wall's stiffness.
+    // hand, its check's reference wall and bus master (tb/native/cosim/README.md "Scenes"). There,
+    // scene time 0 is the start of the push, q0 the free pose, env_* the firmware's wall.
     struct Cosim {
         int bus_only = 0;                       // cosim_kind: 0 the servo run, 1 bus throughput
         uint32_t bus_pairs = 200000;            // cosim_bus_pairs: SCRATCH write/read-back pairs
         int bus[4] = {1, 5, 2, 0};              // cosim_bus: setup strobe hold use_ready (clocks)
         double q_deep[3] = {0, 0, 0};           // cosim_q_deep: the pose pushed to, rad
         double t_in = 0.1, t_hold = 0.02;       // cosim_push: raised cosine in (and back), held, s
-        double wall_at = 0.45;                  // cosim_wall_at: wall plane from free (0) to deep (1)
+        double wall_at = 0.45;                  // cosim_wall_at: the check's wall plane from free (0) to deep (1)
+        double wall_k = 0;                      // cosim_wall_k: the check's wall stiffness, N/m (the firmware's: env_*)
         uint64_t seed = 1;                      // cosim_seed: the power-up positions
     } cosim;
 };
