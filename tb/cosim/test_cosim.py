@@ -126,7 +126,7 @@ def test_watchdog_not_petted() -> None:
     assert r.num("dropped") > 0                    # key writes were lost from t_fault on
     cause = r.num("cause_edge")
     # expiry exactly WDOG_TIMEOUT (10 ms reset value) after the last key that reached the FPGA
-    # (its strobe rose at last_key_rise; captured 3 edges after the fall, applied 1 later)
+    # (its strobe rose at last_key_edge; captured 3 edges after the fall, applied 1 later)
     timeout = 10_000 * CFG.clk_hz // 1_000_000
     assert abs(cause - r.num("last_key_edge") - timeout) <= 2
     ch = list(range(6))

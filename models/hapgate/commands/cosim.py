@@ -3,8 +3,8 @@
 run: load the co-simulation scene (a name in scenes/cosim/ or a path; exit 2 on a malformed or
 unreadable one, naming the file and the key), run it (`hapgate.runners.cosim.run`: the harness
 on the Verilated top and the firmware), print its summary lines and failed checks, keep
-frames.csv, isr.csv and loads.bin in DIR (default build/cosim/<name>/), and exit 0 when the
-harness's checks hold, 1 when one fails.
+ticks.bin, isr.csv, frames.csv and loads.bin in DIR (default build/cosim/<name>/), and exit 0
+when the harness's checks hold, 1 when one fails.
 check: validate scene files only (exit 0 when all load, 2 otherwise).
 """
 

@@ -9,10 +9,12 @@
 //
 // usage: cosim_harness RUN_CFG OUTDIR
 //   RUN_CFG: the run configuration (hg_dev::parse_run with the cosim_* keys; its file stem names
-//   the scenario in the summary): the trajectory, the wall, the tick rate, the bus timing, at
-//   most one fault (the shared scenario engine runs it), or cosim_kind = 1: bus throughput.
-// Outputs in OUTDIR: frames.csv (one row per DAC frame), isr.csv (one row per ISR), loads.bin
-// (int64 edge, int32 channel, int32 code per DAC load); a key=value summary on stdout.
+//   the scenario in the summary): the trajectory, the firmware's wall (env_*) and the check's
+//   (cosim_wall_*), the tick rate, the bus timing, at most one fault (the shared scenario engine
+//   runs it), or cosim_kind = 1: bus throughput.
+// Outputs in OUTDIR: ticks.bin (the engine's record per ISR), isr.csv (beside it: edges, codes),
+// frames.csv (one row per DAC frame), loads.bin (every DAC load); the shared key=value summary
+// and the co-simulation's own lines on stdout (README.md "Outputs").
 #include <algorithm>
 #include <array>
 #include <chrono>

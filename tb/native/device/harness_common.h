@@ -1,7 +1,8 @@
 // SPDX-License-Identifier: Apache-2.0
-// What the two closed-loop harnesses share (device_harness.cpp: the Verilated gateware;
-// model_harness.cpp: the golden models in its place): the run configuration and its parser, the
-// fault kinds, the record layouts (runner.FRAME_DT / TICK_DT / LOAD_DT), the scenario engine
+// What the closed-loop harnesses share (device_harness.cpp: the Verilated gateware;
+// model_harness.cpp: the golden models in its place; and the co-simulation,
+// tb/native/cosim/cosim_harness.cpp): the run configuration and its parser, the
+// fault kinds, the record layouts (hapgate.runners.records), the scenario engine
 // (faults, the DSP's hang, ISR records, enable at scene time 0, progress, summary), the
 // firmware's bring-up and its background steps, and the output files. Description: README.md.
 #pragma once
@@ -116,7 +117,7 @@ inline bool parse_run(const std::string& text, RunCfg& c, std::string& err, bool
 std::string slurp(const char* path);
 
 // ------------------------------------------------------------------ records
-// Read by numpy as hapgate.device.harness FRAME_DT / TICK_DT / LOAD_DT; tb/device/test_record_layout.py
+// Read by numpy as hapgate.runners.records FRAME_DT / TICK_DT / LOAD_DT; tb/device/test_record_layout.py
 // compares the two field by field (record_layout.cpp prints this side).
 struct FrameRec {         // one per DAC frame (16 us), sampled at the frame's grid start
     double t;             // scene time, s
