@@ -60,6 +60,9 @@ REGRESS: dict[str, str] = {
         "a board top's netlist; tier 1 keeps the board tops' RTL bit-exact runs",
     r"^tb/device/test_closed_loop\.py::test_pgo_build_changes_nothing":
         "builds the profile-guided device harness (a second, slower build of the same RTL)",
+    r"^tb/device/test_closed_loop\.py::test_traced_build_changes_nothing":
+        "builds the waveform (--trace) device harness, a second build of the same RTL; tier 1 "
+        "keeps the testbench wrapper in every other native harness",
     r"^tb/interp/test_calib_native\.py::test_ten_million_samples":
         "10^7 samples for divergence; tier 1 keeps the calibration's bit-exact and truth tests",
     r"^tb/device/test_soak\.py::test_soak_1e7":

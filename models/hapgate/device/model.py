@@ -32,7 +32,7 @@ from .scene import SceneError
 SOURCES = [harness.HERE / "model_harness.cpp", harness.HERE / "harness_common.cpp",
            harness.HERE / "plant.cpp"]
 HEADERS = [harness.HERE / "harness_common.h", harness.HERE / "plant.h",
-           harness.HERE / "dac_word.h"]
+           harness.HERE / "dac_word.h", harness.HERE / "bus_hal.h"]
 MECH_US = 16              # mechanics step of the multirate plant, us (README "Model fidelity")
 # -flto: the plant's small calls (amplifier, DAC command, joint angles) inline into the harness;
 # no -ffast-math and no FMA target, so the floating point is the RTL harness's bit for bit (test)

@@ -30,6 +30,25 @@ inline const char* check(const Timing& t) {
     return "";
 }
 
+// The virtual device's bus timing (device_harness.cpp; model_harness.cpp models the same
+// accesses without pins): setup 1, strobe from the next clock to the next grid point, hold 2.
+constexpr Timing device_timing(uint64_t clocks_per_grid_point) { return Timing{1, 5, 2, false, clocks_per_grid_point}; }
+
+// The edges of a grid access starting at grid point g (edge g * t.grid) as the slave serves it
+// (rtl/bus/emif_slave.v): the strobe falls after edge strobe_fall; its two-stage synchroniser
+// shows it after strobe_fall + 2, when the read data are taken from the register file's state
+// (read_state); the register file serves the access (a write's commit, a read's bus-error
+// check) at the edge after the capture (commit = strobe_fall + 4); the strobe rises after
+// strobe_rise (the next grid point) and the access ends hold clocks later (end). A model of the
+// slave (model_harness.cpp) applies the access at these edges; the pin-level master above
+// produces them.
+struct GridAccess { int64_t strobe_fall, read_state, commit, strobe_rise, end; };
+constexpr int kSyncStages = 2;
+constexpr GridAccess grid_access(const Timing& t, int64_t g) {
+    const int64_t grid = static_cast<int64_t>(t.grid), fall = g * grid + t.setup;
+    return {fall, fall + kSyncStages, fall + kSyncStages + 2, (g + 1) * grid, (g + 1) * grid + t.hold};
+}
+
 namespace detail {
 template <class TB>
 void start(TB& tb, const Timing& t) {

@@ -28,13 +28,11 @@
 #include "harness_common.h"
 #include "plant.h"
 #include "stage_clocks.h"
+#include "testb.h"
 #include "uart_link.h"
 #include "verilated.h"
 #include "view_link.h"
 #include "../vl_internals.h"
-#if HG_TRACE
-#include "verilated_vcd_c.h"
-#endif
 
 extern "C" {
 #include "hg_fpga_regs.h"
@@ -95,16 +93,12 @@ using hg_dev::RunCfg;
 
 
 // ------------------------------------------------------------------ the testbench
-struct Bench {
-    std::unique_ptr<VerilatedContext> ctx{new VerilatedContext};
-    std::unique_ptr<Vhapgate_top> top{new Vhapgate_top(ctx.get())};
-#if HG_TRACE
-    std::unique_ptr<VerilatedVcdC> tfp;
-#endif
+// The shared wrapper (testb.h: the model, reset, the edge count, the trace) with the virtual
+// device's clock loop: its stage clocks, the DAC and irq monitors, the sample grid.
+struct Bench : hg_tb::TestB<Vhapgate_top> {
     hg_plant* plant = nullptr;
     RunCfg* cfg = nullptr;
     ViewLink* view = nullptr;     // the live view (off: null)
-    uint64_t edge = 0;          // posedges since reset release
     int prev_wr_n = 1, prev_irq = 0;
     bool irq_rose = false;
     uint64_t irq_edge = 0;
@@ -125,7 +119,9 @@ struct Bench {
 
     double scene_t(uint64_t g_us) const { return (static_cast<double>(g_us) - static_cast<double>(scene0_us)) * 1e-6; }
 
-    void grid(uint64_t g) {  // at grid point g (edge g*D), after the negedge evaluation
+    // At grid point g (edge g*D), after the negedge evaluation. Out of line: tick() (every
+    // edge) then needs no registers saved for it and inlines into the clock loop.
+    __attribute__((noinline)) void grid(uint64_t g) {
         for (size_t k = 0; k < pend.size();) {
             if (pend[k].at_us <= g) {
                 hg_plant_set_dac(plant, pend[k].ch, pend[k].code);
@@ -167,10 +163,15 @@ struct Bench {
             wi |= static_cast<uint32_t>(ix[i]) << i;
         }
         if (view && dynamic && view_link_adc_on(view)) view_link_adc(view, a, b);
-        top->adc_a = wa;
-        top->adc_b = wb;
-        top->enc_index = wi & 7U;  // sampled at the next posedge evaluation
-        inputs_changed = true;
+        // sampled at the next posedge evaluation; the input-combinational phase runs only if
+        // a word changed (at a hand's speeds an encoder's codes stay for several microseconds)
+        wi &= 7U;
+        if (top->adc_a != wa || top->adc_b != wb || top->enc_index != wi) {
+            top->adc_a = wa;
+            top->adc_b = wb;
+            top->enc_index = static_cast<uint8_t>(wi);
+            inputs_changed = true;
+        }
         hg_plant_step(plant, steps_per_us);
         if (g_profile) g_plant_s += now_s() - tp0;
     }
@@ -185,9 +186,7 @@ struct Bench {
     }
     double t_sweep0 = 100e-6;   // s after reset: the sweep starts
 
-#if HG_TRACE
-    void eval() { top->eval(); }   // the public entry: it also marks the trace's activity
-#else
+#if !HG_TRACE
     // NBA trigger vector of a rising edge of clk with the stage clocks of gate bits g (README
     // "Stage clocks"), from the generated trigger function (learn_triggers)
     uint64_t trig[hg_dev::kAllGates + 1] = {};
@@ -235,6 +234,17 @@ struct Bench {
     bool pins_changed = false;
     void set_gates(unsigned g) { hg_dev::set_gates(*top, g); }
 #endif
+    // the stage clocks as TestB's edge functions drive them (testb.h): those of gate bits g
+    // with clk's rising edge, all low with its falling edge
+    auto clocks(unsigned g) {
+        return [this, g](bool high) {
+#if HG_SIM_GATE
+            set_gates(high ? g : 0);
+#else
+            (void)this, (void)g, (void)high;
+#endif
+        };
+    }
     void pins() {   // the HAL changed a bus pin: the bus clock ticks at the next edge
         inputs_changed = true;
 #if HG_SIM_GATE
@@ -242,7 +252,7 @@ struct Bench {
 #endif
     }
 
-    void tick() {
+    __attribute__((always_inline)) void tick() {
         // the ports read after the edge, from the model's own variables (the wrapper's members
         // are references to them: one load fewer each)
         const Vhapgate_top___024root* out = top->rootp;
@@ -253,20 +263,13 @@ struct Bench {
         const unsigned g = 0;
 #endif
 #if HG_TRACE
-        top->clk = 1;
-#if HG_SIM_GATE
-        set_gates(g);
-#endif
-        eval();
+        rise(clocks(g));   // (the public eval(): it also marks the trace's activity)
 #else
         eval_edge(g);
+        ++edge;
 #endif
 #if HG_SIM_GATE
         gates = static_cast<uint8_t>(hg_dev::announced(*out) | (out->rst ? hg_dev::kAllGates : 0U));
-#endif
-        ++edge;
-#if HG_TRACE
-        if (tfp) tfp->dump(static_cast<uint64_t>(edge) * 2);
 #endif
         const int wr_n = out->dac_wr_n;
         if (wr_n && !prev_wr_n) {
@@ -289,12 +292,7 @@ struct Bench {
         }
         prev_irq = out->irq;
 #if HG_TRACE
-        top->clk = 0;
-#if HG_SIM_GATE
-        set_gates(0);
-#endif
-        eval();
-        if (tfp) tfp->dump(static_cast<uint64_t>(edge) * 2 + 1);
+        fall(clocks(0));
 #endif
         // (Without a trace the falling edge is not evaluated: nothing in the design works on it,
         // the inputs set now are read by the next rising edge's evaluation, and eval_edge never
@@ -317,7 +315,7 @@ struct BusTimer {
     BusTimer() { if (g_profile && g_in_isr) t0 = now_s(); }
     ~BusTimer() { if (g_profile && g_in_isr) g_bus_in_isr_s += now_s() - t0; }
 };
-constexpr hg_bus::Timing kBus{1, 5, 2, false, D};
+constexpr hg_bus::Timing kBus = hg_bus::device_timing(D);
 
 extern "C" uint32_t fpga_read32(uint32_t addr) {
     BusTimer bt;
@@ -438,32 +436,15 @@ int main(int argc, char** argv) {
     }
     auto& top = *bench.top;
 #if HG_TRACE
-    Verilated::traceEverOn(true);
-    bench.tfp.reset(new VerilatedVcdC);
-    top.trace(bench.tfp.get(), 99);
-    bench.tfp->open((outdir + "/trace.vcd").c_str());
+    bench.trace(outdir + "/trace.vcd");
 #endif
 #if AXIS_MASK != 7
     hg_dev::set_held(top, cfg.hold_pos_homed, cfg.hold_index_pos, cfg.hold_index_count);
 #endif
-    top.clk = 0;
-    top.rst = 1;
     top.bus_ce_n = top.bus_re_n = top.bus_we_n = 1;
-    top.eval();
-    for (int i = 0; i < 4; ++i) {
-        top.clk = 1;
-#if HG_SIM_GATE
-        bench.set_gates(hg_dev::kAllGates);
-#endif
-        top.eval();
-        top.clk = 0;
-#if HG_SIM_GATE
-        bench.set_gates(0);
-#endif
-        top.eval();
-    }
-    top.rst = 0;
-    top.eval();
+    top.eval();                                      // the initial blocks, clk low, rst high
+    bench.hold_reset(4, bench.clocks(hg_dev::kAllGates));
+    bench.release();
 #if !HG_TRACE
     bench.learn_triggers();
 #endif
@@ -573,9 +554,6 @@ int main(int argc, char** argv) {
     }
     const double wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - w0).count();
     const double cpu_s = static_cast<double>(std::clock() - c0) / CLOCKS_PER_SEC;  // one core
-#if HG_TRACE
-    bench.tfp->close();
-#endif
     // ---------------------------------------------------------------- outputs
     bench.frames.close();
     SC.finish(outdir);
@@ -591,6 +569,5 @@ int main(int argc, char** argv) {
         std::printf("profile_plant_s=%.6g profile_firmware_s=%.6g profile_gateware_s=%.6g\n", g_plant_s,
                     g_isr_s - g_bus_in_isr_s, wall_s - g_plant_s - (g_isr_s - g_bus_in_isr_s));
     hg_plant_free(plant);
-    top.final();
-    return 0;
+    return 0;   // (~TestB: the model's final(), the trace closed)
 }

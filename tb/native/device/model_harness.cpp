@@ -19,6 +19,7 @@
 #include <string>
 #include <vector>
 
+#include "bus_hal.h"
 #include "dac_word.h"
 #include "harness_common.h"
 #include "plant.h"
@@ -802,25 +803,27 @@ int64_t access_grid() {                           // wait_grid(): the next grid 
 
 }  // namespace
 
+// The device harness's accesses (bus_hal.h device_timing), applied at the edges the slave
+// serves them (hg_bus::grid_access).
 extern "C" uint32_t fpga_read32(uint32_t addr) {
-    const int64_t g = access_grid();
+    const hg_bus::GridAccess a = hg_bus::grid_access(hg_bus::device_timing(static_cast<uint64_t>(D)), access_grid());
     const uint32_t w = addr & 0xFFU;
-    run_to(g * D + 3);
+    run_to(a.read_state);
     const uint32_t v = reg_read(w);
-    run_to(g * D + 4);
-    reg_edge(g * D + 5, static_cast<int>(w), 0, false);   // a read commits nothing but BUS_ERR
-    edge_now = (g + 1) * D + 2;
+    run_to(a.commit - 1);
+    reg_edge(a.commit, static_cast<int>(w), 0, false);   // a read commits nothing but BUS_ERR
+    edge_now = a.end;
     return v;
 }
 
 extern "C" void fpga_write32(uint32_t addr, uint32_t v) {
     if (SC.write_lost(addr)) return;  // injected fault: the key write is lost
-    const int64_t g = access_grid();
+    const hg_bus::GridAccess a = hg_bus::grid_access(hg_bus::device_timing(static_cast<uint64_t>(D)), access_grid());
     const uint32_t w = addr & 0xFFU;
-    run_to(g * D + 4);
-    reg_edge(g * D + 5, static_cast<int>(w), v, true);
-    if (w == HG_REG_WDOG) SC.key_written((g + 1) * D);
-    edge_now = (g + 1) * D + 2;
+    run_to(a.commit - 1);
+    reg_edge(a.commit, static_cast<int>(w), v, true);
+    if (w == HG_REG_WDOG) SC.key_written(a.strobe_rise);
+    edge_now = a.end;
 }
 
 extern "C" uint32_t hg_hal_irq_save(void) { return 0; }
