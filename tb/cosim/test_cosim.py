@@ -266,6 +266,7 @@ def test_every_scenario_is_a_scene_file() -> None:
     ("[[fault]]\nat_s = 0.01\nkind = \"hang\"\nwhen = 1\n", "fault[0].when: unknown key"),
     ("[run]\nduration_s = 0.05\n[[fault]]\nat_s = 0.06\nkind = \"hang\"\n", "fault[0].at_s"),
     ("[bus]\nuse_ready = 1\n", "bus.use_ready: expected bool"),
+    ("[run]\nservo_hz = 333\n", "run.servo_hz: the firmware enables at the tick before"),
 ])
 def test_a_malformed_scene_is_refused_naming_file_and_key(tmp_path, text, where) -> None:
     f = tmp_path / "bad.toml"

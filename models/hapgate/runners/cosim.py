@@ -71,6 +71,7 @@ DEFAULTS: dict[str, dict[str, object]] = {
     "firmware": {"comm_err": [0, 0, 0]},
 }
 FAULT_KEYS = {"at_s": 0.0, "kind": "", "axis": 0}
+T_HOMED_S = 3e-3   # the harness's time from the homing sweep's end to the push start (Trajectory)
 KINDS = ("servo", "bus")
 # the fault kinds every harness simulates: hg_dev::kFaultKinds (tb/device/test_record_layout.py
 # compares them, as hapgate.device.harness.HARNESS_FAULTS)
@@ -152,6 +153,11 @@ def load(scene: str | Path) -> CosimScene:
     for t, k in (("run", "servo_hz"), ("run", "duration_s"), ("bus", "pairs"), ("wall", "k")):
         if not values[t][k] > 0:
             raise CosimSceneError(f"{path}: {t}.{k}: must be > 0")
+    if values["run"]["servo_hz"] * T_HOMED_S <= 1:
+        raise CosimSceneError(f"{path}: run.servo_hz: the firmware enables at the tick before "
+                              f"the push start, which must come after the homing sweep "
+                              f"({T_HOMED_S * 1e3:g} ms before it): more than "
+                              f"{1 / T_HOMED_S:.0f} Hz")
     b = values["bus"]
     return CosimScene(path.stem, values, tuple(faults),
                       BusTiming(b["setup"], b["strobe"], b["hold"], b["use_ready"]))

@@ -603,7 +603,10 @@ int main(int argc, char** argv) {
     need(clk_khz == CLK_HZ / 1000, "CLK_KHZ");
     need(frame_timing_ok && !frames.empty(), "DAC frame timing");
     need(bus_stats.not_oe == 0, "bus_data_oe low during a read");
-    need(sc.is_enabled(), "homing/enable");
+    // the engine enables at the tick before the push start: after the sweep (3 ms before the push
+    // start; cosim.load refuses a tick rate at which it would not be)
+    const int64_t enable_g = scene0_us + std::llround(sc.enable_t() * 1e6);
+    need(sc.is_enabled() && enable_g >= std::llround(tr.t_home * 1e6), "homing/enable");
     need(max_terr_ratio <= 1.0, "torque reconstruction within budget");
     need(max_ferr_ratio <= 1.0, "force within budget");
     need(n_wall > 0 && max_depth > 0, "the trajectory penetrates the wall");
