@@ -152,6 +152,20 @@ def test_dsp_hang() -> None:
     assert codes["code0"] == codes["code1"] == codes["code2"] == 0
 
 
+def test_a_cause_inside_a_frame_is_not_a_torque_error() -> None:
+    """At 500 Hz the watchdog's expiry after the hang falls between a frame's loads: that frame's
+    later channels are zeroed (the reaction, checked), its torque is no reconstruction error;
+    every frame loaded wholly before the cause is still checked, by the harness and again here."""
+    r = run("hang", 500)
+    assert r.ok, r.fails
+    cause = r.num("cause_edge")
+    straddling = (r.frames["start"] < cause) & (r.frames["start"] + 6 * r.num("skew") > cause)
+    assert np.any(straddling)        # the case this test is about happened
+    ch = list(range(6))
+    assert 0 <= reaction(r, ch) <= BOUND and all_zero_after(r, cause + BOUND, ch)
+    assert_torque_and_force(cosim.check(r))
+
+
 def test_encoder_dropout() -> None:
     r = run("dropout")
     assert r.ok, r.fails

@@ -360,7 +360,10 @@ def check(r: CosimRun, cfg: TopConfig | None = None) -> Check:
     clk = r.num("clk_hz")
     normal = not r.fault
     normal_end = np.inf if normal else (r.num("cause_edge") or r.num("fault_cmd_edge"))
-    sel = (f["start"] > 0) & (f["start"] < normal_end)
+    # frames whose six loads all came before the cause (a frame the cause cuts through has some
+    # channels zeroed: reaction_clocks covers those)
+    last_load = f["start"] + cc.load_clocks + 1 + 5 * cc.skew_clocks
+    sel = (f["start"] > 0) & (last_load < normal_end)
     f = f[sel]
     codes = np.stack([f[f"c{i}"] for i in range(6)], 1).astype(np.float64)
     q = np.stack([f[f"q{i}"] for i in range(3)], 1)

@@ -501,7 +501,9 @@ int main(int argc, char** argv) {
                      static_cast<unsigned long long>(L), f.code[0], f.code[1], f.code[2], f.code[3], f.code[4],
                      f.code[5], q[0], q[1], q[2], tlo[0], tlo[1], tlo[2], thi[0], thi[1], thi[2],
                      ir ? static_cast<long long>(ir->irq_edge) : -1LL, tk ? int(tk->drive) : 0, qs[0], qs[1], qs[2]);
-        if (L == 0 || L >= normal_end) continue;
+        // a frame is checked if all six of its loads came before the cause (a frame the cause
+        // cuts through has some channels zeroed: the zero-torque check below covers those)
+        if (L == 0 || L + kLoadClocks + 5 * skew >= normal_end) continue;
         // (b1) torque reconstruction: amplifier third phase -(a + b), sinusoidal windings
         double trec[3], tbud[3];
         for (int m = 0; m < 3; ++m) {
