@@ -25,6 +25,7 @@
 #include <ctime>
 #include <random>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "cosim.h"
@@ -208,75 +209,160 @@ struct Frame {
     int n = 0;
 };
 
-}  // namespace
-
-int main(int argc, char** argv) {
+// ------------------------------------------------------------------ the run configuration
+// Parse RUN_CFG into `run` (static in main: the scenario engine keeps a pointer to it), name the
+// scenario after its file stem and set the bus timing. Returns 0, or the exit code (2: bad input).
+int configure(int argc, char** argv, hg_dev::RunCfg& run, std::string& scenario, std::string& outdir) {
     if (argc != 3) {
         std::fprintf(stderr, "usage: %s RUN_CFG OUTDIR\n", argv[0]);
         return 2;
     }
-    static hg_dev::RunCfg run;   // the scenario engine keeps a pointer to it
-    {
-        std::string err;
-        if (FILE* f = std::fopen(argv[1], "r")) {
-            std::fclose(f);
-        } else {
-            std::fprintf(stderr, "error: %s: cannot read the run configuration\n", argv[1]);
-            return 2;
-        }
-        if (!hg_dev::parse_run(hg_dev::slurp(argv[1]), run, err, hg_dev::Keys::cosim)) {
-            std::fprintf(stderr, "error: %s: %s\n", argv[1], err.c_str());
-            return 2;
-        }
-        if (run.faults.size() > 1) {
-            std::fprintf(stderr, "error: %s: fault: at most one fault per co-simulation scene\n", argv[1]);
-            return 2;
-        }
+    std::string err;
+    if (FILE* f = std::fopen(argv[1], "r")) {
+        std::fclose(f);
+    } else {
+        std::fprintf(stderr, "error: %s: cannot read the run configuration\n", argv[1]);
+        return 2;
     }
-    std::string scenario = argv[1];   // the run configuration's file stem
+    if (!hg_dev::parse_run(hg_dev::slurp(argv[1]), run, err, hg_dev::Keys::cosim)) {
+        std::fprintf(stderr, "error: %s: %s\n", argv[1], err.c_str());
+        return 2;
+    }
+    if (run.faults.size() > 1) {
+        std::fprintf(stderr, "error: %s: fault: at most one fault per co-simulation scene\n", argv[1]);
+        return 2;
+    }
+    scenario = argv[1];   // the run configuration's file stem
     scenario = scenario.substr(scenario.find_last_of('/') + 1);
     scenario = scenario.substr(0, scenario.find('.'));
-    const uint32_t rate = run.servo_hz;
-    const std::string outdir = argv[2];
+    outdir = argv[2];
     const hg_dev::RunCfg::Cosim& co = run.cosim;
     bus_timing.setup = co.bus[0];
     bus_timing.strobe = co.bus[1];
     bus_timing.hold = co.bus[2];
     bus_timing.use_ready = co.bus[3] != 0;
-    if (co.bus_only) {  // bus-bound throughput: back-to-back SCRATCH write / read-back pairs
-        Testbench bench;
-        tb = &bench;
-        bench.reset();
-        const auto t0 = std::chrono::steady_clock::now();
-        uint64_t bad = 0;
-        const uint32_t n = co.bus_pairs;
-        for (uint32_t i = 0; i < n; ++i) {
-            const uint32_t v = i * 2654435761u;
-            fpga_write32(HG_REG_SCRATCH, v);
-            bad += fpga_read32(HG_REG_SCRATCH) != v;
-        }
-        const double w = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-        const uint32_t st = fpga_read32(HG_REG_STATUS);
-        const bool ok = bad == 0 && (st & (HG_STAT_BUS_ERR | HG_STAT_PROTO_ERR)) == 0;
-        std::printf("scenario=%s clk_hz=%d setup=%d strobe=%d hold=%d ready=%d\n", scenario.c_str(), CLK_HZ,
-                    bus_timing.setup, bus_timing.strobe, bus_timing.hold, int(bus_timing.use_ready));
-        std::printf("sim_s=%.9g wall_s=%.6g clocks=%llu bus_reads=%llu bus_writes=%llu mismatches=%llu tx_per_s=%.6g "
-                    "sim_per_wall=%.6g status=%u\n", edge_time(bench.edge), w, static_cast<unsigned long long>(bench.edge),
-                    static_cast<unsigned long long>(bus_stats.reads), static_cast<unsigned long long>(bus_stats.writes),
-                    static_cast<unsigned long long>(bad), 2.0 * n / w, edge_time(bench.edge) / w, st);
-        std::printf("result=%s\n", ok ? "PASS" : "FAIL");
-        return ok ? 0 : 1;
+    return 0;
+}
+
+// ------------------------------------------------------------------ cosim_kind = 1: bus throughput
+// Back-to-back SCRATCH write / read-back pairs; no firmware, no frames.
+int bus_throughput(const std::string& scenario, uint32_t n) {
+    Testbench bench;
+    tb = &bench;
+    bench.reset();
+    const auto t0 = std::chrono::steady_clock::now();
+    uint64_t bad = 0;
+    for (uint32_t i = 0; i < n; ++i) {
+        const uint32_t v = i * 2654435761u;
+        fpga_write32(HG_REG_SCRATCH, v);
+        bad += fpga_read32(HG_REG_SCRATCH) != v;
     }
+    const double w = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    const uint32_t st = fpga_read32(HG_REG_STATUS);
+    const bool ok = bad == 0 && (st & (HG_STAT_BUS_ERR | HG_STAT_PROTO_ERR)) == 0;
+    std::printf("scenario=%s clk_hz=%d setup=%d strobe=%d hold=%d ready=%d\n", scenario.c_str(), CLK_HZ,
+                bus_timing.setup, bus_timing.strobe, bus_timing.hold, int(bus_timing.use_ready));
+    std::printf("sim_s=%.9g wall_s=%.6g clocks=%llu bus_reads=%llu bus_writes=%llu mismatches=%llu tx_per_s=%.6g "
+                "sim_per_wall=%.6g status=%u\n", edge_time(bench.edge), w, static_cast<unsigned long long>(bench.edge),
+                static_cast<unsigned long long>(bus_stats.reads), static_cast<unsigned long long>(bus_stats.writes),
+                static_cast<unsigned long long>(bad), 2.0 * n / w, edge_time(bench.edge) / w, st);
+    std::printf("result=%s\n", ok ? "PASS" : "FAIL");
+    return ok ? 0 : 1;
+}
+
+constexpr uint64_t kD = CLK_HZ / 1000000;   // clocks per microsecond (the engine's grid)
+static_assert(CLK_HZ % 1000000 == 0, "CLK_HZ must be a whole number of MHz");
+
+// ------------------------------------------------------------------ the servo run
+// One scene, step by step (main calls them in order): setup, the firmware and the clock loop,
+// the DAC frames from the loads, the homing error, the per-frame checks (torque, force) with
+// frames.csv, the other outputs, the safety reaction, the verdict and the report. Each step
+// leaves its results in the members the later ones read.
+class ServoRun {
+public:
+    ServoRun(hg_dev::RunCfg& run, std::string scenario, std::string outdir)
+        : run_(run), co_(run.cosim), scenario_(std::move(scenario)), outdir_(std::move(outdir)),
+          fkind_(run.faults.empty() ? kNoFault : run.faults[0].kind), s_wall_(fkind_ == kNoFault),
+          s_wdog_(fkind_ == hg_dev::FaultKind::watchdog), s_hang_(fkind_ == hg_dev::FaultKind::hang),
+          s_drop_(fkind_ == hg_dev::FaultKind::dropout), drop_axis_(s_drop_ ? run.faults[0].axis : 0),
+          tr_(co_.seed, run) {}
+
+    int setup();
+    int simulate();
+    void build_frames();
+    int homing_error();
+    int check_frames();
+    int write_outputs();
+    void check_reaction();
+    std::vector<std::string> verdict();
+    int report(const std::vector<std::string>& fails);
+
+private:
+    int clock_loop();
+    void check_frame(const Frame& f, FILE* fcsv);
+    void check_force(const double trec[3], const double tbud[3], const Vec3& qs, const IsrEdges& ir,
+                     const hg_dev::TickRec& tk);
+
     // the scene's fault (none: the normal run, its checks; the negative control is a normal run
     // with a commutation offset error, comm_err)
-    const hg_dev::FaultKind fk_none = static_cast<hg_dev::FaultKind>(-1);
-    const hg_dev::FaultKind fkind = run.faults.empty() ? fk_none : run.faults[0].kind;
-    const bool s_wall = fkind == fk_none, s_wdog = fkind == hg_dev::FaultKind::watchdog,
-               s_hang = fkind == hg_dev::FaultKind::hang, s_drop = fkind == hg_dev::FaultKind::dropout;
+    static constexpr hg_dev::FaultKind kNoFault = static_cast<hg_dev::FaultKind>(-1);
+    hg_dev::RunCfg& run_;
+    const hg_dev::RunCfg::Cosim& co_;
+    const std::string scenario_, outdir_;
+    const hg_dev::FaultKind fkind_;
+    const bool s_wall_, s_wdog_, s_hang_, s_drop_;
+    const int drop_axis_;
+    Trajectory tr_;
+    double t_fault_ = 0, kWallK_ = 0;
+    Vec3 nrm_{}, p0_{};
 
-    const uint64_t seed = co.seed;
-    Trajectory tr(seed, run);
-    for (int i = 0; i < 3; ++i) run.q_index[i] = tr.q_index[i];   // the firmware's calibration (fw_config)
+    // the testbench and its stimulus
+    Testbench bench_;
+    bool dropout_on_ = false;
+    // the true joint angles of the samples captured at each grid point (a ring): the snapshot of
+    // a tick at grid point g holds the sample of grid point g - 1 (tb/native/device/README.md)
+    static constexpr size_t kRing = 64;
+    std::vector<Vec3> q_ring_ = std::vector<Vec3>(kRing);
+
+    // the firmware and the scenario engine, what the clock loop saw
+    hg_servo_t s_{};
+    uint8_t init_err_ = 0;
+    uint32_t dac_skew_ = 0, dac_frame_ = 0, clk_khz_ = 0, wdog_us_ = 0;
+    hg_dev::Scenario sc_;
+    int64_t scene0_us_ = 0;
+    std::vector<IsrEdges> isrs_;   // isrs_[k] and sc_.ticks[k]: the same ISR call
+    uint64_t fault_edge_cmd_ = 0, post_hang_status_edge_ = 0;
+    uint32_t status_after_ = 0, irq_reg_ = 0;
+    double wall_s_ = 0, cpu_s_ = 0;
+
+    // the DAC frames and the TORQUE register writes per axis
+    uint64_t frame_ = 0, skew_ = 0;
+    std::vector<Frame> frames_;
+    bool frame_timing_ok_ = true;
+    struct TW { uint64_t fall, rise; int16_t v; int64_t isr; };
+    std::vector<TW> tw_[3];
+    uint32_t tq_limit_[3] = {0, 0, 0};
+
+    // homing
+    double home_err_[3] = {0, 0, 0};
+    double home_q_[3] = {0, 0, 0};  // the homing error rounded to whole quadrants (256 counts)
+    double interp_cnt_ = 0;
+
+    // the frame checks
+    uint64_t cause_edge_ = 0, normal_end_ = 0;
+    double max_terr_ = 0, max_terr_ratio_ = 0, max_ferr_ = 0, max_ferr_ratio_ = 0, max_free_ = 0;
+    double max_depth_ = 0, max_force_ = 0, min_cos_ = 1;
+    uint64_t n_tq_ = 0, n_force_ = 0, n_wall_ = 0, n_torn_ = 0, n_nonzero_ = 0;
+
+    // the safety reaction
+    uint64_t bound_ = 0, latch_edge_ = 0;
+    int64_t reaction_ = -1;
+    bool nonzero_before_ = false, all_zero_after_latch_ = true;
+};
+
+// The plant, the check's reference wall, the testbench's ADC stimulus; reset.
+int ServoRun::setup() {
+    for (int i = 0; i < 3; ++i) run_.q_index[i] = tr_.q_index[i];   // the firmware's calibration (fw_config)
     {
         char text[96], err[256] = {0};
         std::snprintf(text, sizeof text, "enc_amplitude = %.17g %.17g %.17g\n", kAdcR, kAdcR, kAdcR);
@@ -286,43 +372,31 @@ int main(int argc, char** argv) {
             return 3;
         }
     }
-    const double t_fault = s_wall ? 0.0 : tr.t_push + run.faults[0].at_s;   // scene time from the push
-    const int drop_axis = s_drop ? run.faults[0].axis : 0;
+    t_fault_ = s_wall_ ? 0.0 : tr_.t_push + run_.faults[0].at_s;   // scene time from the push
 
     // The check's reference wall, the scene's (cosim_wall_at, cosim_wall_k; b = 0) through the
     // plant's kinematics: through the point wall_at of the way from the free to the deep pose,
     // normal into free space. The firmware gets its wall from the env_* keys (cosim.run_config
     // writes both from the scene), so a wrong env_* is a failed force check.
-    const double kWallK = co.wall_k;   // N/m
-    const Vec3 pf = fk(tr.q_free), pd = fk(tr.q_deep);
-    Vec3 nrm{}, p0{};
-    {
-        double l = 0;
-        for (int i = 0; i < 3; ++i) l += (pf[i] - pd[i]) * (pf[i] - pd[i]);
-        l = std::sqrt(l);
-        for (int i = 0; i < 3; ++i) {
-            nrm[i] = (pf[i] - pd[i]) / l;
-            p0[i] = pf[i] + co.wall_at * (pd[i] - pf[i]);
-        }
+    kWallK_ = co_.wall_k;   // N/m
+    const Vec3 pf = fk(tr_.q_free), pd = fk(tr_.q_deep);
+    double l = 0;
+    for (int i = 0; i < 3; ++i) l += (pf[i] - pd[i]) * (pf[i] - pd[i]);
+    l = std::sqrt(l);
+    for (int i = 0; i < 3; ++i) {
+        nrm_[i] = (pf[i] - pd[i]) / l;
+        p0_[i] = pf[i] + co_.wall_at * (pd[i] - pf[i]);
     }
 
-    constexpr uint64_t kD = CLK_HZ / 1000000;
-    static_assert(CLK_HZ % 1000000 == 0, "CLK_HZ must be a whole number of MHz");
-    Testbench bench;
-    tb = &bench;
-    bool dropout_on = false;
-    // the true joint angles of the samples captured at each grid point (a ring): the snapshot of
-    // a tick at grid point g holds the sample of grid point g - 1 (tb/native/device/README.md)
-    constexpr size_t kRing = 64;
-    std::vector<Vec3> q_ring(kRing);
-    bench.adc = [&](uint64_t cap, uint32_t& a, uint32_t& b, uint32_t& idx) {
-        const Vec3 q = tr.q(edge_time(cap));
-        q_ring[(cap / kD) % kRing] = q;
+    tb = &bench_;
+    bench_.adc = [this](uint64_t cap, uint32_t& a, uint32_t& b, uint32_t& idx) {
+        const Vec3 q = tr_.q(edge_time(cap));
+        q_ring_[(cap / kD) % kRing] = q;
         for (int i = 0; i < 3; ++i) {
-            const double x = (q[i] - tr.q_index[i]) / (2 * kPi) * kLines;
+            const double x = (q[i] - tr_.q_index[i]) / (2 * kPi) * kLines;
             int8_t ca = 0, cb = 0;
             hg_plant_encode1(g_plant, i, x, 0.0, 0.0, &ca, &cb);
-            if (dropout_on && i == drop_axis) ca = cb = 0;
+            if (dropout_on_ && i == drop_axis_) ca = cb = 0;
             a |= static_cast<uint32_t>(static_cast<uint8_t>(ca)) << (8 * i);
             b |= static_cast<uint32_t>(static_cast<uint8_t>(cb)) << (8 * i);
             const double line = std::floor(x);
@@ -330,354 +404,393 @@ int main(int argc, char** argv) {
             idx |= static_cast<uint32_t>(ix) << i;
         }
     };
-    bench.reset();
+    bench_.reset();
+    return 0;
+}
 
+// The firmware's init (board code), then the clock loop; timed (wall_s, cpu_s).
+int ServoRun::simulate() {
     const auto w0 = std::chrono::steady_clock::now();
     const std::clock_t c0 = std::clock();
-    // ---------------------------------------------------------------- firmware init (board code)
     hg_servo_cfg_t cfg;
-    hg_dev::fw_config(run, CLK_HZ, &cfg);
-    static hg_servo_t s;
-    const uint8_t init_err = hg_servo_init(&s, &cfg);
-    const uint32_t dac_skew = fpga_read32(HG_WORD(offsetof(hapgate_t, DAC_SKEW))),
-                   dac_frame = fpga_read32(HG_WORD(offsetof(hapgate_t, DAC_FRAME)));
-    const uint32_t clk_khz = fpga_read32(HG_REG_CLK_KHZ);
-    const uint32_t wdog_us = fpga_read32(HG_REG_WDOG_TIMEOUT);
+    hg_dev::fw_config(run_, CLK_HZ, &cfg);
+    init_err_ = hg_servo_init(&s_, &cfg);
+    dac_skew_ = fpga_read32(HG_WORD(offsetof(hapgate_t, DAC_SKEW)));
+    dac_frame_ = fpga_read32(HG_WORD(offsetof(hapgate_t, DAC_FRAME)));
+    clk_khz_ = fpga_read32(HG_REG_CLK_KHZ);
+    wdog_us_ = fpga_read32(HG_REG_WDOG_TIMEOUT);
     fpga_write32(HG_REG_CTRL, HG_CTRL_HOME_ARM);  // arm homing of all three axes
-    hg_servo_isr_ctx = &s;
+    hg_servo_isr_ctx = &s_;
+    if (const int rc = clock_loop()) return rc;
+    if (!status_after_) status_after_ = fpga_read32(HG_REG_STATUS);
+    irq_reg_ = fpga_read32(HG_REG_IRQ);
+    wall_s_ = std::chrono::duration<double>(std::chrono::steady_clock::now() - w0).count();
+    cpu_s_ = static_cast<double>(std::clock() - c0) / CLOCKS_PER_SEC;  // one core
+    return 0;
+}
 
-    // The shared scenario engine (harness_common.h) on the 1 us grid, scene time 0 at the push:
-    // the scene's fault (every watchdog key write lost, the DSP hung: it resumes 2 ms after the
-    // expiry, or an axis's signal gone), the ISR records (ticks.bin) and the enable.
-    static hg_dev::Scenario sc;
-    const int64_t scene0_us = std::llround(tr.t_push * 1e6);
-    sc.start(run, scene0_us, static_cast<int64_t>(kD));
-    cosim::scenario = &sc;
-    std::vector<IsrEdges> isrs;   // isrs[k] and sc.ticks[k]: the same ISR call
-    uint64_t fault_edge_cmd = 0;
-    uint32_t status_after = 0;
+// The shared scenario engine (harness_common.h) on the 1 us grid, scene time 0 at the push:
+// the scene's fault (every watchdog key write lost, the DSP hung: it resumes 2 ms after the
+// expiry, or an axis's signal gone), the ISR records (ticks.bin) and the enable.
+int ServoRun::clock_loop() {
+    scene0_us_ = std::llround(tr_.t_push * 1e6);
+    sc_.start(run_, scene0_us_, static_cast<int64_t>(kD));
+    cosim::scenario = &sc_;
     // whole microseconds: the push starts on one, the scene's duration is a whole number of them
-    const uint64_t end_edge = static_cast<uint64_t>(scene0_us + std::llround(run.duration_s * 1e6)) * kD;
-    uint64_t post_hang_status_edge = 0;
-
-    while (bench.edge < end_edge) {
-        bench.tick();
-        if (bench.edge % kD == 0)
-            sc.at_grid(static_cast<int64_t>(bench.edge / kD), [&](const hg_dev::RunCfg::Fault& f) {
-                fault_edge_cmd = bench.edge;
-                if (f.kind == hg_dev::FaultKind::dropout) dropout_on = true;
+    const uint64_t end_edge = static_cast<uint64_t>(scene0_us_ + std::llround(run_.duration_s * 1e6)) * kD;
+    while (bench_.edge < end_edge) {
+        bench_.tick();
+        if (bench_.edge % kD == 0)
+            sc_.at_grid(static_cast<int64_t>(bench_.edge / kD), [&](const hg_dev::RunCfg::Fault& f) {
+                fault_edge_cmd_ = bench_.edge;
+                if (f.kind == hg_dev::FaultKind::dropout) dropout_on_ = true;
             });
-        const bool rose = bench.irq_rose;
-        bench.irq_rose = false;
-        const bool hung = sc.hanging() && !sc.resumed();
-        const bool call = sc.isr_due(rose, static_cast<int64_t>(bench.edge), bench.top->irq != 0, wdog_us);
-        if (hung && sc.resumed()) {
+        const bool rose = bench_.irq_rose;
+        bench_.irq_rose = false;
+        const bool hung = sc_.hanging() && !sc_.resumed();
+        const bool call = sc_.isr_due(rose, static_cast<int64_t>(bench_.edge), bench_.top->irq != 0, wdog_us_);
+        if (hung && sc_.resumed()) {
             // the DSP is back: a "debugger" reads STATUS, then the pending interrupt is serviced
             // and the firmware must refuse to drive
-            status_after = fpga_read32(HG_REG_STATUS);
-            post_hang_status_edge = bench.edge;
+            status_after_ = fpga_read32(HG_REG_STATUS);
+            post_hang_status_edge_ = bench_.edge;
         }
         if (!call) continue;
         IsrEdges r{};
-        r.irq_edge = rose ? bench.irq_rise_edge : bench.edge;
-        r.start = bench.edge;
-        current_isr = static_cast<int64_t>(isrs.size());
+        r.irq_edge = rose ? bench_.irq_rise_edge : bench_.edge;
+        r.start = bench_.edge;
+        current_isr = static_cast<int64_t>(isrs_.size());
         hg_servo_isr();
         current_isr = -1;
-        r.end = bench.edge;
-        for (int i = 0; i < 3; ++i) r.code[i] = s.code[i];
-        isrs.push_back(r);
+        r.end = bench_.edge;
+        for (int i = 0; i < 3; ++i) r.code[i] = s_.code[i];
+        isrs_.push_back(r);
         const int64_t tick_g = static_cast<int64_t>(r.irq_edge / kD);
         // ---- background loop: homing, then the scene and enable at the tick before scene time 0
-        if (sc.after_isr(s, tick_g, q_ring[static_cast<size_t>(tick_g - 1) % kRing].data())) {
-            const int rc = hg_dev::fw_home_scene_enable(&s, run, true);
+        if (sc_.after_isr(s_, tick_g, q_ring_[static_cast<size_t>(tick_g - 1) % kRing].data())) {
+            const int rc = hg_dev::fw_home_scene_enable(&s_, run_, true);
             if (rc != 0) return rc;
-            sc.enabled(sc.scene_t(static_cast<int64_t>(bench.edge / kD)));
+            sc_.enabled(sc_.scene_t(static_cast<int64_t>(bench_.edge / kD)));
         }
     }
-    if (!status_after) status_after = fpga_read32(HG_REG_STATUS);
-    const uint32_t irq_reg = fpga_read32(HG_REG_IRQ);
-    const double wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - w0).count();
-    const double cpu_s = static_cast<double>(std::clock() - c0) / CLOCKS_PER_SEC;  // one core
-    const std::vector<hg_dev::TickRec>& ticks = sc.ticks;
+    return 0;
+}
 
-    // ---------------------------------------------------------------- DAC frames
-    const uint64_t frame = dac_frame, skew = dac_skew;
-    std::vector<Frame> frames;
-    bool frame_timing_ok = true;
-    for (const auto& ld : bench.loads) {
-        const uint64_t st = ld.edge - kLoadClocks - static_cast<uint64_t>(ld.addr) * skew;
-        if (frames.empty() || frames.back().start != st) {
-            if (!frames.empty() && (frames.back().n != 6 || st != frames.back().start + frame)) frame_timing_ok = false;
-            frames.push_back({st, {0, 0, 0, 0, 0, 0}, 0});
+// The DAC frames from the loads (six channels, each kLoadClocks + addr * skew after the frame
+// start, frames one DAC_FRAME apart on its grid), and the TORQUE / TQ_LIMIT writes per axis.
+void ServoRun::build_frames() {
+    frame_ = dac_frame_;
+    skew_ = dac_skew_;
+    for (const auto& ld : bench_.loads) {
+        const uint64_t st = ld.edge - kLoadClocks - static_cast<uint64_t>(ld.addr) * skew_;
+        if (frames_.empty() || frames_.back().start != st) {
+            if (!frames_.empty() && (frames_.back().n != 6 || st != frames_.back().start + frame_))
+                frame_timing_ok_ = false;
+            frames_.push_back({st, {0, 0, 0, 0, 0, 0}, 0});
         }
-        Frame& f = frames.back();
-        if (ld.addr != f.n) frame_timing_ok = false;
+        Frame& f = frames_.back();
+        if (ld.addr != f.n) frame_timing_ok_ = false;
         f.code[ld.addr] = ld.code;
         f.n++;
     }
-    if (!frames.empty() && frames.back().n != 6) frames.pop_back();  // cut by the end of the run
-    if (!frames.empty() && frames.front().start % frame != 0) frame_timing_ok = false;
+    if (!frames_.empty() && frames_.back().n != 6) frames_.pop_back();  // cut by the end of the run
+    if (!frames_.empty() && frames_.front().start % frame_ != 0) frame_timing_ok_ = false;
 
     // TORQUE writes per axis; the register value a frame latch at edge L sees
-    struct TW { uint64_t fall, rise; int16_t v; int64_t isr; };
-    std::vector<TW> tw[3];
-    uint32_t tq_limit[3] = {0, 0, 0};
     for (const auto& w : bus_writes) {
         for (uint32_t i = 0; i < 3; ++i) {
             if (w.addr == HG_REG_AXIS(i, HG_AX_TORQUE))
-                tw[i].push_back({w.fall, w.rise, static_cast<int16_t>(w.data & 0xFFFFU), w.isr});
-            if (w.addr == HG_REG_AXIS(i, HG_AX_TQ_LIMIT)) tq_limit[i] = w.data;
+                tw_[i].push_back({w.fall, w.rise, static_cast<int16_t>(w.data & 0xFFFFU), w.isr});
+            if (w.addr == HG_REG_AXIS(i, HG_AX_TQ_LIMIT)) tq_limit_[i] = w.data;
         }
     }
-    auto clampt = [&](int v, int i) { const int l = static_cast<int>(tq_limit[i]); return std::clamp(v, -l, l); };
+}
 
-    // ---------------------------------------------------------------- homing error
-    // firmware joint angle minus the truth of its sample at the first driving tick (the tick at
-    // the push start: its sample is the last before the push, the joints at rest at q_free), in
-    // counts. The interpolator latches the quadrant the sign bits show at the index edge; on a
-    // slow approach that is the quadrant before the index quadrant (see README).
-    double home_err[3] = {0, 0, 0};
-    {
-        const hg_dev::TickRec* ref = nullptr;
-        for (const auto& r : ticks)
-            if (r.drive) { ref = &r; break; }
-        if (!ref) { std::fprintf(stderr, "error: no driving tick after enable\n"); return 1; }
-        for (int i = 0; i < 3; ++i) home_err[i] = (ref->q_fw[i] - ref->q_true[i]) * HG_ENC_COUNTS_PER_REV / (2 * kPi);
-    }
+// The homing error: firmware joint angle minus the truth of its sample at the first driving tick
+// (the tick at the push start: its sample is the last before the push, the joints at rest at
+// q_free), in counts. The interpolator latches the quadrant the sign bits show at the index edge;
+// on a slow approach that is the quadrant before the index quadrant (see README).
+int ServoRun::homing_error() {
+    const hg_dev::TickRec* ref = nullptr;
+    for (const auto& r : sc_.ticks)
+        if (r.drive) { ref = &r; break; }
+    if (!ref) { std::fprintf(stderr, "error: no driving tick after enable\n"); return 1; }
+    for (int i = 0; i < 3; ++i) home_err_[i] = (ref->q_fw[i] - ref->q_true[i]) * HG_ENC_COUNTS_PER_REV / (2 * kPi);
     // interpolation accuracy at this ADC amplitude, counts: the arcsine table assumes R = 127, so
     // the fine angle is asin(g sin t) instead of t (worst at 45 deg, g = R/127), plus 1/2 LUT
     // step and 1/2 ADC LSB of angle (1024 counts per 360 deg electrical)
     const double g = kAdcR / 127.0, cnt_per_rad = 1024.0 / (2 * kPi);
-    const double interp_cnt = (kPi / 4 - std::asin(g * std::sin(kPi / 4))) * cnt_per_rad + 0.5 * 1024.0 / 1024.0 +
-                              0.5 / kAdcR * cnt_per_rad;
-    double home_q[3];  // the homing error rounded to whole quadrants (256 counts)
-    for (int i = 0; i < 3; ++i) home_q[i] = 256.0 * std::round(home_err[i] / 256.0);
+    interp_cnt_ = (kPi / 4 - std::asin(g * std::sin(kPi / 4))) * cnt_per_rad + 0.5 * 1024.0 / 1024.0 +
+                  0.5 / kAdcR * cnt_per_rad;
+    for (int i = 0; i < 3; ++i) home_q_[i] = 256.0 * std::round(home_err_[i] / 256.0);
+    return 0;
+}
+
+// Every DAC frame: its row of frames.csv, and the torque (b1) and force (b2) checks on the frames
+// before the cause.
+int ServoRun::check_frames() {
+    cause_edge_ = s_drop_ ? bench_.fault_edge[drop_axis_] : (s_wall_ ? 0 : bench_.wdog_expired_edge);
+    normal_end_ = s_wall_ ? UINT64_MAX : (cause_edge_ ? cause_edge_ : fault_edge_cmd_);
+    FILE* fcsv = std::fopen((outdir_ + "/frames.csv").c_str(), "w");
+    if (!fcsv) { std::fprintf(stderr, "error: cannot write %s\n", outdir_.c_str()); return 2; }
+    std::fprintf(fcsv, "start,c0,c1,c2,c3,c4,c5,q0,q1,q2,tlo0,tlo1,tlo2,thi0,thi1,thi2,snap_edge,drive,qs0,qs1,qs2\n");
+    for (const auto& f : frames_) check_frame(f, fcsv);
+    std::fclose(fcsv);
+    return 0;
+}
+
+void ServoRun::check_frame(const Frame& f, FILE* fcsv) {
+    const double t_scale = 32768.0 / (1.5 * kDacFs);  // sum_j code_j sin(theta_j) -> torque command
+    auto clampt = [&](int v, int i) { const int l = static_cast<int>(tq_limit_[i]); return std::clamp(v, -l, l); };
+    const std::vector<hg_dev::TickRec>& ticks = sc_.ticks;
+    const uint64_t L = f.start;
+    const double t = edge_time(L);
+    const Vec3 q = tr_.q(t);
+    int tlo[3], thi[3];
+    int64_t isr_of[3];
+    bool amb = false;
+    for (int i = 0; i < 3; ++i) {
+        int lo = 0, hi = 0;
+        int64_t is = -1;
+        for (const auto& w : tw_[i]) {  // few hundred per axis per second: fine
+            if (w.fall >= L) break;
+            hi = w.v;
+            is = w.isr;
+            if (w.rise + 1 < L) lo = w.v;
+        }
+        tlo[i] = clampt(lo, i);
+        thi[i] = clampt(hi, i);
+        isr_of[i] = is;
+        amb = amb || tlo[i] != thi[i];
+    }
+    const bool same = isr_of[0] == isr_of[1] && isr_of[1] == isr_of[2] && isr_of[0] >= 0;
+    const size_t k = same ? static_cast<size_t>(isr_of[0]) : 0;
+    const IsrEdges* ir = same ? &isrs_[k] : nullptr;
+    const hg_dev::TickRec* tk = same ? &ticks[k] : nullptr;
+    const Vec3 qs = tk ? Vec3{tk->q_true[0], tk->q_true[1], tk->q_true[2]} : Vec3{0, 0, 0};
+    std::fprintf(fcsv, "%llu,%d,%d,%d,%d,%d,%d,%.12g,%.12g,%.12g,%d,%d,%d,%d,%d,%d,%lld,%d,%.12g,%.12g,%.12g\n",
+                 static_cast<unsigned long long>(L), f.code[0], f.code[1], f.code[2], f.code[3], f.code[4],
+                 f.code[5], q[0], q[1], q[2], tlo[0], tlo[1], tlo[2], thi[0], thi[1], thi[2],
+                 ir ? static_cast<long long>(ir->irq_edge) : -1LL, tk ? int(tk->drive) : 0, qs[0], qs[1], qs[2]);
+    // a frame is checked if all six of its loads came before the cause (a frame the cause
+    // cuts through has some channels zeroed: the zero-torque check below covers those)
+    if (L == 0 || L + kLoadClocks + 5 * skew_ >= normal_end_) return;
+    // (b1) torque reconstruction: amplifier third phase -(a + b), sinusoidal windings
+    double trec[3], tbud[3];
+    for (int m = 0; m < 3; ++m) {
+        const double th = 2 * kPi * kPolePairs * (q[m] - tr_.q_index[m]) / (2 * kPi);
+        const double ia = f.code[2 * m], ib = f.code[2 * m + 1], ic = -(ia + ib);
+        const double sum = ia * std::sin(th) + ib * std::sin(th - 2 * kPi / 3) + ic * std::sin(th + 2 * kPi / 3);
+        trec[m] = sum * t_scale;
+        const double tmax = std::max(std::abs(tlo[m]), std::abs(thi[m]));
+        // budget: +-0.5 LSB output rounding and +-0.5 LSB ROM rounding x t/2^15 per phase,
+        // through the 2-of-3 reconstruction (<= sqrt(3)(|ea|+|eb|)), plus the commutation's
+        // 0.3 % angle/phase ripple budget (hapgate.golden.commutation.SINE_RIPPLE_BUDGET)
+        tbud[m] = 2 * std::sqrt(3.0) * (0.5 + 0.5 * tmax / 32768.0) * t_scale + 0.003 * tmax;
+        const double e = std::min(std::abs(trec[m] - tlo[m]), std::abs(trec[m] - thi[m]));
+        max_terr_ = std::max(max_terr_, e);
+        max_terr_ratio_ = std::max(max_terr_ratio_, e / tbud[m]);
+        n_tq_++;
+        if (f.code[2 * m] || f.code[2 * m + 1]) n_nonzero_++;
+    }
+    // (b2) the force, on a frame not torn between two TORQUE values or two ISRs
+    if (amb || !ir) { n_torn_++; return; }
+    check_force(trec, tbud, qs, *ir, *tk);
+}
+
+// (b2) The endpoint force from the reconstructed torques trec (budgets tbud, DAC codes) at the
+// pose qs the firmware sampled (ISR ir, record tk) against the wall law.
+void ServoRun::check_force(const double trec[3], const double tbud[3], const Vec3& qs, const IsrEdges& ir,
+                           const hg_dev::TickRec& tk) {
+    const double nm_per_code = 0.06 * 0.8 * 10.0 / 32767.0;
     auto qref = [&](const Vec3& qt) {  // the truth in the firmware's homed frame
         Vec3 r = qt;
-        for (int i = 0; i < 3; ++i) r[i] += home_q[i] * 2 * kPi / HG_ENC_COUNTS_PER_REV;
+        for (int i = 0; i < 3; ++i) r[i] += home_q_[i] * 2 * kPi / HG_ENC_COUNTS_PER_REV;
         return r;
     };
-
-    // ---------------------------------------------------------------- checks and output
-    const uint64_t cause_edge = s_drop ? bench.fault_edge[drop_axis]
-                              : (s_wall ? 0 : bench.wdog_expired_edge);
-    const uint64_t normal_end = s_wall ? UINT64_MAX : (cause_edge ? cause_edge : fault_edge_cmd);
-    const double t_scale = 32768.0 / (1.5 * kDacFs);  // sum_j code_j sin(theta_j) -> torque command
-    const double nm_per_code = 0.06 * 0.8 * 10.0 / 32767.0;
-    double max_terr = 0, max_terr_ratio = 0, max_ferr = 0, max_ferr_ratio = 0, max_free = 0;
-    double max_depth = 0, max_force = 0, min_cos = 1;
-    uint64_t n_tq = 0, n_force = 0, n_wall = 0, n_torn = 0, n_nonzero = 0;
-    FILE* fcsv = std::fopen((outdir + "/frames.csv").c_str(), "w");
-    if (!fcsv) { std::fprintf(stderr, "error: cannot write %s\n", outdir.c_str()); return 2; }
-    std::fprintf(fcsv, "start,c0,c1,c2,c3,c4,c5,q0,q1,q2,tlo0,tlo1,tlo2,thi0,thi1,thi2,snap_edge,drive,qs0,qs1,qs2\n");
-    for (const auto& f : frames) {
-        const uint64_t L = f.start;
-        const double t = edge_time(L);
-        const Vec3 q = tr.q(t);
-        int tlo[3], thi[3];
-        int64_t isr_of[3];
-        bool amb = false;
-        for (int i = 0; i < 3; ++i) {
-            int lo = 0, hi = 0;
-            int64_t is = -1;
-            for (const auto& w : tw[i]) {  // few hundred per axis per second: fine
-                if (w.fall >= L) break;
-                hi = w.v;
-                is = w.isr;
-                if (w.rise + 1 < L) lo = w.v;
-            }
-            tlo[i] = clampt(lo, i);
-            thi[i] = clampt(hi, i);
-            isr_of[i] = is;
-            amb = amb || tlo[i] != thi[i];
-        }
-        const bool same = isr_of[0] == isr_of[1] && isr_of[1] == isr_of[2] && isr_of[0] >= 0;
-        const size_t k = same ? static_cast<size_t>(isr_of[0]) : 0;
-        const IsrEdges* ir = same ? &isrs[k] : nullptr;
-        const hg_dev::TickRec* tk = same ? &ticks[k] : nullptr;
-        const Vec3 qs = tk ? Vec3{tk->q_true[0], tk->q_true[1], tk->q_true[2]} : Vec3{0, 0, 0};
-        std::fprintf(fcsv, "%llu,%d,%d,%d,%d,%d,%d,%.12g,%.12g,%.12g,%d,%d,%d,%d,%d,%d,%lld,%d,%.12g,%.12g,%.12g\n",
-                     static_cast<unsigned long long>(L), f.code[0], f.code[1], f.code[2], f.code[3], f.code[4],
-                     f.code[5], q[0], q[1], q[2], tlo[0], tlo[1], tlo[2], thi[0], thi[1], thi[2],
-                     ir ? static_cast<long long>(ir->irq_edge) : -1LL, tk ? int(tk->drive) : 0, qs[0], qs[1], qs[2]);
-        // a frame is checked if all six of its loads came before the cause (a frame the cause
-        // cuts through has some channels zeroed: the zero-torque check below covers those)
-        if (L == 0 || L + kLoadClocks + 5 * skew >= normal_end) continue;
-        // (b1) torque reconstruction: amplifier third phase -(a + b), sinusoidal windings
-        double trec[3], tbud[3];
-        for (int m = 0; m < 3; ++m) {
-            const double th = 2 * kPi * kPolePairs * (q[m] - tr.q_index[m]) / (2 * kPi);
-            const double ia = f.code[2 * m], ib = f.code[2 * m + 1], ic = -(ia + ib);
-            const double sum = ia * std::sin(th) + ib * std::sin(th - 2 * kPi / 3) + ic * std::sin(th + 2 * kPi / 3);
-            trec[m] = sum * t_scale;
-            const double tmax = std::max(std::abs(tlo[m]), std::abs(thi[m]));
-            // budget: +-0.5 LSB output rounding and +-0.5 LSB ROM rounding x t/2^15 per phase,
-            // through the 2-of-3 reconstruction (<= sqrt(3)(|ea|+|eb|)), plus the commutation's
-            // 0.3 % angle/phase ripple budget (hapgate.golden.commutation.SINE_RIPPLE_BUDGET)
-            tbud[m] = 2 * std::sqrt(3.0) * (0.5 + 0.5 * tmax / 32768.0) * t_scale + 0.003 * tmax;
-            const double e = std::min(std::abs(trec[m] - tlo[m]), std::abs(trec[m] - thi[m]));
-            max_terr = std::max(max_terr, e);
-            max_terr_ratio = std::max(max_terr_ratio, e / tbud[m]);
-            n_tq++;
-            if (f.code[2 * m] || f.code[2 * m + 1]) n_nonzero++;
-        }
-        // (b2) endpoint force at the pose the firmware sampled vs the wall law
-        if (amb || !ir) { n_torn++; continue; }
-        const Vec3 qsr = qref(qs);
-        const Mat3 J = jac(qsr), JiT = inv_t(J);
-        Vec3 tau{}, F{}, taub{};
-        for (int m = 0; m < 3; ++m) {
-            tau[m] = trec[m] * nm_per_code;
-            taub[m] = tbud[m] * nm_per_code;
-        }
-        for (int i = 0; i < 3; ++i)
-            for (int m = 0; m < 3; ++m) F[i] += JiT[i][m] * tau[m];
-        const Vec3 ps = fk(qsr);
-        const double d = dot({p0[0] - ps[0], p0[1] - ps[1], p0[2] - ps[2]}, nrm);
-        const double fmag = tk->drive ? kWallK * std::max(0.0, d) : 0.0;
-        Vec3 err{};
-        for (int i = 0; i < 3; ++i) err[i] = F[i] - nrm[i] * fmag;
-        const double en = std::sqrt(dot(err, err));
-        const Vec3 qd = tr.qdot(edge_time(ir->irq_edge));
-        const double dq = std::sqrt(dot(qd, qd)) * 3e-6 + std::sqrt(3.0) * interp_cnt * 2 * kPi / HG_ENC_COUNTS_PER_REV;
-        const double fbud = norm2(JiT) * std::sqrt(dot(taub, taub)) + kWallK * norm2(J) * dq + 1e-4 * fmag;
-        max_ferr = std::max(max_ferr, en);
-        max_ferr_ratio = std::max(max_ferr_ratio, en / fbud);
-        n_force++;
-        if (fmag > 0) {
-            n_wall++;
-            max_depth = std::max(max_depth, d);
-            max_force = std::max(max_force, fmag);
-            if (fmag > 10 * fbud) min_cos = std::min(min_cos, dot(F, nrm) / std::sqrt(dot(F, F)));
-        } else {
-            max_free = std::max(max_free, std::sqrt(dot(F, F)));
-        }
+    const Vec3 qsr = qref(qs);
+    const Mat3 J = jac(qsr), JiT = inv_t(J);
+    Vec3 tau{}, F{}, taub{};
+    for (int m = 0; m < 3; ++m) {
+        tau[m] = trec[m] * nm_per_code;
+        taub[m] = tbud[m] * nm_per_code;
     }
-    std::fclose(fcsv);
+    for (int i = 0; i < 3; ++i)
+        for (int m = 0; m < 3; ++m) F[i] += JiT[i][m] * tau[m];
+    const Vec3 ps = fk(qsr);
+    const double d = dot({p0_[0] - ps[0], p0_[1] - ps[1], p0_[2] - ps[2]}, nrm_);
+    const double fmag = tk.drive ? kWallK_ * std::max(0.0, d) : 0.0;
+    Vec3 err{};
+    for (int i = 0; i < 3; ++i) err[i] = F[i] - nrm_[i] * fmag;
+    const double en = std::sqrt(dot(err, err));
+    const Vec3 qd = tr_.qdot(edge_time(ir.irq_edge));
+    const double dq = std::sqrt(dot(qd, qd)) * 3e-6 + std::sqrt(3.0) * interp_cnt_ * 2 * kPi / HG_ENC_COUNTS_PER_REV;
+    const double fbud = norm2(JiT) * std::sqrt(dot(taub, taub)) + kWallK_ * norm2(J) * dq + 1e-4 * fmag;
+    max_ferr_ = std::max(max_ferr_, en);
+    max_ferr_ratio_ = std::max(max_ferr_ratio_, en / fbud);
+    n_force_++;
+    if (fmag > 0) {
+        n_wall_++;
+        max_depth_ = std::max(max_depth_, d);
+        max_force_ = std::max(max_force_, fmag);
+        if (fmag > 10 * fbud) min_cos_ = std::min(min_cos_, dot(F, nrm_) / std::sqrt(dot(F, F)));
+    } else {
+        max_free_ = std::max(max_free_, std::sqrt(dot(F, F)));
+    }
+}
 
-    // the engine's records (ticks.bin), and beside them, row for row, the ISRs' edges and codes
-    sc.finish(outdir);
-    FILE* icsv = std::fopen((outdir + "/isr.csv").c_str(), "w");
-    if (!icsv) { std::fprintf(stderr, "error: cannot write %s\n", outdir.c_str()); return 3; }
+// The engine's records (ticks.bin), and beside them, row for row, the ISRs' edges and codes
+// (isr.csv); every DAC load (loads.bin).
+int ServoRun::write_outputs() {
+    sc_.finish(outdir_);
+    FILE* icsv = std::fopen((outdir_ + "/isr.csv").c_str(), "w");
+    if (!icsv) { std::fprintf(stderr, "error: cannot write %s\n", outdir_.c_str()); return 3; }
     std::fprintf(icsv, "irq_edge,start,end,code0,code1,code2\n");
-    for (const auto& r : isrs)
+    for (const auto& r : isrs_)
         std::fprintf(icsv, "%llu,%llu,%llu,%d,%d,%d\n", static_cast<unsigned long long>(r.irq_edge),
                      static_cast<unsigned long long>(r.start), static_cast<unsigned long long>(r.end), r.code[0],
                      r.code[1], r.code[2]);
     std::fclose(icsv);
     std::vector<hg_dev::LoadRec> lrec;
-    lrec.reserve(bench.loads.size());
-    for (const auto& ld : bench.loads) lrec.push_back({static_cast<int64_t>(ld.edge), ld.addr, ld.code});
-    hg_dev::write_file(outdir, "loads.bin", lrec.data(), lrec.size() * sizeof(hg_dev::LoadRec));
+    lrec.reserve(bench_.loads.size());
+    for (const auto& ld : bench_.loads) lrec.push_back({static_cast<int64_t>(ld.edge), ld.addr, ld.code});
+    hg_dev::write_file(outdir_, "loads.bin", lrec.data(), lrec.size() * sizeof(hg_dev::LoadRec));
+    return 0;
+}
 
-    // ---------------------------------------------------------------- safety reaction
-    // per channel: the first load at or after the cause from which on every load is zero
-    const uint64_t bound = frame + HG_WR_CYCLES + 1;  // FRAME + WR_CYCLES + 1 (rtl/top/README.md)
-    int64_t reaction = -1;
-    bool nonzero_before = false;
-    if (cause_edge) {
-        const int ch_lo = s_drop ? 2 * drop_axis : 0, ch_hi = s_drop ? 2 * drop_axis + 1 : 5;
+// The safety reaction: per channel, the first load at or after the cause from which on every
+// load is zero; and after the firmware latched its error, every channel zero one frame later.
+void ServoRun::check_reaction() {
+    bound_ = frame_ + HG_WR_CYCLES + 1;  // FRAME + WR_CYCLES + 1 (rtl/top/README.md)
+    if (cause_edge_) {
+        const int ch_lo = s_drop_ ? 2 * drop_axis_ : 0, ch_hi = s_drop_ ? 2 * drop_axis_ + 1 : 5;
         for (int c = ch_lo; c <= ch_hi; ++c) {
             uint64_t z = 0;
-            for (const auto& ld : bench.loads) {
+            for (const auto& ld : bench_.loads) {
                 if (ld.addr != c) continue;
-                if (ld.edge < cause_edge) { if (ld.edge + frame >= cause_edge && ld.code) nonzero_before = true; continue; }
+                if (ld.edge < cause_edge_) {
+                    if (ld.edge + frame_ >= cause_edge_ && ld.code) nonzero_before_ = true;
+                    continue;
+                }
                 if (ld.code != 0) z = 0;
                 else if (!z) z = ld.edge;
             }
-            reaction = z ? std::max<int64_t>(reaction, static_cast<int64_t>(z - cause_edge)) : INT64_MAX;
+            reaction_ = z ? std::max<int64_t>(reaction_, static_cast<int64_t>(z - cause_edge_)) : INT64_MAX;
         }
     }
-    // after the firmware latched its error every channel must be zero (one frame later)
-    uint64_t latch_edge = 0;
-    for (size_t k = 0; k < ticks.size(); ++k)
-        if (ticks[k].err != HG_ERR_NONE) { latch_edge = isrs[k].end; break; }
-    bool all_zero_after_latch = true;
-    for (const auto& ld : bench.loads)
-        if (latch_edge && ld.edge > latch_edge + bound && ld.code) all_zero_after_latch = false;
+    for (size_t k = 0; k < sc_.ticks.size(); ++k)
+        if (sc_.ticks[k].err != HG_ERR_NONE) { latch_edge_ = isrs_[k].end; break; }
+    for (const auto& ld : bench_.loads)
+        if (latch_edge_ && ld.edge > latch_edge_ + bound_ && ld.code) all_zero_after_latch_ = false;
+}
 
-    // ---------------------------------------------------------------- verdict
+// Every check's verdict: the failed ones, by name (printed as fail=...).
+std::vector<std::string> ServoRun::verdict() {
     std::vector<std::string> fails;
     auto need = [&](bool ok, const char* what) { if (!ok) fails.emplace_back(what); };
     const uint32_t sticky = HG_STAT_WDOG | HG_STAT_CFG_ERR | HG_STAT_BUS_ERR | HG_STAT_PROTO_ERR;
-    need(init_err == HG_ERR_NONE && (s.fpga_id >> 16) == HG_ID_MAGIC, "init/ID");
-    need(clk_khz == CLK_HZ / 1000, "CLK_KHZ");
-    need(frame_timing_ok && !frames.empty(), "DAC frame timing");
+    need(init_err_ == HG_ERR_NONE && (s_.fpga_id >> 16) == HG_ID_MAGIC, "init/ID");
+    need(clk_khz_ == CLK_HZ / 1000, "CLK_KHZ");
+    need(frame_timing_ok_ && !frames_.empty(), "DAC frame timing");
     need(bus_stats.not_oe == 0, "bus_data_oe low during a read");
     // the engine enables at the tick before the push start: after the sweep (3 ms before the push
     // start; cosim.load refuses a tick rate at which it would not be)
-    const int64_t enable_g = scene0_us + std::llround(sc.enable_t() * 1e6);
-    need(sc.is_enabled() && enable_g >= std::llround(tr.t_home * 1e6), "homing/enable");
-    need(max_terr_ratio <= 1.0, "torque reconstruction within budget");
-    need(max_ferr_ratio <= 1.0, "force within budget");
-    need(n_wall > 0 && max_depth > 0, "the trajectory penetrates the wall");
+    const int64_t enable_g = scene0_us_ + std::llround(sc_.enable_t() * 1e6);
+    need(sc_.is_enabled() && enable_g >= std::llround(tr_.t_home * 1e6), "homing/enable");
+    need(max_terr_ratio_ <= 1.0, "torque reconstruction within budget");
+    need(max_ferr_ratio_ <= 1.0, "force within budget");
+    need(n_wall_ > 0 && max_depth_ > 0, "the trajectory penetrates the wall");
     double home_res = 0, home_qmax = 0;
     for (int i = 0; i < 3; ++i) {
-        home_res = std::max(home_res, std::abs(home_err[i] - home_q[i]));
-        home_qmax = std::max(home_qmax, std::abs(home_q[i]));
+        home_res = std::max(home_res, std::abs(home_err_[i] - home_q_[i]));
+        home_qmax = std::max(home_qmax, std::abs(home_q_[i]));
     }
-    need(home_res <= interp_cnt && home_qmax <= 256.0, "homing within one quadrant");
+    need(home_res <= interp_cnt_ && home_qmax <= 256.0, "homing within one quadrant");
     if (home_qmax > 0) std::printf("warn=homing off by %.0f counts = one quadrant (interpolator index latch)\n", home_qmax);
-    need(min_cos > 0.99, "force along the wall normal (out of the wall)");
-    uint8_t fw_err = s.err, fw_axis = s.err_axis;
-    if (s_wall) {
+    need(min_cos_ > 0.99, "force along the wall normal (out of the wall)");
+    const uint8_t fw_err = s_.err, fw_axis = s_.err_axis;
+    if (s_wall_) {
         need(fw_err == HG_ERR_NONE, "no latched firmware error");
-        need((status_after & (sticky | HG_STAT_FAULT_ALL)) == 0, "no FPGA fault/sticky status");
-        need((irq_reg & HG_IRQ_MISSED) == 0, "no missed tick");
-        need(n_nonzero > 0, "motors driven");
+        need((status_after_ & (sticky | HG_STAT_FAULT_ALL)) == 0, "no FPGA fault/sticky status");
+        need((irq_reg_ & HG_IRQ_MISSED) == 0, "no missed tick");
+        need(n_nonzero_ > 0, "motors driven");
     } else {
-        need(cause_edge != 0, "safety cause happened");
-        need(nonzero_before, "torque non-zero just before the cause");
-        need(reaction >= 0 && reaction <= static_cast<int64_t>(bound), "zero torque within one frame");
-        need(latch_edge != 0 && all_zero_after_latch, "firmware latched an error and all torque is zero");
+        need(cause_edge_ != 0, "safety cause happened");
+        need(nonzero_before_, "torque non-zero just before the cause");
+        need(reaction_ >= 0 && reaction_ <= static_cast<int64_t>(bound_), "zero torque within one frame");
+        need(latch_edge_ != 0 && all_zero_after_latch_, "firmware latched an error and all torque is zero");
     }
-    const uint64_t last_key = static_cast<uint64_t>(sc.last_key_edge());   // the last key write that arrived
-    if (s_wdog) {
+    const uint64_t last_key = static_cast<uint64_t>(sc_.last_key_edge());   // the last key write that arrived
+    if (s_wdog_) {
         need(fw_err == HG_ERR_WATCHDOG, "firmware error WATCHDOG");
-        need((status_after & HG_STAT_WDOG) != 0, "STATUS.WDOG set");
-        need(cause_edge > last_key && cause_edge - last_key <= 10000ULL * (CLK_HZ / 1000000) + 8,
+        need((status_after_ & HG_STAT_WDOG) != 0, "STATUS.WDOG set");
+        need(cause_edge_ > last_key && cause_edge_ - last_key <= 10000ULL * (CLK_HZ / 1000000) + 8,
              "expiry = last key + WDOG_TIMEOUT");
     }
-    if (s_hang) {
-        need((status_after & HG_STAT_WDOG) != 0, "STATUS.WDOG set");
+    if (s_hang_) {
+        need((status_after_ & HG_STAT_WDOG) != 0, "STATUS.WDOG set");
         need(fw_err != HG_ERR_NONE, "firmware refuses to drive after the hang");
     }
-    if (s_drop) {
-        need(fw_err == HG_ERR_AXIS_FAULT && fw_axis == drop_axis, "firmware error AXIS_FAULT on the dropped axis");
-        need((status_after & HG_STAT_FAULT(drop_axis)) != 0, "STATUS.FAULT set");
+    if (s_drop_) {
+        need(fw_err == HG_ERR_AXIS_FAULT && fw_axis == drop_axis_, "firmware error AXIS_FAULT on the dropped axis");
+        need((status_after_ & HG_STAT_FAULT(drop_axis_)) != 0, "STATUS.FAULT set");
     }
+    return fails;
+}
 
-    // the shared summary (scene time simulated, records, firmware state, enable, watchdog key),
-    // then the co-simulation's own lines (cosim.py reads both)
-    hg_dev::print_summary({CLK_HZ, 7, run.duration_s, wall_s, cpu_s, bench.edge, frames.size(), ticks.size(),
-                           bench.loads.size(), init_err, fw_err, fw_axis, sc.enable_t(), wdog_us, last_key, scene0_us,
-                           dac_skew, dac_frame, kD});
-    const double all_s = edge_time(bench.edge);   // from reset: the homing sweep, then the scene
+// The shared summary (scene time simulated, records, firmware state, enable, watchdog key), then
+// the co-simulation's own lines (cosim.py reads both), the failed checks and the result.
+int ServoRun::report(const std::vector<std::string>& fails) {
+    const uint64_t last_key = static_cast<uint64_t>(sc_.last_key_edge());
+    hg_dev::print_summary({CLK_HZ, 7, run_.duration_s, wall_s_, cpu_s_, bench_.edge, frames_.size(), sc_.ticks.size(),
+                           bench_.loads.size(), init_err_, s_.err, s_.err_axis, sc_.enable_t(), wdog_us_, last_key,
+                           scene0_us_, dac_skew_, dac_frame_, kD});
+    const double all_s = edge_time(bench_.edge);   // from reset: the homing sweep, then the scene
     const uint64_t tx = bus_stats.reads + bus_stats.writes;
-    std::printf("scenario=%s rate_hz=%u setup=%d strobe=%d hold=%d ready=%d\n", scenario.c_str(), rate,
+    std::printf("scenario=%s rate_hz=%u setup=%d strobe=%d hold=%d ready=%d\n", scenario_.c_str(), run_.servo_hz,
                 bus_timing.setup, bus_timing.strobe, bus_timing.hold, int(bus_timing.use_ready));
     std::printf("bus_reads=%llu bus_writes=%llu dropped=%llu tx_per_s=%.6g sim_per_wall=%.6g tq_limit=%u\n",
                 static_cast<unsigned long long>(bus_stats.reads), static_cast<unsigned long long>(bus_stats.writes),
-                static_cast<unsigned long long>(bus_stats.dropped), tx / wall_s, all_s / wall_s, tq_limit[0]);
-    std::printf("t_fault=%.9g seed=%llu powerup_deg=%.9g,%.9g,%.9g\n", s_wall ? 0.0 : t_fault,
-                static_cast<unsigned long long>(seed), tr.powerup[0] * 180 / kPi, tr.powerup[1] * 180 / kPi,
-                tr.powerup[2] * 180 / kPi);
-    std::printf("wall_k=%.9g wall_n=%.12g,%.12g,%.12g wall_p0=%.12g,%.12g,%.12g q_index=%.12g,%.12g,%.12g\n", kWallK,
-                nrm[0], nrm[1], nrm[2], p0[0], p0[1], p0[2], tr.q_index[0], tr.q_index[1], tr.q_index[2]);
-    std::printf("home_err_counts=%.3f,%.3f,%.3f interp_budget_counts=%.4f\n", home_err[0], home_err[1], home_err[2], interp_cnt);
+                static_cast<unsigned long long>(bus_stats.dropped), tx / wall_s_, all_s / wall_s_, tq_limit_[0]);
+    std::printf("t_fault=%.9g seed=%llu powerup_deg=%.9g,%.9g,%.9g\n", s_wall_ ? 0.0 : t_fault_,
+                static_cast<unsigned long long>(co_.seed), tr_.powerup[0] * 180 / kPi, tr_.powerup[1] * 180 / kPi,
+                tr_.powerup[2] * 180 / kPi);
+    std::printf("wall_k=%.9g wall_n=%.12g,%.12g,%.12g wall_p0=%.12g,%.12g,%.12g q_index=%.12g,%.12g,%.12g\n", kWallK_,
+                nrm_[0], nrm_[1], nrm_[2], p0_[0], p0_[1], p0_[2], tr_.q_index[0], tr_.q_index[1], tr_.q_index[2]);
+    std::printf("home_err_counts=%.3f,%.3f,%.3f interp_budget_counts=%.4f\n", home_err_[0], home_err_[1], home_err_[2],
+                interp_cnt_);
     std::printf("torque_frames=%llu max_torque_err=%.6g max_torque_err_ratio=%.6g force_frames=%llu torn=%llu wall_frames=%llu "
                 "max_force_err=%.6g max_force_err_ratio=%.6g max_free_force=%.6g max_depth=%.6g max_force=%.6g min_cos=%.9g\n",
-                static_cast<unsigned long long>(n_tq), max_terr, max_terr_ratio, static_cast<unsigned long long>(n_force),
-                static_cast<unsigned long long>(n_torn), static_cast<unsigned long long>(n_wall), max_ferr, max_ferr_ratio,
-                max_free, max_depth, max_force, min_cos);
+                static_cast<unsigned long long>(n_tq_), max_terr_, max_terr_ratio_, static_cast<unsigned long long>(n_force_),
+                static_cast<unsigned long long>(n_torn_), static_cast<unsigned long long>(n_wall_), max_ferr_,
+                max_ferr_ratio_, max_free_, max_depth_, max_force_, min_cos_);
     std::printf("status=%u irq=%u fault_cmd_edge=%llu cause_edge=%llu reaction_clocks=%lld bound_clocks=%llu "
                 "latch_edge=%llu post_hang_status_edge=%llu\n",
-                status_after, irq_reg, static_cast<unsigned long long>(fault_edge_cmd),
-                static_cast<unsigned long long>(cause_edge), static_cast<long long>(reaction),
-                static_cast<unsigned long long>(bound), static_cast<unsigned long long>(latch_edge),
-                static_cast<unsigned long long>(post_hang_status_edge));
+                status_after_, irq_reg_, static_cast<unsigned long long>(fault_edge_cmd_),
+                static_cast<unsigned long long>(cause_edge_), static_cast<long long>(reaction_),
+                static_cast<unsigned long long>(bound_), static_cast<unsigned long long>(latch_edge_),
+                static_cast<unsigned long long>(post_hang_status_edge_));
     for (const auto& f : fails) std::printf("fail=%s\n", f.c_str());
     std::printf("result=%s\n", fails.empty() ? "PASS" : "FAIL");
     return fails.empty() ? 0 : 1;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+    static hg_dev::RunCfg run;   // the scenario engine keeps a pointer to it
+    std::string scenario, outdir;
+    if (const int rc = configure(argc, argv, run, scenario, outdir)) return rc;
+    if (run.cosim.bus_only) return bus_throughput(scenario, run.cosim.bus_pairs);
+    // static: the HAL, the ISR and the scenario engine keep pointers into it until exit
+    static ServoRun sr(run, scenario, outdir);
+    int rc = sr.setup();
+    if (rc == 0) rc = sr.simulate();
+    if (rc != 0) return rc;
+    sr.build_frames();
+    if ((rc = sr.homing_error()) != 0) return rc;
+    if ((rc = sr.check_frames()) != 0) return rc;
+    if ((rc = sr.write_outputs()) != 0) return rc;
+    sr.check_reaction();
+    return sr.report(sr.verdict());
 }
