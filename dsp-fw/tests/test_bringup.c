@@ -1091,6 +1091,14 @@ void test_bringup_link_abort(void)
     CHECK(link_req(HG_MSG_BU_ABORT, NULL, 0, raw, &n) == HG_MSG_NAK);
 }
 
+/* The capture buffer full: CAP_STAT (whose last read was st) shows its 1024 entries done. */
+static void sim_capture_full(uint32_t st)
+{
+    hal_sim_regs[HG_REG_CAP_STAT] = (st & (uint32_t)HAPGATE__CAP_STAT__DEPTH_LOG2_bm)
+                                  | (1024u << HAPGATE__CAP_STAT__COUNT_bp)
+                                  | HAPGATE__CAP_STAT__DONE_bm;
+}
+
 /* ENCODER: after ALIGN, the rest point walks at home_speed; after enc_settle_s the capture is
  * armed on the axis with the decimation that makes the full buffer span enc_lines lines; the
  * buffer fills (here: the test sets DONE when the FPGA would, from the samples the armed time
@@ -1136,9 +1144,7 @@ void test_bringup_encoder(void)
             q_arm = SIM.ax[0].q;
         }
         if (arm_tick && !done_tick && (double)(k - arm_tick) * 1e-3 >= cap_s) {
-            hal_sim_regs[HG_REG_CAP_STAT] = (st & (uint32_t)HAPGATE__CAP_STAT__DEPTH_LOG2_bm)
-                                          | (1024u << HAPGATE__CAP_STAT__COUNT_bp)
-                                          | HAPGATE__CAP_STAT__DONE_bm;
+            sim_capture_full(st);
             done_tick = k;
             /* the rotor's mean speed over the capture: the walk's */
             CHECK(fabs((SIM.ax[0].q - q_arm) / ((double)(k - arm_tick) * 1e-3) - 0.5) < 0.01);
@@ -1236,9 +1242,7 @@ static uint32_t encoder_sweep(double ripple, double *q_log, uint32_t cap)
         if (arm_tick == 0 && (st & HAPGATE__CAP_STAT__ARMED_bm))
             arm_tick = k;
         if (arm_tick && k - arm_tick == 100u) /* the buffer full 100 ms after the arm */
-            hal_sim_regs[HG_REG_CAP_STAT] = (st & (uint32_t)HAPGATE__CAP_STAT__DEPTH_LOG2_bm)
-                                          | (1024u << HAPGATE__CAP_STAT__COUNT_bp)
-                                          | HAPGATE__CAP_STAT__DONE_bm;
+            sim_capture_full(st);
         sim_tick();
         q_log[k] = SIM.ax[0].q;
     }
