@@ -313,7 +313,7 @@ private:
     const bool s_wall_, s_wdog_, s_hang_, s_drop_;
     const int drop_axis_;
     Trajectory tr_;
-    double t_fault_ = 0, kWallK_ = 0;
+    double t_fault_ = 0, wall_k_ = 0;
     Vec3 nrm_{}, p0_{};
 
     // the testbench and its stimulus
@@ -378,7 +378,7 @@ int ServoRun::setup() {
     // plant's kinematics: through the point wall_at of the way from the free to the deep pose,
     // normal into free space. The firmware gets its wall from the env_* keys (cosim.run_config
     // writes both from the scene), so a wrong env_* is a failed force check.
-    kWallK_ = co_.wall_k;   // N/m
+    wall_k_ = co_.wall_k;   // N/m
     const Vec3 pf = fk(tr_.q_free), pd = fk(tr_.q_deep);
     double l = 0;
     for (int i = 0; i < 3; ++i) l += (pf[i] - pd[i]) * (pf[i] - pd[i]);
@@ -619,13 +619,13 @@ void ServoRun::check_force(const double trec[3], const double tbud[3], const Vec
         for (int m = 0; m < 3; ++m) F[i] += JiT[i][m] * tau[m];
     const Vec3 ps = fk(qsr);
     const double d = dot({p0_[0] - ps[0], p0_[1] - ps[1], p0_[2] - ps[2]}, nrm_);
-    const double fmag = tk.drive ? kWallK_ * std::max(0.0, d) : 0.0;
+    const double fmag = tk.drive ? wall_k_ * std::max(0.0, d) : 0.0;
     Vec3 err{};
     for (int i = 0; i < 3; ++i) err[i] = F[i] - nrm_[i] * fmag;
     const double en = std::sqrt(dot(err, err));
     const Vec3 qd = tr_.qdot(edge_time(ir.irq_edge));
     const double dq = std::sqrt(dot(qd, qd)) * 3e-6 + std::sqrt(3.0) * interp_cnt_ * 2 * kPi / HG_ENC_COUNTS_PER_REV;
-    const double fbud = norm2(JiT) * std::sqrt(dot(taub, taub)) + kWallK_ * norm2(J) * dq + 1e-4 * fmag;
+    const double fbud = norm2(JiT) * std::sqrt(dot(taub, taub)) + wall_k_ * norm2(J) * dq + 1e-4 * fmag;
     max_ferr_ = std::max(max_ferr_, en);
     max_ferr_ratio_ = std::max(max_ferr_ratio_, en / fbud);
     n_force_++;
@@ -755,7 +755,7 @@ int ServoRun::report(const std::vector<std::string>& fails) {
     std::printf("t_fault=%.9g seed=%llu powerup_deg=%.9g,%.9g,%.9g\n", s_wall_ ? 0.0 : t_fault_,
                 static_cast<unsigned long long>(co_.seed), tr_.powerup[0] * 180 / kPi, tr_.powerup[1] * 180 / kPi,
                 tr_.powerup[2] * 180 / kPi);
-    std::printf("wall_k=%.9g wall_n=%.12g,%.12g,%.12g wall_p0=%.12g,%.12g,%.12g q_index=%.12g,%.12g,%.12g\n", kWallK_,
+    std::printf("wall_k=%.9g wall_n=%.12g,%.12g,%.12g wall_p0=%.12g,%.12g,%.12g q_index=%.12g,%.12g,%.12g\n", wall_k_,
                 nrm_[0], nrm_[1], nrm_[2], p0_[0], p0_[1], p0_[2], tr_.q_index[0], tr_.q_index[1], tr_.q_index[2]);
     std::printf("home_err_counts=%.3f,%.3f,%.3f interp_budget_counts=%.4f\n", home_err_[0], home_err_[1], home_err_[2],
                 interp_cnt_);
