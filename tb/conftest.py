@@ -123,6 +123,13 @@ REGRESS: dict[str, str] = {
         "bring-up with every step end to end (50-60 s of device time each); tier 1 keeps the "
         "identification and the other joints' hold in the firmware's C unit tests "
         "(bringup_ident, bringup_ident_hold) and the guided move on encoder_dir.toml",
+    r"^tb/bringup/test_bringup\.py::test_(index_scene_homes_itself_then_renders_the_wall|"
+    r"homing_on_both_sides_and_an_index_out_of_range)":
+        "homing served devices from indexes tens of degrees away (align and homing on three "
+        "axes, 38-44 s of device time each); tier 1 keeps the unhomed device's link "
+        "(test_an_unhomed_device_answers_from_reset), the restart with far indexes "
+        "(test_a_stored_calibration_restarts_with_the_index_anywhere) and homing in the "
+        "firmware's C unit tests (bringup_home, bringup_power_up)",
     r"^tb/bus/test_hg_bus\.py::test_random_accesses_16mhz":
         "random bus accesses at a second FPGA clock (16 MHz, no board's); tier 1 keeps them at "
         "the bus tests' own clock",

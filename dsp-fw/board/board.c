@@ -61,6 +61,19 @@ static void uart_send(const uint8_t *d, size_t n)
     }
 }
 
+/* One pass of the background loop: a received byte to the link, else its pushes and
+ * timeouts; what it answers goes out on the UART. */
+static void link_pass(void)
+{
+    uint8_t tx[HG_LINK_MAX_FRAME];
+    size_t n = 0;
+    if (uart[0] & (1u << 5))
+        n = hg_link_rx_byte(&link, (uint8_t)uart[1], tx);
+    if (n == 0)
+        n = hg_link_poll(&link, true, tx);
+    uart_send(tx, n);
+}
+
 int main(void);
 int main(void)
 {
@@ -68,21 +81,22 @@ int main(void)
     hg_servo_default_cfg(&cfg);
     if (hg_servo_init(&servo, &cfg) == HG_ERR_NONE)
         hg_servo_isr_ctx = &servo;
+    /* the link answers from the first line, homed or not (bring-up until the power-up below) */
+    hg_link_init(&link, &servo);
     /* the power-up pose is the reference pose (a fixture holds the handle there); a real
-     * board sets q_ref and the bounds from its linkage, and passes a stored calibration */
+     * board sets q_ref and the bounds from its linkage. Once the snapshot has settled, a stored
+     * calibration (flash; none on this stub) is restarted without motion: the paper's power-up.
+     * Without one the PC's bring-up (ALIGN, HOME) finds it. */
+    while (*(volatile uint32_t *)&servo.steps < HG_BU_POWER_UP_TICKS && hg_servo_isr_ctx)
+        link_pass();
+    static const hg_calib_t *const stored = NULL;
     hg_bringup_cfg_t bc;
     hg_bringup_default_cfg(&bc);
-    hg_bringup_init(&bringup, &servo, &bc, NULL);
+    hg_bringup_init(&bringup, &servo, &bc, stored);
+    if (stored)
+        (void)hg_bringup_power_up(&bringup);
     hg_bringup_isr_ctx = &bringup;
-    hg_link_init(&link, &servo);
     link.bu = &bringup;
-    for (;;) {
-        uint8_t tx[HG_LINK_MAX_FRAME];
-        size_t n = 0;
-        if (uart[0] & (1u << 5))
-            n = hg_link_rx_byte(&link, (uint8_t)uart[1], tx);
-        if (n == 0)
-            n = hg_link_poll(&link, true, tx);
-        uart_send(tx, n);
-    }
+    for (;;)
+        link_pass();
 }

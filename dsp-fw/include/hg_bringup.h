@@ -273,6 +273,16 @@ int hg_bringup_start(hg_bringup_t *b, uint8_t step, uint8_t axis, const int8_t e
  * or HG_BU_ERR_LINK. */
 void hg_bringup_abort(hg_bringup_t *b, uint8_t reason);
 bool hg_bringup_active(const hg_bringup_t *b);
+/* The power-up in the reference pose, after hg_bringup_init with the stored calibration (the
+ * board's main loop, and the virtual device's, call it once the servo has taken
+ * HG_BU_POWER_UP_TICKS ticks, so that the snapshot it records is the interpolator's settled
+ * count). Every axis whose stored calibration is homed and aligned becomes the servo's: an axis
+ * the FPGA has homed already takes it as it is (homed on IDX_POS); any other axis RESTARTs
+ * (no motion, its home virtual) and the servo homes on that virtual home. An axis without a
+ * calibration is left to bring-up (ALIGN, HOME). No torque is written. Returns the mask of
+ * axes the servo now has calibrated (bit i: axis i). */
+#define HG_BU_POWER_UP_TICKS 2u
+unsigned hg_bringup_power_up(hg_bringup_t *b);
 /* One servo tick of the active step (from the ISR). */
 void hg_bringup_step(hg_bringup_t *b);
 /* Interrupt entry while bring-up may run: steps hg_bringup_isr_ctx if active, else the servo. */

@@ -1245,6 +1245,31 @@ static int restart(hg_bringup_t *b, uint8_t axis)
     return HG_BU_OK;
 }
 
+unsigned hg_bringup_power_up(hg_bringup_t *b)
+{
+    hg_servo_t *s = b->servo;
+    const uint32_t status = fpga_read32(HG_REG_STATUS);
+    unsigned mask = 0;
+    for (uint8_t i = 0; i < HG_NAXES; i++) {
+        const bool fpga_homed = (status & HG_STAT_HOMED(i)) != 0;
+        if (!fpga_homed && restart(b, i) != HG_BU_OK)
+            continue; /* no stored calibration: bring-up finds it */
+        if (fpga_homed && (b->calib.axis[i].flags & (HG_CAL_HOMED | HG_CAL_ALIGNED))
+                              != (HG_CAL_HOMED | HG_CAL_ALIGNED))
+            continue;
+        hg_axis_calib_t c = b->calib.axis[i];
+        if (hg_servo_set_calib(s, i, &c) != 0) /* homes on IDX_POS when the FPGA has homed */
+            continue;
+        if (!fpga_homed) { /* the restart's virtual home */
+            const uint32_t t = hg_hal_irq_save();
+            hg_enc_home(&s->cfg.enc[i], b->res[i].home_count);
+            hg_hal_irq_restore(t);
+        }
+        mask |= 1u << i;
+    }
+    return mask;
+}
+
 int hg_bringup_start(hg_bringup_t *b, uint8_t step, uint8_t axis, const int8_t expect[3],
                      uint32_t seed)
 {

@@ -619,6 +619,49 @@ void test_bringup_restart(void)
     CHECK(start(HG_BU_STEP_RESTART, 2) == HG_BU_ERR_NOT_READY);
 }
 
+/* The board's power-up (hg_bringup_power_up): with a stored calibration the servo takes each
+ * calibrated axis from the restart's virtual home, with no motion and no index; an axis
+ * without one is left to bring-up. */
+void test_bringup_power_up(void)
+{
+    setup_sim();
+    SIM.ax[2].off_deg = -33.0;
+    SIM.ax[2].q_index = SIM.ax[2].q_pu + 0.7; /* an index far from the power-up pose */
+    setup_fw(NULL, NULL);
+    align_and_home(2);
+    CHECK(B.err == HG_BU_OK);
+    const hg_calib_t stored = B.calib;
+
+    /* nothing stored: nothing calibrated, no torque */
+    setup_sim();
+    setup_fw(NULL, NULL);
+    const hg_axis_calib_t before = S.cfg.cal.axis[2];
+    CHECK(hg_bringup_power_up(&B) == 0u);
+    CHECK(memcmp(&before, &S.cfg.cal.axis[2], sizeof before) == 0); /* the servo's own, untouched */
+    check_zero_torque_now();
+
+    setup_sim();
+    SIM.ax[2].off_deg = -33.0;
+    SIM.ax[2].q_index = SIM.ax[2].q_pu + 0.7;
+    SIM.ax[2].count0 = -765431; /* a counter that does not start at 0 */
+    setup_fw(NULL, &stored);
+    CHECK(hg_bringup_power_up(&B) == 4u); /* axis 2 alone was calibrated */
+    const sim_ax_t *a = &SIM.ax[2];
+    CHECK(!a->homed && !a->armed);        /* no index search, no homing armed */
+    CHECK(hg_servo_axis_calibrated(&S, 2));
+    CHECK(memcmp(&B.calib.axis[2], &S.cfg.cal.axis[2], sizeof B.calib.axis[2]) == 0);
+    /* the servo's angle is the joint's, to a count or two */
+    const double q = (double)hg_enc_angle(&S.cfg.enc[2], sim_count(a, a->q_pu));
+    CHECK_NEAR(q, a->q_pu, 3.0 * 2.0 * PI_D / CPR);
+    const double q1 = (double)hg_enc_angle(&S.cfg.enc[2], sim_count(a, a->q_pu + 0.3));
+    CHECK_NEAR(q1, a->q_pu + 0.3, 3.0 * 2.0 * PI_D / CPR);
+    /* the OFFSET the FPGA now holds commutates the unhomed axis */
+    const uint32_t off = hal_sim_regs[HG_REG_AXIS(2, HG_AX_OFFSET)];
+    CHECK(off == B.calib.axis[2].comm_offset && off == S.cfg.cal.axis[2].comm_offset);
+    CHECK(torque_ratio(2, off) >= 0.999);
+    check_zero_torque_now();
+}
+
 /* ---------------------------------------------------------------- GUIDED */
 
 static void hand_move(unsigned i, double t0, double dq)

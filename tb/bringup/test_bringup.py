@@ -22,6 +22,7 @@ from hapgate.device import dyntruth, harness, runner, telemetry
 from hapgate.device import scene as sc
 from hapgate.golden import calib, capture, encquality, encsig, pclink
 from hapgate.host import Device
+from hapgate.host.api import Refused
 
 SCENES = ROOT / "scenes"
 UNALIGNED = SCENES / "unaligned.toml"
@@ -449,6 +450,24 @@ def _law_error(scene: sc.Scene, h: dict[str, np.ndarray], t_from: float) -> tupl
     return (float(err.max()) if err.size else float("inf")), int(steady.sum())
 
 
+def _enabled_history(port: str, feed: telemetry.Feed) -> tuple[dict[str, np.ndarray], float]:
+    """ENABLE from the PC, 0.8 s of device time with the forces on (every polled state
+    enabled, no error), and the telemetry history taken before the link closes (Device.close
+    switches the forces off), with the device time of the enable."""
+    with Device.open(port) as dev:
+        dev.enable()                              # the link stays open: polled below
+        t_apply = float(feed.state()["t_s"])
+        deadline = time.monotonic() + 300.0       # a guard against a stopped device only
+        polled = []
+        while float(feed.state()["t_s"]) < t_apply + 0.8 and time.monotonic() < deadline:
+            polled.append(dev.state())
+            time.sleep(0.02)
+        hist = feed.history()                     # before close() disables the forces
+    assert hist["t"][-1] >= t_apply + 0.8, "the device stopped after bring-up"
+    assert polled and all(s.enabled and s.error == 0 for s in polled), polled
+    return hist, t_apply
+
+
 def test_default_bringup_then_the_same_device_renders_the_wall(tmp_path: Path,
                                                                capsys: Any) -> None:
     """The issue's "done when" on one served device: unaligned.toml served, `hapgate bringup
@@ -465,17 +484,7 @@ def test_default_bringup_then_the_same_device_renders_the_wall(tmp_path: Path,
         rc, text, doc = bringup(srv.port, tmp_path, capsys, "--apply")
         assert rc == 0 and doc["result"] == "PASS", text
         assert_found(doc, scene)
-        with Device.open(srv.port) as dev:
-            dev.enable()                              # the link stays open: polled below
-            t_apply = float(feed.state()["t_s"])
-            deadline = time.monotonic() + 300.0       # a guard against a stopped device only
-            polled = []
-            while float(feed.state()["t_s"]) < t_apply + 0.8 and time.monotonic() < deadline:
-                polled.append(dev.state())
-                time.sleep(0.02)
-            hist = feed.history()                     # before close() disables the forces
-    assert hist["t"][-1] >= t_apply + 0.8, "the device stopped after bring-up"
-    assert polled and all(s.enabled and s.error == 0 for s in polled), polled
+        hist, t_apply = _enabled_history(srv.port, feed)
     err, samples = _law_error(scene, hist, t_apply + 0.3)
     with capsys.disabled():
         print(f"\nwall after bring-up: error {err:.4f} N (budget {WALL_BUDGET_N} N) over {samples} "
@@ -483,3 +492,97 @@ def test_default_bringup_then_the_same_device_renders_the_wall(tmp_path: Path,
               f"bring-up {doc['duration_s']:.2f} s of device time")
     assert samples >= 100, samples                    # >= 0.2 s at rest against the wall
     assert err <= WALL_BUDGET_N, err
+
+
+# ------------------------------------------------------------------ power-up (issue 35)
+
+INDEX = SCENES / "bringup" / "index.toml"
+
+
+def test_an_unhomed_device_answers_from_reset() -> None:
+    """bringup/index.toml served (every index tens of degrees from the start pose, no stored
+    calibration: nothing homes it): the link answers within 1 s of the port being printed
+    (Server.start returns when the harness runs: `device serve` prints the port then), and
+    PING/INFO, GET_STATE, GET_CALIB/SET_CALIB and bring-up all work while ENABLE and forces are
+    refused with the documented reason. A device with a stored calibration ("truth") has
+    restarted by itself and enables at once."""
+    with serve(sc.load(INDEX)) as srv:
+        t0 = time.monotonic()
+        with Device.open(srv.port) as dev:
+            info = dev.info()
+            answered_s = time.monotonic() - t0
+            assert answered_s <= 1.0, answered_s
+            assert info.servo_hz == 1000
+            st = dev.state()
+            assert not st.enabled and st.error == 0
+            cal = dev.get_calib(1)
+            dev.set_calib(1, cal)                        # accepted while unhomed
+            assert dev.get_calib(1).words() == cal.words()
+            with pytest.raises(Refused) as exc:
+                dev.enable()
+            assert exc.value.reason == pclink.NAK_UNCALIBRATED, exc.value
+            dev.set_force((0.0, 0.0, 0.5))                # no reply: its NAK arrives before the
+            dev.state()                                    # next answer, and surfaces on the
+            with pytest.raises(Refused) as exc:            # next force (hapgate.host)
+                dev.set_force((0.0, 0.0, 0.5))
+            assert exc.value.reason == pclink.NAK_UNCALIBRATED, exc.value
+            assert dev.bu_start(pclink.BU_STEPS["align"], 0)[0] == 0   # started
+            assert dev.bu_progress()["state"] != "IDLE"
+            dev.bu_abort()
+            assert dev.bu_progress()["state"] == "IDLE"
+            assert not dev.state().enabled
+    with serve(sc.load(SCENES / "wall.toml")) as srv, Device.open(srv.port) as dev:
+        while dev.state().seq < 20:                      # the power-up's restart at tick 2
+            time.sleep(0.01)
+        dev.enable()
+        assert dev.state().enabled
+
+
+def test_index_scene_homes_itself_then_renders_the_wall(tmp_path: Path, capsys: Any) -> None:
+    """The issue's "done when" on bringup/index.toml: served unhomed, `hapgate bringup PORT
+    --steps homing,align --apply` exits 0 with every axis homed and its index within 0.01 deg
+    of the plant's; then, enabled by the PC, the device renders the scene's wall within its
+    budget."""
+    scene = sc.load(INDEX)
+    feed = telemetry.Feed(scene, period_s=0.002, can_pause=False)
+    with Server(scene=scene, pace="free", view=feed) as srv:
+        rc, text, doc = bringup(srv.port, tmp_path, capsys, "--steps", "homing,align",
+                                "--apply")
+        assert rc == 0 and doc["result"] == "PASS", text
+        q_index = np.rad2deg(harness.q_index(runner.start_pose(scene), scene))
+        for i, a in enumerate(doc["axes"]):
+            assert a["homed"] and a["aligned"], (i, a)
+            assert abs(a["index_q_deg"] - q_index[i]) <= INDEX_TOL_DEG, (i, a, q_index)
+        hist, t_apply = _enabled_history(srv.port, feed)
+    err, samples = _law_error(scene, hist, t_apply + 0.3)
+    with capsys.disabled():
+        print(f"\nindex.toml: homed and aligned in {doc['duration_s']:.2f} s of device time; "
+              f"wall error {err:.4f} N (budget {WALL_BUDGET_N} N) over {samples} frames")
+    assert samples >= 100 and err <= WALL_BUDGET_N, (err, samples)
+
+
+def test_homing_on_both_sides_and_an_index_out_of_range(tmp_path: Path, capsys: Any) -> None:
+    """Indexes of our own: 60 deg above the start pose on axis 0, 60 deg below on axis 1 (both
+    within home_range, 1.2 rad = 68.75 deg), 75 deg above on axis 2 (outside it). Axes 0 and 1
+    home within 0.01 deg; axis 2's step ends with NO_INDEX, the travel it covered (up
+    home_range, down twice that) beside the bound 3 x home_range, and nothing is applied."""
+    q0 = np.asarray(sc.load(INDEX).run.q0_deg)
+    d = json.loads(sc.load(INDEX).raw)
+    d["plant"]["index_q_deg"] = list(q0 + [60.0, -60.0, 75.0])
+    scene = sc.from_dict(d, str(INDEX))
+    with serve(scene) as srv:
+        rc, text, doc = bringup(srv.port, tmp_path, capsys, "--steps", "align,homing",
+                                "--apply")
+    assert rc == 1 and doc["result"] == "FAIL", text
+    for i in (0, 1):
+        a = doc["axes"][i]
+        assert a["homed"] and abs(a["index_q_deg"] - (q0[i] + [60.0, -60.0][i])) \
+            <= INDEX_TOL_DEG, (i, a)
+    assert not doc["axes"][2]["homed"]
+    home_range = 1.2
+    assert "axis 2 homing" in text and "NO_INDEX" in text, text
+    line = next(ln for ln in text.splitlines() if ln.startswith("axis 2 homing"))
+    assert f"beside limit {3 * home_range:g}" in line, line
+    covered = float(line.split("NO_INDEX (")[1].split()[0])
+    assert 3 * home_range <= covered <= 3 * home_range + 0.01, line
+    assert "refused" in text and "not every axis is homed" in text, text

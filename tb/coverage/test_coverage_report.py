@@ -165,20 +165,22 @@ def test_block_table_sums_a_folders_modules() -> None:
                         "line, toggle, functional |")
 
 
-def test_readme_table_is_replaced_between_its_markers(tmp_path: Path) -> None:
-    f = tmp_path / "README.md"
-    f.write_text(f"a\n{coverage.README_BEGIN}\nold\n{coverage.README_END}\nb\n")
-    coverage.write_readme_table("| new |\n", f)
-    assert f.read_text() == f"a\n{coverage.README_BEGIN}\n| new |\n{coverage.README_END}\nb\n"
-    f.write_text("no markers\n")
-    with pytest.raises(coverage.BadInput, match="README.md"):
-        coverage.write_readme_table("| new |\n", f)
+def test_block_table_is_put_between_its_markers() -> None:
+    b, e = coverage.TABLE_BEGIN, coverage.TABLE_END
+    assert coverage.put_block_table(f"a\n{b}\nold\n{e}\nb\n", "| new |\n", coverage.DOC) \
+        == f"a\n{b}\n| new |\n{e}\nb\n"
+    with pytest.raises(coverage.BadInput, match="coverage.md"):
+        coverage.put_block_table("no markers\n", "| new |\n", coverage.DOC)
 
 
-def test_the_readme_carries_a_generated_table() -> None:
-    text = coverage.README.read_text()
-    body = text[text.index(coverage.README_BEGIN) + len(coverage.README_BEGIN):
-                text.index(coverage.README_END)].strip().splitlines()
+def test_the_coverage_page_carries_a_generated_block_table() -> None:
+    """docs/coverage.md, as `make coverage` writes it: the block table between its markers,
+    before the per-configuration tables (and the README carries none)."""
+    text = coverage.DOC.read_text()
+    i, j = text.index(coverage.TABLE_BEGIN), text.index(coverage.TABLE_END)
+    assert i < text.index("## Configuration `suite`")
+    body = text[i + len(coverage.TABLE_BEGIN):j].strip().splitlines()
     assert body[0].startswith("| block | lines | branches | port toggles | functional bins")
+    assert coverage.TABLE_BEGIN not in (ROOT / "README.md").read_text()
     assert {r.split("|")[1].strip() for r in body[2:]} >= {
         f"`rtl/{b}/`" for b in ("interp", "commutation", "dac_sched", "bus", "top")}

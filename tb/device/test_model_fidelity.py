@@ -13,6 +13,7 @@ from hapgate.base.paths import ROOT
 from hapgate.commands.cli import main as cli_main
 from hapgate.device import model, runner
 from hapgate.device import scene as sc
+from hapgate.flows import regmap
 from hapgate.golden import kinematics
 
 SCENES = ROOT / "scenes"
@@ -36,13 +37,28 @@ def pair() -> tuple[runner.Raw, runner.Raw, runner.Raw, sc.Scene]:
 
 
 def assert_same_run(rtl: runner.Raw, mdl: runner.Raw, min_frames: int) -> None:
-    """Every frame, tick and load record of the two runs equal, field by field."""
+    """Every frame, tick and load record of the two runs equal, field by field, but for the one
+    documented difference (tb/native/device/README.md, "Model fidelity": index crossings after
+    the release are not tracked): the RTL's sticky STATUS.INDEX of axis 1, which sets from the
+    tick after the short scene's hand moves beta across its index (0.25 deg below the start
+    pose), and which the model leaves as it was at the release. Every other STATUS bit equal."""
     assert rtl.frames.size == mdl.frames.size > min_frames
     for name in runner.FRAME_DT.names:
         assert np.array_equal(rtl.frames[name], mdl.frames[name]), name
     assert rtl.ticks.size == mdl.ticks.size >= 20
     for name in runner.TICK_DT.names:
-        assert np.array_equal(rtl.ticks[name], mdl.ticks[name]), name
+        if name != "status":
+            assert np.array_equal(rtl.ticks[name], mdl.ticks[name]), name
+    f = regmap.load().by_name()["STATUS"].field("INDEX")
+    index = np.uint32(((1 << f.width) - 1) << f.lsb)
+    rs, ms = rtl.ticks["status"], mdl.ticks["status"]
+    assert np.array_equal(rs & ~index, ms & ~index)
+    assert not (ms & index).any()                            # never crossed before the release
+    seen = (rs & index) == np.uint32(1 << (f.lsb + 1))       # axis 1's bit alone, sticky
+    assert seen.any() and seen[np.argmax(seen):].all() and not (rs[~seen] & index).any()
+    q_index = runner.start_pose(_short())[1] - np.deg2rad(0.25)
+    first = int(np.argmax(seen))                             # at the index: within one line
+    assert first > 0 and abs(rtl.ticks["q_true"][first, 1] - q_index) <= 2 * np.pi / 1024
     assert np.array_equal(rtl.loads, mdl.loads)
 
 def test_model_with_the_1us_plant_is_bit_identical_to_the_rtl(pair):

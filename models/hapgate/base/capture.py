@@ -303,6 +303,14 @@ def read_table(path: Path, columns: Sequence[Column], max_line_bytes: int = MAX_
 
 # ---------------------------------------------------------------------------- output
 
+def given_path(option: str, text: str | Path) -> Path:
+    """The path an option names (argparse gives the text as typed): an empty one is an error
+    naming the option (Path("") is ".", and the error would name a folder nobody gave)."""
+    if not str(text):
+        raise CaptureError(f"{option}: the path is empty")
+    return Path(text)
+
+
 def check_output(out: Path, inputs: Sequence[Path] = ()) -> None:
     """Before any work: the output is a regular file or a new name in an existing folder
     (base.atomic's rules: no folder, device, FIFO or missing folder), the folder is writable,

@@ -128,7 +128,7 @@ def run_model(quick: bool = False) -> bool:
     rows = model_rows(quick)
     print(table(MODEL_HEADERS, rows))
     print(f"csv: {write_csv('bench_device_model.csv', MODEL_HEADERS, rows)}")
-    print(f"(CPU s: the harness process's CPU time of the run, homing included, the minimum of "
+    print(f"(CPU s: the harness process's CPU time of the run, power-up included, the minimum of "
           f"{MODEL_REPEATS} runs; the machine is shared, so the wall figure depends on its load. "
           "DAC diff: max per-frame code difference against the rtl run of the same scene)")
     return True

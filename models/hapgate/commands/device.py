@@ -5,6 +5,16 @@ with the firmware's PC link on a pseudo-terminal, for PC programs written agains
 The pty is opened here (raw mode) and its master end handed to the native harness, whose UART
 model (tb/native/device/uart_link.cpp) moves the bytes at the configured baud in simulated
 time. `Server` is the same thing as a context manager, for tests and benchmarks.
+
+SIGINT (Ctrl-C) or SIGTERM ends the command within a second, whatever it is doing:
+
+- serving (after the "port:" line): the harness is stopped, its link summary ("link: bytes in
+  ...") is written on stderr, exit 0;
+- before that (building the harness, starting it): "device serve: stopped while building" (or
+  "... while starting") on stderr, the harness's summary if it had started, and exit 128 + the
+  signal's number (130 for SIGINT, 143 for SIGTERM), as a shell reports a command the signal
+  ended. An interrupted build's compilers are ended with it (hapgate.base.cbuild) and it leaves
+  no cached harness behind: the next start builds it again.
 """
 
 from __future__ import annotations
@@ -29,12 +39,38 @@ from ..device.telemetry import Feed
 from . import view
 
 SERVE_S = 1e6                 # simulated seconds a server runs for (it stops on a signal)
+STOP_WAIT_S = 2.0             # after SIGTERM, how long the harness may take before SIGKILL
 PACES = ("realtime", "free")
 DEFAULT_BAUD = 1_000_000      # the paper's parallel-port rate
 
 
 class ServeError(RuntimeError):
     """The server could not start (bad scene, build failure, harness refused its config)."""
+
+
+class Interrupted(BaseException):
+    """SIGINT or SIGTERM before the device serves (`signum`). A BaseException, like
+    KeyboardInterrupt, so that no `except Exception` on the way (a build's) holds it up."""
+
+    def __init__(self, signum: int) -> None:
+        super().__init__(signum)
+        self.signum = signum
+
+
+class _Signals:
+    """SIGINT and SIGTERM for `main`: the first one raises Interrupted until `serving` is set
+    (the build and the start end at once), and sets `stop` in any case (the serve loop ends).
+    A second signal only sets `stop`, so that it cannot break the clean-up of the first."""
+
+    def __init__(self) -> None:
+        self.stop = threading.Event()
+        self.serving = False
+
+    def __call__(self, signum: int, _frame: Any) -> None:
+        first = not self.stop.is_set()
+        self.stop.set()
+        if first and not self.serving:
+            raise Interrupted(signum)
 
 
 def default_scene() -> Any:
@@ -78,10 +114,13 @@ class Server:
         self._tmp: tempfile.TemporaryDirectory[str] | None = None
         self._err: list[str] = []
         self._reader: threading.Thread | None = None
+        self.building = False     # in start(), building the harness (or finding it built)
 
     def start(self) -> str:
         sc = self.scene
+        self.building = True
         exe = runner.build(runner.choose_clock(sc), runner.axis_mask(sc), False)
+        self.building = False
         q0 = runner.start_pose(sc)
         self._tmp = tempfile.TemporaryDirectory(prefix="serve-",
                                                 dir=ensure(BUILD / "native" / "runs"))
@@ -123,11 +162,12 @@ class Server:
             self._err.append(line)
 
     def stop(self) -> str:
-        """SIGTERM, wait, and return what the harness reported (the link summary line)."""
+        """SIGTERM, wait (STOP_WAIT_S, then SIGKILL), and return what the harness reported on
+        stderr (the link summary line)."""
         if self.proc is not None and self.proc.poll() is None:
             self.proc.send_signal(signal.SIGTERM)
             try:
-                self.proc.wait(timeout=30)
+                self.proc.wait(timeout=STOP_WAIT_S)
             except subprocess.TimeoutExpired:
                 self.proc.kill()
                 self.proc.wait()
@@ -162,31 +202,43 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 
 def main(args: argparse.Namespace) -> int:
-    feed = None
+    """Serve until SIGINT or SIGTERM (the module's docstring says what a signal does when)."""
+    sigs = _Signals()
+    old = {s: signal.signal(s, sigs) for s in (signal.SIGINT, signal.SIGTERM)}
+    server: Server | None = None
     try:
-        scene = load_scene(args.scene)
-        feed = Feed(scene, can_pause=False) if args.view else None
-        server = Server(scene, args.baud, args.pace, tuple(args.axes) if args.axes else None,
-                        view=feed)
-    except (ServeError, ValueError, OSError) as exc:
-        print(f"error: {exc}", file=sys.stderr)
-        return 2
-    stop = threading.Event()
+        feed = None
+        try:
+            scene = load_scene(args.scene)
+            feed = Feed(scene, can_pause=False) if args.view else None
+            server = Server(scene, args.baud, args.pace,
+                            tuple(args.axes) if args.axes else None, view=feed)
+        except (ServeError, ValueError, OSError) as exc:
+            print(f"error: {exc}", file=sys.stderr)
+            return 2
+        try:
+            port = server.start()
+        except (ServeError, ValueError, RuntimeError) as exc:   # DeviceError is a RuntimeError
+            server.stop()
+            print(f"error: {exc}", file=sys.stderr)
+            return 2
+        sigs.serving = True           # from here a signal only ends the serve loop
+        print(f"port: {port}", flush=True)
+        return _serve(server, feed, args, sigs.stop)
+    except Interrupted as exc:
+        return _stopped_early(exc.signum, server)
+    finally:
+        for s, h in old.items():
+            signal.signal(s, h)
 
-    def on_signal(_sig: int, _frm: Any) -> None:
-        stop.set()
 
-    signal.signal(signal.SIGINT, on_signal)
-    signal.signal(signal.SIGTERM, on_signal)
-    try:
-        port = server.start()
-    except (ServeError, ValueError, RuntimeError) as exc:     # DeviceError is a RuntimeError
-        print(f"error: {exc}", file=sys.stderr)
-        return 2
-    print(f"port: {port}", flush=True)
+def _serve(server: Server, feed: Feed | None, args: argparse.Namespace,
+           stop: threading.Event) -> int:
+    """The started server until `stop` is set: its summary on stderr, 0 (1 if the harness
+    ended by itself, 2 if the page could not open)."""
     page = None
     if feed is not None:
-        page = view.open_page(feed, args, f"device serve on {port}",
+        page = view.open_page(feed, args, f"device serve on {server.port}",
                               *runner.parts(server.scene))
         if page is None:
             server.stop()
@@ -195,12 +247,26 @@ def main(args: argparse.Namespace) -> int:
           f"{list(server.scene.run.axes)}; Ctrl-C stops", file=sys.stderr, flush=True)
     while not stop.is_set():
         if server.proc is not None and server.proc.poll() is not None:
-            print(f"error: the device harness ended ({server.proc.returncode}): "
-                  f"{''.join(server._err).strip()}", file=sys.stderr)
+            code, said = server.proc.returncode, server.stop()     # (all it wrote, read)
+            if page is not None:
+                page.close()
+            print(f"error: the device harness ended ({code}): {said.strip()}", file=sys.stderr)
             return 1
         stop.wait(0.2)
     summary = server.stop()
     if page is not None:
         page.close()
     sys.stderr.write(summary)
+    sys.stderr.flush()
     return 0
+
+
+def _stopped_early(signum: int, server: Server | None) -> int:
+    """A signal before the device served: say where it stopped, stop what had started (the
+    harness's summary, if it ran) and exit 128 + signum."""
+    where = "building" if server is not None and server.building else "starting"
+    summary = server.stop() if server is not None else ""
+    print(f"device serve: stopped while {where}", file=sys.stderr)
+    sys.stderr.write(summary)
+    sys.stderr.flush()
+    return 128 + signum

@@ -34,6 +34,7 @@ from ..base.capture import (
     Column,
     CsvWriter,
     check_output,
+    given_path,
     iter_table,
     line_progress,
     rechunk,
@@ -194,8 +195,8 @@ def replay_rtl(inp: Path, out: Path, cfg: cm.CommutationConfig, chunk_rows: int
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("--in", dest="inp", required=True, type=Path, help="FRAMES.csv")
-    parser.add_argument("--out", required=True, type=Path,
+    parser.add_argument("--in", dest="inp", required=True, help="FRAMES.csv")
+    parser.add_argument("--out", required=True,
                         help="DAC.csv to write (its folder must exist)")
     parser.add_argument("--engine", choices=("rtl", "model"), default="rtl",
                         help="rtl: native Verilator harness, checked against the model (default)")
@@ -211,6 +212,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def main(args: argparse.Namespace) -> int:
     try:
+        args.inp, args.out = given_path("--in", args.inp), given_path("--out", args.out)
         why = clock_error(args.clk_hz, args.engine)
         if why:
             raise CaptureError(why)

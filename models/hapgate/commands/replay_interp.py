@@ -19,6 +19,7 @@ from ..base.capture import (
     Column,
     CsvWriter,
     check_output,
+    given_path,
     iter_table,
     line_progress,
     rechunk,
@@ -41,11 +42,11 @@ CHUNK_ROWS = 1 << 18
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
-    p.add_argument("--in", dest="inp", required=True, type=Path,
+    p.add_argument("--in", dest="inp", required=True,
                    help="CAPTURE.csv: header; a,b (signed ADC codes); optional index (0/1), "
                         "truth_counts (float, 1024 counts per line at any --lut-bits); other "
                         "columns ignored (and named)")
-    p.add_argument("--out", required=True, type=Path,
+    p.add_argument("--out", required=True,
                    help="RESULT.csv (row k = sample k); its folder must exist")
     p.add_argument("--engine", choices=("rtl", "model"), default="rtl",
                    help="rtl: the native Verilator harness; model: the golden model")
@@ -244,6 +245,9 @@ def main(args: argparse.Namespace) -> int:
     why = clock_error(args.clk_hz)
     harm: np.ndarray | None = None
     try:
+        args.inp, args.out = given_path("--in", args.inp), given_path("--out", args.out)
+        if args.harm is not None:
+            given_path("--harm", args.harm)
         if why:
             raise CaptureError(why)
         if args.chunk_rows < 1:

@@ -30,8 +30,9 @@ OBS_MIN_CLK_HZ = 12_000_000  # run.velocity = "observer": its extra clock of lat
 FULL_CLK_HZ = 48_000_000     # the shipped default
 SAMPLE_HZ = 1_000_000
 K_MAX_TEST = 50_000.0        # N/m: HG_SCENE_K_MAX_TEST of a firmware.test_limits build
-T_SWEEP0_S, T_SWEEP_S, T_SETTLE_S = 100e-6, 6e-3, 3e-3   # homing before scene time 0
-SWEEP_DEG = 0.5              # homing sweep, ending at q0; the index lies half-way
+T_HOLD_S = 9.1e-3            # power-up: a fixture holds the handle in q0 from reset to scene time 0
+DEFAULT_INDEX_DEG = 0.25     # without plant.index_q_deg each index lies this far below q0
+HOLD_SAMPLES = 64            # a held axis: the golden interpolator reads it after this many samples
 LOSS_SAMPLES = 16            # interpolator: the 16th bad sample raises signal loss
 ENV_KINDS = {"none": 0, "wall": 1, "spring": 2, "viscous": 3, "pc": 4}
 # the [[fault]] kinds the harnesses simulate, by name (harness_common.h kFaultKinds: a test),
@@ -93,11 +94,11 @@ def start_pose(scene: Any) -> np.ndarray:
 
 
 def q_index(q0: np.ndarray, scene: Any = None) -> np.ndarray:
-    """The index of each encoder: plant.index_q_deg, else half-way along the homing sweep."""
+    """The index of each encoder: plant.index_q_deg, else DEFAULT_INDEX_DEG below the start pose."""
     given = getattr(getattr(scene, "plant", None), "index_q_deg", None)
     if given is not None:
         return np.deg2rad(np.asarray(given, dtype=float))
-    return q0 - np.deg2rad(SWEEP_DEG) / 2
+    return q0 - np.deg2rad(DEFAULT_INDEX_DEG)
 
 
 def _plant_bringup(scene: Any) -> tuple[tuple[float, ...], tuple[bool, ...], tuple[int, ...]]:
@@ -139,13 +140,13 @@ def plant_config(scene: Any, q0: np.ndarray) -> str:
         f"enc_phase_deg = {_vec([e.phase_deg for e in enc])}",
         f"enc_h2 = {_vec([e.h2 for e in enc])}", f"enc_h3 = {_vec([e.h3 for e in enc])}",
         f"enc_noise_lsb = {_vec(noise)}",
-        f"q_index = {_vec(q_index(q0, scene))}", f"q0 = {_vec(q0 - np.deg2rad(SWEEP_DEG))}",
+        f"q_index = {_vec(q_index(q0, scene))}", f"q0 = {_vec(q0)}",
         f"comm_offset_deg = {_vec(_plant_bringup(scene)[0])}",
         f"phases_swapped = {_vec([1.0 if b else 0.0 for b in _plant_bringup(scene)[1]])}",
         f"encoder_dir = {_vec(_plant_bringup(scene)[2])}",
         f"free = {_vec([1.0 if i in built else 0.0 for i in range(3)])}",
         f"seed = {int(scene.run.seed)}",
-        f"t0_s = {-(T_SWEEP0_S + T_SWEEP_S + T_SETTLE_S)!r}",
+        f"t0_s = {-T_HOLD_S!r}",
     ]
     gk = list(getattr(pl, "gravity_k", ()) or ())
     if gk:
@@ -168,30 +169,26 @@ def _coarse(scene: Any) -> bool:
 
 
 def hold_values(scene: Any, q0: np.ndarray) -> dict[str, list[int]]:
-    """What the interpolator of a held (not built) axis reports after the homing sweep: the
-    golden model run on the same sweep, noise-free (README, "Axes that are not built")."""
+    """What the interpolator of a held (not built) axis reports: the joint at rest in the start
+    pose since reset, unhomed (nothing arms the index latch before the firmware does): the
+    golden model's position on that constant, noise-free signal, its index latch and count 0
+    (README, "Axes that are not built"; the held bank shows an axis homed only when
+    hold_index_count says an index was latched). So a held axis powers up as a built one held
+    in the same pose does, and the firmware restarts it the same way."""
     out = {"hold_pos_homed": [0, 0, 0], "hold_index_pos": [0, 0, 0], "hold_index_count": [0, 0, 0]}
     built = set(int(a) for a in scene.run.axes)
-    n = int(round((T_SWEEP0_S + T_SWEEP_S + T_SETTLE_S) * SAMPLE_HZ))
-    g = np.arange(1, n + 1) * 1e-6                      # sample k is the grid point k + 1
-    u = np.clip((g - T_SWEEP0_S) / T_SWEEP_S, 0.0, 1.0)
-    s = 0.5 * (1 - np.cos(np.pi * u))
     qi = q_index(q0, scene)
     enc_dir = _plant_bringup(scene)[2]
     for i in range(3):
         if i in built:
             continue
         e = _enc(scene, i)
-        q = q0[i] - np.deg2rad(SWEEP_DEG) * (1 - s)
-        lines = (q - qi[i]) / (2 * np.pi) * encsig.LINES
+        lines = np.full(HOLD_SAMPLES, (q0[i] - qi[i]) / (2 * np.pi) * encsig.LINES)
         spec = replace(e.spec(seed=0), noise_lsb=0.0)
         a, b = encsig.adc_codes(lines, spec)
         if enc_dir[i] < 0:               # A and B swapped at the connector (the plant's too)
             a, b = b, a
-        o = interp.run(a, b, encsig.index_bit(lines), InterpConfig(coarse=_coarse(scene)),
-                       arm_at=[0])
-        if not bool(o.homed[-1]) and getattr(scene, "calibration", "truth") != "none":
-            raise DeviceError(f"axis {i}: the homing sweep did not home the held axis")
+        o = interp.run(a, b, encsig.index_bit(lines), InterpConfig(coarse=_coarse(scene)))
         out["hold_pos_homed"][i] = int(o.pos_homed[-1])
         out["hold_index_pos"][i] = int(o.index_pos[-1])
         out["hold_index_count"][i] = int(o.index_count[-1])
@@ -209,8 +206,7 @@ def run_config(scene: Any, q0: np.ndarray) -> str:
              f"env_ki = {float(getattr(env, 'ki', 0.0) or 0.0)!r}",
              f"q0 = {_vec(q0)}", f"q_index = {_vec(q_index(q0, scene))}",
              f"qd0 = {_vec(np.deg2rad(getattr(scene.run, 'qd0_deg_s', None) or (0, 0, 0)))}",
-             f"sweep_rad = {math.radians(SWEEP_DEG)!r}", f"t_sweep_s = {T_SWEEP_S!r}",
-             f"t_settle_s = {T_SETTLE_S!r}",
+             f"t_hold_s = {T_HOLD_S!r}",
              f"comm_err = {' '.join(str(int(v)) for v in scene.firmware.comm_offset_error_counts)}",
              f"record = {record_mask(scene)}"]
     timeout_ms = getattr(scene.firmware, "pc_force_timeout_ms", None)

@@ -123,12 +123,12 @@ def pgo_enabled() -> bool:
     return os.environ.get("HG_PGO", "1") != "0"
 
 
-TRAIN_S = 0.03   # s of scene time in a PGO training run (after the 9.1 ms homing)
+TRAIN_S = 0.03   # s of scene time in a PGO training run (after the 9.1 ms power-up)
 
 
 def _train(clk_hz: int, mask: int, test_limits: bool, coarse: bool, vel_obs: bool,
            exe: Path) -> None:
-    """The PGO training run of a device build: TRAIN_S of scenes/wall.toml (homing, the hand
+    """The PGO training run of a device build: TRAIN_S of scenes/wall.toml (power-up, the hand
     pushing into the wall) on the build's own clock and axes."""
     s = load_scene(ROOT / "scenes" / "wall.toml").override({
         "run.duration_s": TRAIN_S, "run.clk_hz": clk_hz, "fault": [], "expect": {},

@@ -221,7 +221,7 @@ class PlantCfg:
     phases_swapped: tuple[bool, bool, bool] = (False, False, False)   # amplifier a, b swapped
     encoder_dir: tuple[int, int, int] = (1, 1, 1)   # -1: encoder A and B swapped
     index_q_deg: tuple[float, float, float] | None = None   # joint angle of the index, deg;
-    #                                   None: half-way along the homing sweep (q0 - 0.25 deg)
+    #                                   None: 0.25 deg below the start pose (DEFAULT_INDEX_DEG)
 
     @property
     def substeps(self) -> int:
@@ -382,8 +382,7 @@ def from_dict(d: Mapping[str, Any], source: str = "<scene>") -> Scene:
     return out
 
 
-SWEEP_DEG = 0.5                  # the harness's homing sweep ends at q0 (harness.SWEEP_DEG)
-INDEX_MARGIN_DEG = 0.05          # an index this close to either end of it may not be crossed
+DEFAULT_INDEX_DEG = 0.25         # without plant.index_q_deg each index lies this far below q0
 
 
 def _calib(mode: str, plant: PlantCfg, run: RunCfg, source: str
@@ -394,7 +393,7 @@ def _calib(mode: str, plant: PlantCfg, run: RunCfg, source: str
         qi = (np.deg2rad(np.asarray(plant.index_q_deg, dtype=np.float64))
               if plant.index_q_deg is not None else
               np.deg2rad(np.asarray(run.q0_deg or DEFAULT_Q0_DEG, dtype=np.float64))
-              - np.deg2rad(SWEEP_DEG) / 2)
+              - np.deg2rad(DEFAULT_INDEX_DEG))
         return calib.truth(qi, plant.comm_offset_elec_deg, plant.phases_swapped,
                            plant.encoder_dir, plant.pole_pairs)
     path = Path(mode)
@@ -404,12 +403,12 @@ def _calib(mode: str, plant: PlantCfg, run: RunCfg, source: str
 
 
 def index_rad(scene: Scene) -> np.ndarray:
-    """The joint angle of each encoder's index [rad]: plant.index_q_deg, else half-way along
-    the homing sweep (today's device: the windings' zero lies there too, unless
+    """The joint angle of each encoder's index [rad]: plant.index_q_deg, else
+    DEFAULT_INDEX_DEG below the start pose (the windings' zero lies there too, unless
     comm_offset_elec_deg says otherwise)."""
     if scene.plant.index_q_deg is not None:
         return np.deg2rad(np.asarray(scene.plant.index_q_deg, dtype=np.float64))
-    return scene.q0_rad - np.deg2rad(SWEEP_DEG) / 2
+    return scene.q0_rad - np.deg2rad(DEFAULT_INDEX_DEG)
 
 
 # ------------------------------------------------------------------------------- validation
@@ -722,25 +721,13 @@ class _Validator:
         return FirmwareCfg(**kw)  # type: ignore[arg-type]
 
     def calibration(self, scene: Scene) -> None:
-        """Check the calibration the scene resolves to (a file: that it loads). A homed one
-        needs each index on the harness's homing sweep (its README, "Homing")."""
-        mode = scene.calibration
+        """Check the calibration the scene resolves to (a file: that it loads). An index may lie
+        anywhere: a stored calibration restarts in the start pose without one (the firmware's
+        RESTART), and without a calibration bring-up's HOME searches for it."""
         try:
             scene.calib()
         except calib.CalibError as exc:
             raise self.fail("firmware.calibration", str(exc)) from None
-        plant = scene.plant
-        if mode != "none" and plant.index_q_deg is not None:
-            q0 = np.asarray(scene.run.q0_deg, dtype=np.float64)
-            for i in range(3):
-                qi = plant.index_q_deg[i]
-                lo, hi = q0[i] - SWEEP_DEG + INDEX_MARGIN_DEG, q0[i] - INDEX_MARGIN_DEG
-                if not lo <= qi <= hi:
-                    raise self.fail(f"plant.index_q_deg[{i}]",
-                                    f"{qi:g} deg: with a homed calibration ({mode!r}) the "
-                                    f"index must lie on the homing sweep, {lo:g}..{hi:g} deg "
-                                    "(q0 - 0.45 .. q0 - 0.05): use calibration = \"none\" "
-                                    "for an index elsewhere")
 
     def plant(self, d: dict[str, Any]) -> PlantCfg:
         def pos(hi: float, unit: str) -> Callable[[object, str], float]:

@@ -434,7 +434,7 @@ int ServoRun::simulate() {
 // expiry, or an axis's signal gone), the ISR records (ticks.bin) and the enable.
 int ServoRun::clock_loop() {
     scene0_us_ = std::llround(tr_.t_push * 1e6);
-    sc_.start(run_, scene0_us_, static_cast<int64_t>(kD));
+    sc_.start(run_, scene0_us_, static_cast<int64_t>(kD), true);   // its sweep homes the FPGA
     cosim::scenario = &sc_;
     // whole microseconds: the push starts on one, the scene's duration is a whole number of them
     const uint64_t end_edge = static_cast<uint64_t>(scene0_us_ + std::llround(run_.duration_s * 1e6)) * kD;
@@ -467,7 +467,7 @@ int ServoRun::clock_loop() {
         isrs_.push_back(r);
         const int64_t tick_g = static_cast<int64_t>(r.irq_edge / kD);
         // ---- background loop: homing, then the scene and enable at the tick before scene time 0
-        if (sc_.after_isr(s_, tick_g, q_ring_[static_cast<size_t>(tick_g - 1) % kRing].data())) {
+        if (sc_.after_isr(s_, tick_g, q_ring_[static_cast<size_t>(tick_g - 1) % kRing].data()) == hg_dev::Scenario::Bg::scene) {
             const int rc = hg_dev::fw_home_scene_enable(&s_, run_, true);
             if (rc != 0) return rc;
             sc_.enabled(sc_.scene_t(static_cast<int64_t>(bench_.edge / kD)));

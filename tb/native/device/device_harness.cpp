@@ -112,7 +112,7 @@ struct Bench : hg_tb::TestB<Vhapgate_top> {
     uint32_t skew = 0, frame = 0;  // clocks (from the RTL's DAC_SKEW / DAC_FRAME)
     // grid
     int64_t scene0_us = 0;        // grid point of scene time 0
-    bool dynamic = false;         // plant released (after homing)
+    bool dynamic = false;         // plant released (scene time 0: the fixture lets go)
     bool dropout[3] = {false, false, false};
     std::vector<double> qtrue_ring;  // true q per grid point (ring), for the snapshot truth
     static constexpr size_t kRing = 4096;
@@ -131,7 +131,6 @@ struct Bench : hg_tb::TestB<Vhapgate_top> {
                 ++k;
             }
         }
-        if (!dynamic) homing_pose(g);
         hg_plant_q(plant, &qtrue_ring[(g % kRing) * 3]);
         const bool frame_start = frame && (g * D) % frame == 0;
         if (frame_start && dynamic && (cfg->record & 3)) {
@@ -179,12 +178,6 @@ struct Bench : hg_tb::TestB<Vhapgate_top> {
     int steps_per_us = 1;
     bool inputs_changed = true;   // an input other than the clocks changed (eval(), below)
 
-    void homing_pose(uint64_t g) {  // raised-cosine sweep of every joint, ending at rest at q0
-        double q[3], qd[3];
-        hg_dev::homing_pose(*cfg, t_sweep0, static_cast<double>(g) * 1e-6, q, qd);
-        hg_plant_set_q(plant, q, qd);
-    }
-    double t_sweep0 = 100e-6;   // s after reset: the sweep starts
 
 #if !HG_TRACE
     // NBA trigger vector of a rising edge of clk with the stage clocks of gate bits g (README
@@ -457,13 +450,14 @@ int main(int argc, char** argv) {
     // ---------------------------------------------------------------- firmware bring-up
     hg_servo_cfg_t fw;
     hg_dev::fw_config(cfg, CLK_HZ, &fw);
+    hg_calib_t stored;        // the board's flash: the scene's calibration, if it has one
+    const bool have_stored = hg_dev::fw_store_calib(&fw, &stored);
     static hg_servo_t s;
-    static hg_bringup_t bu;   // reachable from the link once the start pose is reached
+    static hg_bringup_t bu;   // reachable from the link once the power-up has recorded the pose
     const uint8_t init_err = hg_servo_init(&s, &fw);
     bench.skew = fpga_read32(HG_WORD(offsetof(hapgate_t, DAC_SKEW)));
     bench.frame = fpga_read32(HG_WORD(offsetof(hapgate_t, DAC_FRAME)));
     const uint32_t wdog_us = fpga_read32(HG_REG_WDOG_TIMEOUT);
-    fpga_write32(HG_REG_CTRL, HG_CTRL_HOME_ARM);
     hg_servo_isr_ctx = &s;
     UartLink* link = argc == 5 ? uart_link_open(argv[4], &s, cfg.servo_hz) : nullptr;
     if (init_err != HG_ERR_NONE) std::fprintf(stderr, "warning: firmware init error %u\n", init_err);
@@ -473,8 +467,8 @@ int main(int argc, char** argv) {
         bench.view = view_link_open(cfg.view_fd, cfg.ctl_fd, cfg.view_period_s,
                                     static_cast<double>(bench.frame) / CLK_HZ * 1e6, outdir, !served);
 
-    // scene time 0: the sweep and the settle are over; the plant is released there
-    bench.scene0_us = static_cast<int64_t>(std::llround((bench.t_sweep0 + cfg.t_sweep_s + cfg.t_settle_s) * 1e6));
+    // scene time 0: the fixture that held the handle in the start pose since reset lets go
+    bench.scene0_us = static_cast<int64_t>(std::llround(cfg.t_hold_s * 1e6));
     const uint64_t end_us = static_cast<uint64_t>(bench.scene0_us) + static_cast<uint64_t>(std::llround(cfg.duration_s * 1e6));
     const bool scripted = link && uart_link_scripted(link);   // a scene's scripted PC
     if (scripted) uart_link_set_origin(link, static_cast<uint64_t>(bench.scene0_us));
@@ -519,7 +513,7 @@ int main(int argc, char** argv) {
         const bool rose = bench.irq_rose;
         bench.irq_rose = false;
         if (!SC.isr_due(rose, static_cast<int64_t>(bench.edge), top.irq != 0, wdog_us)) {
-            if (link && SC.is_enabled() && bench.edge % D == 0) uart_link_service(link, g_now);  // background loop
+            if (link && bench.edge % D == 0) uart_link_service(link, g_now);  // background loop, from reset
             continue;
         }
         const uint64_t tick_g = (rose ? bench.irq_edge : bench.edge) / D;
@@ -539,17 +533,25 @@ int main(int argc, char** argv) {
         const uint64_t gs = tick_g - 1;
         guided_hand(plant, cfg, bu, s);
         if (link && !scripted && SC.ticks.size() >= 65536) SC.ticks.clear();  // serving: runs until a signal
-        // ---- background loop: homing, then the scene and enable at scene time 0
-        if (SC.after_isr(s, static_cast<int64_t>(tick_g), &bench.qtrue_ring[(gs % Bench::kRing) * 3])) {
-            const int rc = hg_dev::fw_home_scene_enable(&s, cfg, !link && !vctl.forces_off);  // with a PC link: the PC enables
+        // ---- background loop (board.c's main): the power-up once the snapshot has settled, then
+        // the scene's start at the tick before scene time 0 (its enable, unless a PC enables)
+        switch (SC.after_isr(s, static_cast<int64_t>(tick_g), &bench.qtrue_ring[(gs % Bench::kRing) * 3])) {
+        case hg_dev::Scenario::Bg::power_up: {
+            const int rc = hg_dev::fw_power_up(&s, &bu, cfg, have_stored ? &stored : nullptr);
             if (rc != 0) return rc;
-            SC.enabled(bench.scene_t(bench.edge / D));   // (before bring-up's bus reads)
-            // the joints rest in the scene's start pose: bring-up's reference pose
-            hg_bringup_cfg_t bc;
-            hg_dev::fw_bringup_config(cfg, &bc);
-            hg_bringup_init(&bu, &s, &bc, hg_servo_calibrated(&s) ? &s.cfg.cal : nullptr);
             hg_bringup_isr_ctx = &bu;
             if (link) uart_link_set_bringup(link, &bu);
+            break;
+        }
+        case hg_dev::Scenario::Bg::scene:
+            if (!link && !vctl.forces_off && hg_servo_calibrated(&s) && hg_servo_enable(&s, true) != 0) {
+                std::fprintf(stderr, "error: the firmware refused to enable\n");
+                return 3;
+            }
+            SC.enabled(bench.scene_t(bench.edge / D));
+            break;
+        case hg_dev::Scenario::Bg::none:
+            break;
         }
     }
     const double wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - w0).count();

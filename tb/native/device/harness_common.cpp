@@ -64,9 +64,7 @@ bool parse_run(const std::string& text, RunCfg& c, std::string& err, Keys keys) 
         else if (key == "q0" && need(3)) std::copy(v.begin(), v.end(), c.q0);
         else if (key == "qd0" && need(3)) std::copy(v.begin(), v.end(), c.qd0);
         else if (key == "q_index" && need(3)) std::copy(v.begin(), v.end(), c.q_index);
-        else if (key == "sweep_rad" && need(1)) c.sweep_rad = v[0];
-        else if (key == "t_sweep_s" && need(1)) c.t_sweep_s = v[0];
-        else if (key == "t_settle_s" && need(1)) c.t_settle_s = v[0];
+        else if (key == "t_hold_s" && need(1)) c.t_hold_s = v[0];
         else if (key == "pc_force_timeout_ticks" && need(1)) c.pc_force_timeout_ticks = static_cast<int64_t>(v[0]);
         else if (key == "comm_err" && need(3)) for (int i = 0; i < 3; ++i) c.comm_err[i] = static_cast<int>(v[i]);
         else if (key == "calib" && need(18)) {
@@ -153,8 +151,9 @@ FrameRec frame_record(const hg_plant_out& o, double t, uint32_t record) {
     return r;
 }
 
-void Scenario::start(const RunCfg& cfg, int64_t scene0_us, int64_t d) {
+void Scenario::start(const RunCfg& cfg, int64_t scene0_us, int64_t d, bool wait_homed) {
     cfg_ = &cfg;
+    wait_homed_ = wait_homed;
     d_ = d;
     scene0_ = scene0_us;
     next_progress_ = cfg.progress_s > 0 ? scene0_us : kNoProgress;
@@ -171,20 +170,6 @@ void write_file(const std::string& outdir, const std::string& name, const void* 
     if (!f) { std::fprintf(stderr, "error: cannot write %s/%s\n", outdir.c_str(), name.c_str()); std::exit(3); }
     if (bytes) std::fwrite(data, 1, bytes, f);
     if (std::fclose(f) != 0) { std::fprintf(stderr, "error: writing %s/%s failed\n", outdir.c_str(), name.c_str()); std::exit(3); }
-}
-
-void homing_pose(const RunCfg& cfg, double t_sweep0, double t_abs, double q[3], double qd[3]) {
-    const double t = t_abs - t_sweep0;
-    double s = 0, ds = 0;
-    if (t <= 0) s = 0;
-    else if (t < cfg.t_sweep_s) {
-        s = 0.5 * (1 - std::cos(kPi * t / cfg.t_sweep_s));
-        ds = 0.5 * kPi / cfg.t_sweep_s * std::sin(kPi * t / cfg.t_sweep_s);
-    } else s = 1;
-    for (int i = 0; i < 3; ++i) {
-        q[i] = cfg.q0[i] - cfg.sweep_rad * (1 - s);
-        qd[i] = cfg.sweep_rad * ds;
-    }
 }
 
 void print_summary(const Summary& s) {
@@ -235,9 +220,8 @@ void fw_bringup_config(const RunCfg& cfg, hg_bringup_cfg_t* bc) {
     bc->travel_max = HG_C(3.2);
 }
 
-int fw_home_scene_enable(hg_servo_t* s, const RunCfg& cfg, bool enable) {
-    for (uint32_t i = 0; i < 3; ++i)
-        hg_enc_home(&s->cfg.enc[i], static_cast<int32_t>(fpga_read32(HG_REG_AXIS(i, HG_AX_IDX_POS))));
+namespace {
+int set_scene(hg_servo_t* s, const RunCfg& cfg) {
     hg_scene_t sc{};
     sc.type = static_cast<uint8_t>(cfg.env_kind);
     for (int i = 0; i < 3; ++i) {
@@ -247,7 +231,36 @@ int fw_home_scene_enable(hg_servo_t* s, const RunCfg& cfg, bool enable) {
     sc.k = static_cast<hg_real>(cfg.env_k);
     sc.b = static_cast<hg_real>(cfg.env_b);
     sc.ki = static_cast<hg_real>(cfg.env_ki);
-    const int sr = hg_servo_set_scene(s, &sc);
+    return hg_servo_set_scene(s, &sc);
+}
+}  // namespace
+
+bool fw_store_calib(hg_servo_cfg_t* fw, hg_calib_t* stored) {
+    *stored = fw->cal;
+    bool all = true;
+    for (auto& a : fw->cal.axis) {
+        all = all && (a.flags & (HG_CAL_HOMED | HG_CAL_ALIGNED)) == (HG_CAL_HOMED | HG_CAL_ALIGNED);
+        a.flags = static_cast<uint8_t>(a.flags & ~HG_CAL_HOMED);
+    }
+    return all;
+}
+
+int fw_power_up(hg_servo_t* s, hg_bringup_t* bu, const RunCfg& cfg, const hg_calib_t* stored) {
+    hg_bringup_cfg_t bc;
+    fw_bringup_config(cfg, &bc);
+    hg_bringup_init(bu, s, &bc, stored);
+    if (stored) (void)hg_bringup_power_up(bu);   // (an axis it could not restart stays refused)
+    if (set_scene(s, cfg) != 0) {
+        std::fprintf(stderr, "error: the firmware refused the scene\n");
+        return 3;
+    }
+    return 0;
+}
+
+int fw_home_scene_enable(hg_servo_t* s, const RunCfg& cfg, bool enable) {
+    for (uint32_t i = 0; i < 3; ++i)
+        hg_enc_home(&s->cfg.enc[i], static_cast<int32_t>(fpga_read32(HG_REG_AXIS(i, HG_AX_IDX_POS))));
+    const int sr = set_scene(s, cfg);
     const int en = enable && hg_servo_calibrated(s) ? hg_servo_enable(s, true) : 0;
     if (sr != 0 || en != 0) {
         std::fprintf(stderr, "error: the firmware refused the scene (%d) or enable (%d)\n", sr, en);

@@ -61,8 +61,10 @@ struct RunCfg {
     double q0[3] = {0, 0, 0};
     double qd0[3] = {0, 0, 0};              // rad/s at release (scene time 0)
     double q_index[3] = {0, 0, 0};
-    double sweep_rad = 0.5 * kPi / 180.0;   // homing sweep, ends at q0, index half-way
-    double t_sweep_s = 6e-3, t_settle_s = 3e-3;
+    // power-up: from reset to scene time 0 a fixture holds the handle in the start pose q0 (the
+    // firmware's reference pose); the firmware powers up there (RESTART with a stored
+    // calibration, none without one: README "Power-up")
+    double t_hold_s = 9.1e-3;
     int comm_err[3] = {0, 0, 0};
     // the firmware's calibration (scene.calib): per axis flags, enc_dir, phases_swapped,
     // pole_pairs, index_to_zero, comm_offset (hg_axis_calib_t); without it (calib_seen 0) the
@@ -184,10 +186,6 @@ private:
     size_t n_ = 0;
 };
 
-// The homing sweep (README "Homing"): every joint's pose t s after reset, a raised cosine that
-// starts at t_sweep0 and ends at rest on q0.
-void homing_pose(const RunCfg& cfg, double t_sweep0, double t, double q[3], double qd[3]);
-
 // A progress line on stderr (runner._progress_reader): scene time t, s.
 void progress_line(double t);
 
@@ -199,7 +197,7 @@ void progress_line(double t);
 // summary. Times are grid points (1 us) and clock edges since reset (d clocks per grid point).
 class Scenario {
 public:
-    void start(const RunCfg& cfg, int64_t scene0_us, int64_t d);
+    void start(const RunCfg& cfg, int64_t scene0_us, int64_t d, bool wait_homed = false);
     int64_t scene0() const { return scene0_; }
     double scene_t(int64_t g) const { return (static_cast<double>(g) - static_cast<double>(scene0_)) * 1e-6; }
 
@@ -250,18 +248,23 @@ public:
         return false;
     }
 
-    // After an ISR call at grid point tick_g (the snapshot's true angles q_true): its record; true
-    // once, when the background loop's scene and enable are due (all axes homed, the tick before
-    // scene time 0): the harness does them and calls enabled().
-    bool after_isr(const hg_servo_t& s, int64_t tick_g, const double q_true[3]) {
+    // What the background loop does after an ISR call (after_isr).
+    enum class Bg { none, power_up, scene };
+    // After an ISR call at grid point tick_g (the snapshot's true angles q_true): its record, and
+    // the background loop's next step, each once: power_up when the servo has taken
+    // HG_BU_POWER_UP_TICKS ticks (board.c's main loop: the snapshot has settled; the harness
+    // then runs hg_dev::fw_power_up), scene at the tick before scene time 0 (the scene's start:
+    // its enable unless a PC link enables). The co-simulation (wait_homed in start()) instead
+    // waits for every axis to show homed after its scripted sweep, and has no power_up step.
+    Bg after_isr(const hg_servo_t& s, int64_t tick_g, const double q_true[3]) {
         ticks.push_back(tick_record(s, scene_t(tick_g), q_true));
-        if (enabled_) return false;
-        const uint32_t homed = HG_STAT_HOMED(0) | HG_STAT_HOMED(1) | HG_STAT_HOMED(2);
-        if (!homed_) {
-            homed_ = (s.status & homed) == homed;
-            return false;
+        if (enabled_) return Bg::none;
+        if (!powered_) {
+            const uint32_t homed = HG_STAT_HOMED(0) | HG_STAT_HOMED(1) | HG_STAT_HOMED(2);
+            powered_ = wait_homed_ ? (s.status & homed) == homed : s.steps >= HG_BU_POWER_UP_TICKS;
+            return powered_ && !wait_homed_ ? Bg::power_up : Bg::none;
         }
-        return tick_g >= scene0_ - 1000000 / static_cast<int64_t>(cfg_->servo_hz);
+        return tick_g >= scene0_ - 1000000 / static_cast<int64_t>(cfg_->servo_hz) ? Bg::scene : Bg::none;
     }
     void enabled(double t) { enabled_ = true; enable_t_ = t; }
     bool is_enabled() const { return enabled_; }
@@ -277,7 +280,8 @@ private:
     const RunCfg* cfg_ = nullptr;
     int64_t d_ = 6, scene0_ = 0, next_progress_ = 0;
     std::vector<Due> faults_;
-    bool hang_ = false, resumed_ = false, drop_wdog_ = false, homed_ = false, enabled_ = false;
+    bool hang_ = false, resumed_ = false, drop_wdog_ = false, powered_ = false, enabled_ = false,
+         wait_homed_ = false;
     int64_t hang_expiry_edge_ = 0, last_key_edge_ = 0;
     double enable_t_ = NAN;
 };
@@ -297,12 +301,21 @@ void print_summary(const Summary& s);
 // errors, PC-force timeout).
 void fw_config(const RunCfg& cfg, uint32_t clk_hz, hg_servo_cfg_t* fw);
 // Bring-up on the virtual device: the reference pose is the scene's start pose (where the
-// homing sweep ends: call this there), the bounds those of the linkage (dsp-fw/README.md,
+// fixture holds the handle from reset), the bounds those of the linkage (dsp-fw/README.md,
 // "Bring-up": a partial alignment scan inside the walls).
 void fw_bringup_config(const RunCfg& cfg, hg_bringup_cfg_t* bc);
-// The background loop's bring-up after homing: home every axis on IDX_POS (bus reads), set the
-// scene's environment, enable (unless a PC link enables, or the firmware is not calibrated:
-// then its forces stay off until a calibration arrives). 0, or the harness's exit code 3.
+// The background loop's power-up, as board.c's main loop does it once the snapshot has settled
+// (Scenario::Bg::power_up): bring-up bound to the servo with the stored calibration (the run
+// configuration's, if the servo starts calibrated), hg_bringup_power_up (RESTART in the
+// reference pose: no motion, no index; without a calibration nothing, bring-up homes), the
+// scene's environment (env_* keys). 0, or the harness's exit code 3.
+int fw_power_up(hg_servo_t* s, hg_bringup_t* bu, const RunCfg& cfg, const hg_calib_t* stored);
+// Before hg_servo_init: the calibration fw_config put in fw becomes the stored one (the
+// board's flash: true if every axis of it is homed and aligned), and the servo starts
+// unhomed (HG_CAL_HOMED cleared: ENABLE and forces refused until the power-up homes it).
+bool fw_store_calib(hg_servo_cfg_t* fw, hg_calib_t* stored);
+// The co-simulation's background step after its scripted homing sweep: home every axis on
+// IDX_POS, set the scene's environment, enable. 0, or the harness's exit code 3.
 int fw_home_scene_enable(hg_servo_t* s, const RunCfg& cfg, bool enable);
 
 }  // namespace hg_dev

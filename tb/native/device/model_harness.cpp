@@ -39,7 +39,6 @@ constexpr int kRing = 8192;                 // grid points of true angles kept (
 constexpr int kLatency = 5;                 // interpolator: capture to output registers (golden.top)
 int64_t load_clocks = 0;                    // frame start -> channel 0 load edge (run config dac_load)
 int64_t wr_cycles = 0;                      // the DAC write strobe's length in clocks (t_WCS)
-constexpr double kTSweep0 = 100e-6;         // s after reset: the homing sweep starts
 
 RunCfg cfg;
 hg_plant* plant = nullptr;
@@ -321,7 +320,7 @@ Sample sample_of(int i, int64_t n, bool need_vel = true) {
         s.pos = static_cast<int32_t>(x.hold_pos_homed + x.hold_index_pos);
         s.index_pos = static_cast<int32_t>(x.hold_index_pos);
         s.index_count = n >= 0 ? x.hold_index_count : 0;
-        s.homed = n >= 0;
+        s.homed = n >= 0 && x.hold_index_count != 0;   // (the held bank's HOMED)
         return s;
     }
     if (n < 0) return s;
@@ -693,11 +692,6 @@ void grid_point(int64_t g) {
     const bool lazy = G.dynamic && cfg.mech_us > 1;
     if (lazy) hg_plant_amp(plant, static_cast<int>(g - G.amp_g));   // commands held since amp_g
     const bool exact = cfg.mech_us <= 1;        // the plant of the RTL path, every 1 us
-    if (!G.dynamic) {
-        double q[3], qd[3];
-        homing_pose(cfg, kTSweep0, static_cast<double>(g) * 1e-6, q, qd);
-        hg_plant_set_q(plant, q, qd);
-    }
     if (exact || !G.dynamic || g >= G.mech_next) {
         double* dst = &G.q[static_cast<size_t>(g & (kRing - 1)) * 3];
         hg_plant_q(plant, dst);
@@ -935,16 +929,18 @@ int main(int argc, char** argv) {
     const std::clock_t c0 = std::clock();
     hg_servo_cfg_t fw;
     fw_config(cfg, cfg.clk_hz, &fw);
+    hg_calib_t stored;        // the board's flash: the scene's calibration, if it has one
+    const bool have_stored = fw_store_calib(&fw, &stored);
     static hg_servo_t s;
+    static hg_bringup_t bu;
     const uint8_t init_err = hg_servo_init(&s, &fw);
     const uint32_t skew = fpga_read32(HG_WORD(offsetof(hapgate_t, DAC_SKEW)));
     const uint32_t frame = fpga_read32(HG_WORD(offsetof(hapgate_t, DAC_FRAME)));
     const uint32_t wdog_us = fpga_read32(HG_REG_WDOG_TIMEOUT);
-    fpga_write32(HG_REG_CTRL, HG_CTRL_HOME_ARM);
     hg_servo_isr_ctx = &s;
     if (init_err != HG_ERR_NONE) std::fprintf(stderr, "warning: firmware init error %u\n", init_err);
 
-    G.scene0 = std::llround((kTSweep0 + cfg.t_sweep_s + cfg.t_settle_s) * 1e6);
+    G.scene0 = std::llround(cfg.t_hold_s * 1e6);
     const int64_t end_us = G.scene0 + std::llround(cfg.duration_s * 1e6);
     SC.start(cfg, G.scene0, D);
     const int64_t end_edge = end_us * D;
@@ -988,10 +984,21 @@ int main(int argc, char** argv) {
         hg_servo_isr();
         const int64_t gs = tick_g - 1;
         const double qs[3] = {G.qat(gs, 0), G.qat(gs, 1), G.qat(gs, 2)};
-        if (SC.after_isr(s, tick_g, qs)) {
-            const int rc = fw_home_scene_enable(&s, cfg, true);
+        switch (SC.after_isr(s, tick_g, qs)) {   // the background loop (device_harness.cpp)
+        case Scenario::Bg::power_up: {
+            const int rc = fw_power_up(&s, &bu, cfg, have_stored ? &stored : nullptr);
             if (rc != 0) return rc;
+            break;
+        }
+        case Scenario::Bg::scene:
+            if (hg_servo_calibrated(&s) && hg_servo_enable(&s, true) != 0) {
+                std::fprintf(stderr, "error: the firmware refused to enable\n");
+                return 3;
+            }
             SC.enabled((static_cast<double>(edge_now / D) - static_cast<double>(G.scene0)) * 1e-6);
+            break;
+        case Scenario::Bg::none:
+            break;
         }
     }
     const double wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - w0).count();

@@ -4,7 +4,8 @@
 // place of rtl/interp/enc_interp3.v when a scene leaves axes out. The built axes are one
 // enc_interp3 of fewer axes (enc_interp3_built: rtl/interp/enc_interp3.v with its module renamed,
 // generated into build/ by hapgate.device.runner); the slots of the others show a held joint
-// (hold_*: constant, homed, no fault, the calibration's identity). The FPGA's top has all three.
+// (hold_*: constant, at rest in the start pose since reset; homed only if hold_index_count says an
+// index was latched; no fault, the calibration's identity). The FPGA's top has all three.
 `timescale 1ns / 1ps
 `default_nettype none
 `include "hg_sim.vh"
@@ -82,8 +83,9 @@ module enc_interp3 #(   // the parameters and ports of rtl/interp/enc_interp3.v
         end
     endgenerate
 
-    // What the interpolator of a held axis would report (homed position, index latch, index
-    // count), written by the harness before the first evaluation (runner.hold_values).
+    // What the interpolator of a held axis would report (position from its home, index latch,
+    // index count: 0 unless an index was latched, then homed), written by the harness before
+    // the first evaluation (runner.hold_values).
     reg [95:0] hold_pos_homed   /*verilator public_flat_rw*/;
     reg [95:0] hold_index_pos   /*verilator public_flat_rw*/;
     reg [47:0] hold_index_count /*verilator public_flat_rw*/;
@@ -173,7 +175,7 @@ module enc_interp3 #(   // the parameters and ports of rtl/interp/enc_interp3.v
                 assign m_index_pos[32*ax +: 32]      = hold_index_pos[32*ax +: 32];
                 assign m_index_count[16*ax +: 16]    = hold_index_count[16*ax +: 16];
                 assign m_overspeed_count[16*ax +: 16] = 16'd0;
-                assign m_homed[ax]                   = 1'b1;
+                assign m_homed[ax]                   = |hold_index_count[16*ax +: 16];
                 assign m_faults[3*ax +: 3]           = 3'd0;
                 assign m_fault[ax]                   = 1'b0;
                 assign m_cal_ofs_a[16*ax +: 16]      = 16'd0;       // the identity
