@@ -16,6 +16,13 @@ PACKAGES=(
     gcc-arm-none-eabi
     # the same build: libm for the Cortex-M4F (hard float) comes with newlib's multilibs
     libnewlib-arm-none-eabi
+    # tb/soc (make -C dsp-fw riscv): the firmware for the SoC's soft RISC-V CPU (VexRiscv, RV32IM),
+    # built with the Debian cross compiler and riscv64-unknown-elf-size
+    gcc-riscv64-unknown-elf
+    # the same build: the C library and libm for RV32IM/ilp32 (picolibc.specs; Debian has no newlib)
+    picolibc-riscv64-unknown-elf
+    # issue 36's `make flash`: loads the SoC board's bitstream over the board's USB (FTDI) JTAG
+    openfpgaloader
     # (more packages: one line each, with the tests that need them above it)
 )
 

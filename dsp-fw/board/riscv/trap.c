@@ -1,0 +1,39 @@
+/* SPDX-License-Identifier: Apache-2.0 */
+/* The trap dispatch (start.S's trap_entry calls it with interrupts off): the machine external
+ * interrupt is the FPGA's servo tick, handled by the firmware's tick entry hg_bringup_isr()
+ * (the bring-up step while one runs, else the servo step; either acknowledges the tick in the
+ * FPGA's IRQ register). Its cost in CPU cycles is kept for the budget. Anything else (an
+ * exception: a bus error, an illegal instruction; an interrupt this board never enables) is a
+ * fault: it is recorded and the core stops here with interrupts off, so the watchdog is no
+ * longer petted and the FPGA zeroes the torque (rtl/top/README.md). */
+#include "hg_bringup.h"
+#include "soc.h"
+
+#define MCAUSE_IRQ      0x80000000u
+#define MCAUSE_EXTERNAL (MCAUSE_IRQ | 11u)
+
+volatile uint32_t soc_isr_cycles_last;
+volatile uint32_t soc_isr_cycles_max;
+volatile uint32_t soc_isr_count;
+volatile uint32_t soc_trap_cause, soc_trap_pc, soc_trap_value;
+
+void soc_trap(uint32_t mcause, uint32_t mepc)
+{
+    if (mcause == MCAUSE_EXTERNAL) {
+        const uint32_t t0 = soc_mcycle();
+        hg_bringup_isr();
+        const uint32_t dt = soc_mcycle() - t0;
+        soc_isr_cycles_last = dt;
+        if (dt > soc_isr_cycles_max)
+            soc_isr_cycles_max = dt;
+        soc_isr_count = soc_isr_count + 1u;
+        return;
+    }
+    uint32_t mtval;
+    __asm__ volatile(SOC_CSR_ASM("csrr %0, mtval") : "=r"(mtval));
+    soc_trap_cause = mcause;
+    soc_trap_pc = mepc;
+    soc_trap_value = mtval;
+    for (;;)
+        ;
+}

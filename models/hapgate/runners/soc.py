@@ -1,0 +1,177 @@
+"""The hapgate SoC (rtl/soc/): the firmware image of its soft CPU and the native Verilator
+harness of the whole controller in one FPGA (tb/native/soc/).
+
+`build_firmware()` builds dsp-fw for the SoC (`make -C dsp-fw riscv`, Debian's
+riscv64-unknown-elf-gcc and picolibc; make rebuilds only what changed) into build/soc/fw/ and
+returns its image, sizes and symbols. `build()` Verilates rtl/soc/hapgate_soc_top.v with the
+pinned VexRiscv (pythondata-cpu-vexriscv's VexRiscv_Full.v, read unmodified) and the harness
+(one cached build per clock, baud and source hash, under build/native/). The RAM's image is
+read when the simulation starts, from the working directory (hapgate_soc_top's FW_FILE), so a
+new firmware needs no new Verilator build. `run()` runs it: frames sent to the UART's rx pin,
+the bytes decoded from its tx pin, the servo ticks seen on the register file's irq.
+"""
+
+from __future__ import annotations
+
+import bisect
+import re
+import subprocess
+import time
+from dataclasses import dataclass, field, replace
+from pathlib import Path
+
+from ..base import cbuild
+from ..base.paths import BUILD, ROOT, RTL, TB, ensure, locked
+from ..golden import configs
+from ..golden.top import SOURCES, TopConfig
+from . import native
+
+FW = ROOT / "dsp-fw"
+FW_BUILD = BUILD / "soc" / "fw"           # make's BUILD; the image in FW_BUILD/riscv/
+HERE = TB / "native" / "soc"
+TESTB = TB / "native" / "device" / "testb.h"   # the shared testbench wrapper
+SOC_SOURCES = ("soc/hg_soc_ram.v", "soc/hg_uart.v", "soc/hg_mtimer.v", "soc/hg_emif_master.v",
+               "soc/hg_soc.v", "soc/hapgate_soc_top.v")
+VEXRISCV_VARIANT = "VexRiscv_Full.v"     # RV32IM, mcycle, Wishbone instruction and data buses
+BAUD = 1_000_000                          # hapgate_soc_top's default
+FW_HEX = "hapgate-fw.hex"                 # hapgate_soc_top's default FW_FILE (relative)
+# the firmware's own figures in its RAM (dsp-fw/board/riscv/soc.h), read at the end of a run
+SYMBOLS = ("soc_isr_cycles_last", "soc_isr_cycles_max", "soc_isr_count", "soc_trap_cause",
+           "soc_trap_pc")
+
+
+def vexriscv_source() -> Path:
+    """The packaged VexRiscv variant (third-party source: its waivers are rtl/lint/vexriscv.vlt)."""
+    import pythondata_cpu_vexriscv as vex  # the pinned PyPI package (requirements.lock)
+
+    return Path(vex.data_location) / VEXRISCV_VARIANT
+
+
+def sources() -> list[Path]:
+    """hapgate_soc_top's sources: the whole FPGA, the SoC, the CPU."""
+    return [RTL / s for s in SOURCES] + [RTL / s for s in SOC_SOURCES] + [vexriscv_source()]
+
+
+@dataclass(frozen=True)
+class Firmware:
+    elf: Path
+    hex: Path
+    text: int            # bytes, as riscv64-unknown-elf-size prints them
+    data: int
+    bss: int             # .bss with the reserved stack
+    symbols: dict[str, int]
+    log: str             # make's output
+
+
+def build_firmware(build: Path = FW_BUILD) -> Firmware:
+    """`make -C dsp-fw riscv` into `build` (serialised between parallel callers)."""
+    ensure(build)
+    with locked(build / "make"):
+        r = subprocess.run(["make", "-s", "-C", str(FW), f"BUILD={build}", "riscv"],
+                           capture_output=True, text=True, timeout=900, check=False)
+    if r.returncode != 0:
+        raise cbuild.BuildError("make -C dsp-fw riscv failed:\n" + (r.stdout + r.stderr)[-4000:],
+                                build, r.stdout + r.stderr)
+    m = re.search(r"^\s*(\d+)\s+(\d+)\s+(\d+)\s+\d+\s+[0-9a-f]+\s+\S*hapgate-fw\.elf", r.stdout,
+                  re.M)
+    if not m:
+        raise cbuild.BuildError(f"no size line in make's output:\n{r.stdout}", build, r.stdout)
+    elf = build / "riscv" / "hapgate-fw.elf"
+    nm = subprocess.run(["riscv64-unknown-elf-nm", str(elf)], capture_output=True, text=True,
+                        check=True).stdout
+    syms = {p[2]: int(p[0], 16) for p in (ln.split() for ln in nm.splitlines()) if len(p) == 3}
+    return Firmware(elf, build / "riscv" / FW_HEX, int(m[1]), int(m[2]), int(m[3]), syms,
+                    r.stdout)
+
+
+def soc_config(clk_hz: int = 48_000_000) -> TopConfig:
+    """hapgate_soc_top's FPGA: hapgate_top's defaults (the paper's design) at clk_hz, as the
+    board tops build it (the ECP5 board's named configuration at 48 MHz)."""
+    cfg = configs.get("ecp5").top()
+    if cfg.clk_hz != clk_hz:
+        cfg = replace(cfg, clk_hz=clk_hz)
+    return cfg
+
+
+def build(clk_hz: int = 48_000_000, baud: int = BAUD) -> Path:
+    """The Verilated SoC with its harness (cached); returns the executable."""
+    cfg = soc_config(clk_hz)
+    p = cfg.rtl_params()
+    params = {"CLK_HZ": clk_hz, "ASIN_FILE": p["ASIN_FILE"], "SINE_FILE": p["SINE_FILE"],
+              "BAUD": baud}
+    return native.verilate_harness(
+        "soc_harness", "hapgate_soc_top", [HERE / "public.vlt", *sources()], params,
+        [HERE / "soc_harness.cpp"],
+        cflags=f"-std=c++17 -DCLK_HZ={clk_hz} -DBAUD={baud} -I{TESTB.parent}",
+        inputs=[TESTB])
+
+
+@dataclass
+class SocRun:
+    summary: dict[str, int]
+    tx: list[tuple[int, int, bool]]           # (edge of the start bit, byte, stop bit high)
+    ticks: list[tuple[int, int, int]]         # (irq rise edge, fall edge or 0, accesses)
+    ram: dict[str, int]                       # the firmware's figures (SYMBOLS) at the end
+    wall_s: float
+    sent: list[tuple[int, bytes]] = field(default_factory=list)
+
+    @property
+    def tx_bytes(self) -> bytes:
+        return bytes(b for _, b, ok in self.tx if ok)
+
+
+def run(fw: Firmware, clocks: int, sends: list[tuple[int, bytes]], out: Path,
+        clk_hz: int = 48_000_000, baud: int = BAUD, trace: bool = False,
+        profile: bool = False) -> SocRun:
+    """Simulate `clocks` rising edges from reset with `fw`'s image in the RAM, sending each
+    (edge, bytes) on the rx pin; outputs in `out` (with `profile`, out/profile.txt:
+    `profile_by_function` reads it)."""
+    exe = build(clk_hz, baud)
+    ensure(out)
+    peek = {s: fw.symbols[s] for s in SYMBOLS}
+    cmd = [str(exe), f"clocks={clocks}", f"out={out}",
+           "peek=" + ",".join(f"0x{a:x}" for a in peek.values())]
+    cmd += [f"send={e}:{b.hex()}" for e, b in sends]
+    if trace:
+        cmd.append(f"trace={out / 'soc.vcd'}")
+    if profile:
+        cmd.append("profile=1")
+    t0 = time.perf_counter()
+    r = subprocess.run(cmd, cwd=fw.hex.parent, capture_output=True, text=True, check=False)
+    wall = time.perf_counter() - t0
+    if r.returncode != 0:
+        raise RuntimeError(f"soc_harness exited {r.returncode}: {r.stderr}")
+    summary: dict[str, int] = {}
+    words: dict[int, int] = {}
+    for ln in r.stdout.splitlines():
+        k, _, v = ln.partition("=")
+        if k == "peek":
+            a, _, w = v.partition(":")
+            words[int(a, 16)] = int(w)
+        elif v.lstrip("-").isdigit():
+            summary[k] = int(v)
+    tx = [(int(e), int(b), ok == "1") for e, b, ok in
+          (ln.split() for ln in (out / "tx.txt").read_text().splitlines())]
+    ticks = [(int(a), int(b), int(c)) for a, b, c in
+             (ln.split() for ln in (out / "ticks.txt").read_text().splitlines())]
+    return SocRun(summary, tx, ticks, {s: words[a] for s, a in peek.items()}, wall, sends)
+
+
+def profile_by_function(fw: Firmware, out: Path) -> list[tuple[str, int, int]]:
+    """(function, clocks, instructions retired) while the tick interrupt was pending, from a
+    run with `profile`, the largest first (the ELF's function symbols as ranges)."""
+    nm = subprocess.run(["riscv64-unknown-elf-nm", "-n", "-S", "--defined-only", str(fw.elf)],
+                        capture_output=True, text=True, check=True).stdout
+    funcs = sorted((int(p[0], 16), int(p[1], 16), p[3]) for p in
+                   (ln.split() for ln in nm.splitlines()) if len(p) == 4 and p[2] in "tTW")
+    starts = [f[0] for f in funcs]
+    acc: dict[str, list[int]] = {}
+    for ln in (out / "profile.txt").read_text().splitlines():
+        pc_s, c_s, r_s = ln.split()
+        pc = int(pc_s, 16)
+        i = bisect.bisect_right(starts, pc) - 1
+        name = funcs[i][2] if i >= 0 and pc < funcs[i][0] + max(funcs[i][1], 1) else "?"
+        a = acc.setdefault(name, [0, 0])
+        a[0] += int(c_s)
+        a[1] += int(r_s)
+    return sorted(((k, v[0], v[1]) for k, v in acc.items()), key=lambda t: -t[1])
