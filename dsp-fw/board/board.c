@@ -79,6 +79,10 @@ int main(void)
 {
     hg_servo_cfg_t cfg;
     hg_servo_default_cfg(&cfg);
+    /* nothing is homed at power-up: ENABLE and forces stay refused until the restart below
+     * (or bring-up's HOME) homes each axis */
+    for (unsigned i = 0; i < 3u; i++)
+        cfg.cal.axis[i].flags = (uint8_t)(cfg.cal.axis[i].flags & ~HG_CAL_HOMED);
     if (hg_servo_init(&servo, &cfg) == HG_ERR_NONE)
         hg_servo_isr_ctx = &servo;
     /* the link answers from the first line, homed or not (bring-up until the power-up below) */
