@@ -17,6 +17,8 @@
 #   make soak     10^9 ADC samples through the interpolator on Dask (scenes/sweeps/soak.toml)
 #   make synth    Yosys resource table per block, then nextpnr place and route of the board tops
 #                 (bitstreams; fails on a fit or timing failure)
+#   make flash BOARD=ecp5-evn  write the board's bitstream (the newest `make synth` packed) with
+#                 openFPGALoader; FLASH_ARGS="--flash" writes the SPI flash instead of the SRAM
 #   make gatelevel the board tops' post-synthesis netlists beside their RTL (minutes)
 #   make versions the tools in use, with their paths
 #   make mutants  mutation testing: every bug in tb/mutants/mutants.toml must be killed (long)
@@ -33,7 +35,7 @@ HG      := $(VENV)/bin/hapgate
 PYTEST  := $(VENV)/bin/pytest
 PYTEST_ARGS ?= -n auto --durations=15
 
-.PHONY: all host venv deps demo test regress lint bench docs soak versions synth gatelevel formal regs mutants coverage clean distclean
+.PHONY: all host venv deps demo test regress lint bench docs soak versions synth flash gatelevel formal regs mutants coverage clean distclean
 
 all: venv host
 
@@ -91,6 +93,10 @@ soak: $(STAMP)
 synth: $(STAMP)
 	$(HG) synth
 	$(HG) pnr
+
+flash: $(STAMP)
+	@test -n "$(BOARD)" || { echo "error: make flash BOARD=NAME (ice40-hx8k, ecp5-evn)" >&2; exit 2; }
+	$(HG) flash $(BOARD) $(FLASH_ARGS)
 
 gatelevel: $(STAMP)
 	$(PYTEST) -p no:xdist tb/boards/gatelevel_board_tops.py tb/top/gatelevel_top.py

@@ -24,6 +24,7 @@ from . import (
     coverage,
     demo,
     device,
+    flash,
     harm,
     mutants,
     replay_commutation,
@@ -253,6 +254,10 @@ def main(argv: list[str] | None = None) -> int:
                         "[--apply] (docs/bringup.md)")
     bringup.add_arguments(up)
     up.set_defaults(fn=bringup.main)
+    fl = sub.add_parser("flash", help="write a board's bitstream with openFPGALoader (BOARD "
+                        "[--bitstream PATH] [--flash])")
+    flash.add_arguments(fl)
+    fl.set_defaults(fn=flash.main)
     dp = sub.add_parser("device", help="the virtual device")
     dsub = dp.add_subparsers(dest="device_cmd", required=True)
     device.add_arguments(dsub.add_parser(

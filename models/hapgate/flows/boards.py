@@ -61,6 +61,7 @@ class Board:
     gl_device: bool = True     # gate-level simulation of the device netlist (else: generic gates)
     osc_hz: int = 12_000_000   # the board oscillator (the core's clock with the PLL bypassed)
     fusesoc: dict[str, str] = field(default_factory=dict)   # hapgate.core: flow, its options
+    loader: str = ""           # openFPGALoader's name of the board (`hapgate flash`)
 
     @property
     def clk_hz(self) -> int:
@@ -80,7 +81,7 @@ BOARDS = {
               layout_opt="--asc", layout="design.asc", pack=("yowasp-icepack",),
               bitstream="design.bin", logic="ICESTORM_LC", max_logic=0.75, min_slack=0.20,
               sources=("boards/adc_pair_mux.v",),
-              fusesoc={"flow": "icestorm"},
+              fusesoc={"flow": "icestorm"}, loader="ice40_generic",
               doc="iCE40-HX8K breakout (CT256, no DSP blocks), 12 MHz oscillator, ADC pair "
                   "adapter"),
         Board(name="ecp5-evn", top="hapgate_ecp5_evn", config="ecp5",
@@ -94,6 +95,7 @@ BOARDS = {
               # Yosys's ECP5 cell models have the block RAM (DP16KD) as a black box (and Icarus
               # 11 cannot parse them): the gate-level run uses Yosys's generic gates
               gl_device=False, fusesoc={"flow": "trellis", "device": "LFE5UM5G-85F-8BG381"},
+              loader="ecp5_evn",
               doc="ECP5-5G evaluation board (LFE5UM5G-85F), 12 MHz -> 48 MHz PLL"),
     )
 }
