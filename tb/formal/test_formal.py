@@ -24,7 +24,7 @@ def test_broken_copy_fails(i: int) -> None:
 
 def test_every_block_named_in_the_task_has_a_proof_and_a_mutant() -> None:
     names = {p.name for p in formal.PROOFS}
-    assert names == {"emif_slave", "dac_sched", "enc_interp", "top"}
+    assert names == {"emif_slave", "dac_sched", "enc_interp", "top", "render"}
     assert {m[0].split(":")[0] for m in formal.MUTANTS} == names
     # the shipped clocks of the scheduler are proven, not only the fast one
     assert {"dac_sched:c12m", "dac_sched:c48m"} <= {p.id for p in formal.PROOFS}

@@ -16,7 +16,7 @@ __all__ = ["Block", "Params", "BLOCKS", "get"]
 
 # Model modules that own RTL blocks, in lint/report order.
 OWNERS = ("golden.sine", "golden.interp", "golden.commutation", "golden.regmap", "golden.capture",
-          "golden.configs",
+          "golden.configs", "golden.render",
           "flows.boards")
 
 BLOCKS: dict[str, Block] = {

@@ -81,6 +81,11 @@ PROOFS = [
           "without enable", _top_tables),
     Proof("top", "hapgate_top.sby", "c2m_cover", "non-vacuity: driven, then killed and zeroed",
           _top_tables),
+    Proof("render", "hg_render.sby", "d18",
+          "|torque| <= min(TQ_LIMIT, 32768); zero input => zero torque; zero render after TTL "
+          "expiry and after zero (MUL_DIGIT 18, 48 MHz)"),
+    Proof("render", "hg_render.sby", "d3", "the same with the LUT-only multiplier at 12 MHz"),
+    Proof("render", "hg_render.sby", "cover", "non-vacuity: a non-zero result, then its expiry"),
 ]
 
 
@@ -199,6 +204,18 @@ MUTANTS: list[tuple[str, str, str, str, str]] = [
      "wire                kill_all = ~global_en;", "watchdog ignored"),
     ("top:c2m", "hapgate_top.v", "wire             kill_use = in_load ? kill_q : kill_ch;",
      "wire             kill_use = kill_ch;", "decision may change inside a load"),
+    ("render:d18", "hg_render.v",
+     "wire signed [17:0] out  = (sum > hi) ? hi : ((sum < lo) ? lo : sum);",
+     "wire signed [17:0] out  = (sum > hi + 18'sd1) ? hi + 18'sd1 : ((sum < lo) ? lo : sum);",
+     "clamp one code past the limit"),
+    ("render:d18", "hg_render.v", "assign m_torque[16*i +: 16] = ctl_zero ? 16'd0 : out[15:0];",
+     "assign m_torque[16*i +: 16] = out[15:0];", "zero input not applied to the torque"),
+    ("render:d18", "hg_render.v", "left_q <= left_now - {{(TTL_BITS-1){1'b0}}, render};",
+     "left_q <= left_now;", "time-to-live never counts down"),
+    ("render:d18", "hg_render.v", "if (rst || ctl_zero || (s_frame && !render))",
+     "if (rst || ctl_zero)", "expiry keeps the last torque"),
+    ("render:d18", "hg_render.v", "        if (rst || ctl_zero) begin\n            live_q",
+     "        if (rst) begin\n            live_q", "zero input does not drop the model"),
 ]
 
 
