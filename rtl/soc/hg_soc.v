@@ -1,9 +1,10 @@
 // SPDX-License-Identifier: Apache-2.0
-// The hapgate SoC: a VexRiscv CPU (RV32IM, the PyPI package's VexRiscv_Full.v, unmodified) that
-// runs the firmware (dsp-fw/board/riscv) from block RAM, a UART to the PC, the machine timer,
-// and the bridge that drives the FPGA's DSP bus pins, so that word w of the register file is
-// the CPU's 32-bit word at 0x8001_0000 + 4w. The servo tick (the register file's irq) is the
-// CPU's external interrupt line 0. Memory map and timing: rtl/soc/README.md.
+// The hapgate SoC: a VexRiscv CPU (RV32IM, the PyPI package's VexRiscv_FullCfu.v, unmodified)
+// that runs the firmware (dsp-fw/board/riscv) from block RAM, the float unit on its
+// custom-function port, a UART to the PC, the machine timer, and the bridge that drives the
+// FPGA's DSP bus pins, so that word w of the register file is the CPU's 32-bit word at
+// 0x8001_0000 + 4w. The servo tick (the register file's irq) is the CPU's external interrupt
+// line 0. Memory map and timing: rtl/soc/README.md.
 `timescale 1ns / 1ps
 `default_nettype none
 
@@ -62,11 +63,21 @@ module hg_soc #(
     reg  [31:0] d_dat_r;
     wire        timer_irq;
 
+    // the custom-function port (CUSTOM_0 instructions: function id {funct7, funct3})
+    wire        cfu_cmd_valid, cfu_cmd_ready, cfu_rsp_valid, cfu_rsp_ready;
+    wire [9:0]  cfu_function_id;
+    wire [31:0] cfu_in0, cfu_in1, cfu_out;
+
     VexRiscv u_cpu (
         .clk(clk), .reset(rst),
         .externalResetVector(32'h0000_0000),
         .timerInterrupt(timer_irq), .softwareInterrupt(1'b0),
         .externalInterruptArray({31'd0, irq_tick}),
+        .CfuPlugin_bus_cmd_valid(cfu_cmd_valid), .CfuPlugin_bus_cmd_ready(cfu_cmd_ready),
+        .CfuPlugin_bus_cmd_payload_function_id(cfu_function_id),
+        .CfuPlugin_bus_cmd_payload_inputs_0(cfu_in0), .CfuPlugin_bus_cmd_payload_inputs_1(cfu_in1),
+        .CfuPlugin_bus_rsp_valid(cfu_rsp_valid), .CfuPlugin_bus_rsp_ready(cfu_rsp_ready),
+        .CfuPlugin_bus_rsp_payload_outputs_0(cfu_out),
         .iBusWishbone_CYC(i_cyc), .iBusWishbone_STB(i_stb), .iBusWishbone_ACK(i_ack),
         .iBusWishbone_WE(i_we), .iBusWishbone_ADR(i_adr), .iBusWishbone_DAT_MISO(i_dat_r),
         .iBusWishbone_DAT_MOSI(i_dat_w), .iBusWishbone_SEL(i_sel), .iBusWishbone_ERR(i_err),
@@ -79,6 +90,16 @@ module hg_soc #(
     // the fetch only reads whole words; the buses' burst hints are not needed (every beat is
     // a single access here)
     wire unused_cpu = &{1'b0, i_we, i_dat_w, i_sel, i_cti, i_bte, d_cti, d_bte};
+
+    // ---------------------------------------------------------------- float unit
+    // single-precision add, subtract, multiply, divide (the firmware's __addsf3 ... __divsf3);
+    // the CPU enables the port with bit 31 of CSR 0xBC0 (dsp-fw/board/riscv/start.S)
+    hg_fpu_cfu u_fpu (
+        .clk(clk), .rst(rst),
+        .cmd_valid(cfu_cmd_valid), .cmd_ready(cfu_cmd_ready), .cmd_function_id(cfu_function_id),
+        .cmd_inputs_0(cfu_in0), .cmd_inputs_1(cfu_in1),
+        .rsp_valid(cfu_rsp_valid), .rsp_ready(cfu_rsp_ready), .rsp_outputs_0(cfu_out)
+    );
 
     // ---------------------------------------------------------------- address decode
     // Wishbone classic: a master holds its address until ACK or ERR. Each bus turns its strobe

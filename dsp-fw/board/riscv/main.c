@@ -35,6 +35,10 @@ int main(void)
     hg_servo_cfg_t cfg;
     hg_servo_default_cfg(&cfg);
     cfg.fpga_clk_hz = fpga_read32(HG_REG_CLK_KHZ) * 1000u;
+    /* nothing is homed at power-up: ENABLE and forces stay refused until the restart below
+     * (or bring-up's HOME, or SET_CALIB) homes each axis (as board.c) */
+    for (unsigned i = 0; i < 3u; i++)
+        cfg.cal.axis[i].flags = (uint8_t)(cfg.cal.axis[i].flags & ~HG_CAL_HOMED);
     if (hg_servo_init(&servo, &cfg) == HG_ERR_NONE)
         hg_servo_isr_ctx = &servo;
     /* the link answers from the first line, homed or not (bring-up until the power-up below) */

@@ -20,6 +20,10 @@
 #define SOC_UART_RX_OVERRUN (1u << 2) /* sticky: a byte was lost to a full FIFO */
 
 #define SOC_CSR_IRQ_MASK 0xBC0 /* VexRiscv's external interrupt mask (one bit per line) */
+/* ... whose bit 31 is also the enable of the custom-function port (VexRiscv_FullCfu's
+ * CfuPlugin): without it a CUSTOM_0 instruction (the float unit, fpu.c) is illegal. Line 31
+ * carries no interrupt (rtl/soc/hg_soc.v ties it low). */
+#define SOC_CSR_CFU_EN   0x80000000
 #define SOC_CSR_IRQ_PEND 0xFC0 /* ... and its pending lines (read-only) */
 #define SOC_IRQ_LINE_TICK 0    /* the FPGA's servo tick (hg_regfile's irq) on line 0 */
 

@@ -2,9 +2,9 @@
 /* Start-up and trap entry of the hapgate SoC (VexRiscv, RV32IM, machine mode only).
  * _start (the reset vector, 0): global and stack pointers, thread pointer (picolibc's errno is
  * thread-local), .data/.tdata copied from the image, .tbss/.bss zeroed, mtvec, the tick
- * interrupt unmasked, main. trap_entry: saves the caller-saved registers, calls
- * soc_trap(mcause, mepc) in C, restores them and returns (mret). The ABI lets a C function
- * change only those; the callee-saved ones it restores itself. */
+ * interrupt unmasked and the float unit's port enabled (one CSR), main. trap_entry: saves the
+ * caller-saved registers, calls soc_trap(mcause, mepc) in C, restores them and returns (mret).
+ * The ABI lets a C function change only those; the callee-saved ones it restores itself. */
 #include "soc.h"
 
     .section .text.start, "ax"
@@ -37,8 +37,8 @@ _start:
     .option arch, +zicsr
     la      t0, trap_entry
     csrw    mtvec, t0                  /* direct mode: every trap to trap_entry */
-    li      t0, 1 << SOC_IRQ_LINE_TICK
-    csrw    SOC_CSR_IRQ_MASK, t0       /* VexRiscv: unmask the tick line of the 32 */
+    li      t0, SOC_CSR_CFU_EN | (1 << SOC_IRQ_LINE_TICK)
+    csrw    SOC_CSR_IRQ_MASK, t0       /* VexRiscv: the float unit on, the tick line unmasked */
     li      t0, 1 << 11
     csrs    mie, t0                    /* MEIE: the machine external interrupt */
     csrsi   mstatus, 1 << 3            /* MIE: interrupts on (as a Cortex-M from reset) */

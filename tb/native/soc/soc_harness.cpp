@@ -9,9 +9,11 @@
 // previous send has ended, 8N1 at BAUD from CLK_HZ (fractional bit times, rounded per edge).
 // Written to DIR: tx.txt (one received byte per line: the edge of its start bit, the byte,
 // 1 if its stop bit was high) and ticks.txt (per servo tick: the edge irq rose, the edge it
-// fell (0: still high at the end), the register accesses from the rise to the fall). stdout:
+// fell (0: still high at the end), the register accesses from the rise to the fall, and SEQ,
+// the snapshot the interrupt announces). stdout:
 // (the FPGA's own ticks, hg_regfile's tick pulse, are counted apart from the interrupts: a tick
-// while the previous one is still pending raises no new interrupt, it sets IRQ.MISSED)
+// while the previous one is still pending raises no new interrupt, it sets IRQ.MISSED, whose
+// settings are counted too)
 // key=value lines (the summary, and peek=ADDR:VALUE for each RAM word asked for at the end).
 // profile=1 also writes DIR/profile.txt: per PC, the clocks and the instructions retired there
 // while the tick interrupt was pending (VexRiscv's public lastStagePc: the clocks of a stall
@@ -192,6 +194,8 @@ int main(int argc, char** argv) {
     uint64_t last_rise = 0, irq_writes = 0, retired_irq = 0, clocks_irq = 0;
     uint64_t ibus_irq = 0, dbus_irq = 0;   // clocks with an instruction / data bus cycle open
     uint64_t fpga_ticks = 0, fpga_last = 0, fpga_min = UINT64_MAX, fpga_max = 0;  // the regfile's
+    uint64_t missed_sets = 0, rise_seq = 0;
+    int prev_missed = 0;
     std::map<uint32_t, std::pair<uint64_t, uint64_t>> prof;   // pc -> (clocks, retired)
     const auto* cpu = st->u_soc->u_cpu;
 
@@ -207,6 +211,9 @@ int main(int argc, char** argv) {
             fpga_last = tb.edge;
             ++fpga_ticks;
         }
+        const int missed = st->u_top__DOT__u_bus__DOT__u_regs__DOT__irq_missed_q;
+        missed_sets += (missed && !prev_missed) ? 1 : 0;
+        prev_missed = missed;
         const int irq = st->irq;
         const int ce = st->bus_ce_n;
         if (!ce && prev_ce) {   // an access starts
@@ -222,15 +229,18 @@ int main(int argc, char** argv) {
                 period_max = std::max(period_max, p);
             }
             last_rise = rise_edge = tb.edge;
+            rise_seq = st->u_top__DOT__u_bus__DOT__u_regs__DOT__seq_q;
             accesses = 0;
             ++ticks;
         } else if (!irq && prev_irq) {
             const uint64_t hi = tb.edge - rise_edge;
             hi_max = std::max(hi_max, hi);
             hi_min = std::min(hi_min, hi);
-            std::fprintf(tick_f, "%llu %llu %llu\n", static_cast<unsigned long long>(rise_edge),
+            std::fprintf(tick_f, "%llu %llu %llu %llu\n",
+                         static_cast<unsigned long long>(rise_edge),
                          static_cast<unsigned long long>(tb.edge),
-                         static_cast<unsigned long long>(accesses));
+                         static_cast<unsigned long long>(accesses),
+                         static_cast<unsigned long long>(rise_seq));
             ++acked;
         }
         prev_irq = irq;
@@ -248,8 +258,9 @@ int main(int argc, char** argv) {
         tb.fall();
     }
     if (prev_irq)
-        std::fprintf(tick_f, "%llu 0 %llu\n", static_cast<unsigned long long>(rise_edge),
-                     static_cast<unsigned long long>(accesses));
+        std::fprintf(tick_f, "%llu 0 %llu %llu\n", static_cast<unsigned long long>(rise_edge),
+                     static_cast<unsigned long long>(accesses),
+                     static_cast<unsigned long long>(rise_seq));
     std::fclose(tx_f);
     std::fclose(tick_f);
 
@@ -264,6 +275,8 @@ int main(int argc, char** argv) {
                 static_cast<unsigned long long>(hi_max),
                 static_cast<unsigned long long>(ticks > 1 ? period_min : 0),
                 static_cast<unsigned long long>(period_max));
+    std::printf("irq_missed_sets=%llu\nirq_missed_end=%d\n",
+                static_cast<unsigned long long>(missed_sets), prev_missed);
     std::printf("fpga_ticks=%llu\nfpga_period_min=%llu\nfpga_period_max=%llu\n",
                 static_cast<unsigned long long>(fpga_ticks),
                 static_cast<unsigned long long>(fpga_ticks > 1 ? fpga_min : 0),
