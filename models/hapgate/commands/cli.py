@@ -30,6 +30,7 @@ from . import (
     replay_commutation,
     replay_interp,
     scene,
+    seu,
     sweep,
 )
 from . import view as view_cmd
@@ -271,6 +272,8 @@ def main(argv: list[str] | None = None) -> int:
 
     sweep.add_arguments(sub.add_parser(
         "sweep", help="run a sweep spec on Dask: SPEC [--scheduler tcp://H:P] [--workers N]"))
+    seu.add_arguments(sub.add_parser(
+        "seu", help="fault injection into the gateware's flip-flops: sites, one run"))
     bp = sub.add_parser("bench", help="benchmarks: run time beside error (build/reports/)")
     bench.add_arguments(bp)
     bp.set_defaults(fn=cmd_bench)

@@ -125,6 +125,8 @@ def _report(args: argparse.Namespace, spec: sweep.Spec, res: sweep.SweepResult, 
                     "".join(csv_text(head, body) for head, body in tabs.values()))
         sweep_report.calib_plot(rows, out / "histogram.png")
         files += [out / "percentiles.csv", out / "histogram.png"]
+    elif spec.kind == "seu":
+        files += _seu_report(spec, rows, res, out)
     print(f"{len(res.records)} jobs ({sum(res.cached)} from the cache, {res.retried} rerun after a "
           f"lost worker or a retry) in {res.wall_s:.1f} s on {res.workers} workers "
           f"({res.scheduler}); "
@@ -132,3 +134,28 @@ def _report(args: argparse.Namespace, spec: sweep.Spec, res: sweep.SweepResult, 
     print("wrote " + ", ".join(str(f) for f in files))
     return status
 
+
+
+def _seu_report(spec: sweep.Spec, rows: list[dict[str, object]], res: sweep.SweepResult,
+                out: Path) -> list[Path]:
+    """The injection campaign's tables (per block, per register, the worst sites) and CSVs."""
+    from ..device import seu
+    _sc, design, _clk = seu.setup(spec.base or seu.SCENE)
+    tabs = sweep_report.seu_tables(rows, design.bits_per_block())
+    for key, title in (("blocks", "per block"), ("registers", "per register (most dangerous)"),
+                       ("worst", "worst sites (replay with the command)")):
+        print(f"\n{title}:")
+        print(table(*tabs[key]))
+    cpu = sum(float(r.get("harness_cpu_s") or 0.0) for r in rows if not r.get("cached"))
+    ran = sum(1 for c in res.cached if not c)
+    print(f"\nbudgets: torque within {seu.BUDGET_DEV_NM} N m of the reference (two frames or "
+          f"more outside: a violation), steps within {seu.BUDGET_STEP_NM} N m per frame; "
+          f"zero torque within {seu.REACT_S * 1e6:.0f} us of the latch")
+    if ran:
+        print(f"harness CPU {cpu / ran:.3f} s per run ({ran} runs)")
+    files = []
+    for key in ("blocks", "registers_all", "worst"):
+        f = out / f"seu_{key}.csv"
+        write_bytes(f, csv_text(*tabs[key]))
+        files.append(f)
+    return files

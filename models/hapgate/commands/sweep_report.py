@@ -10,7 +10,7 @@ from typing import Any
 import numpy as np
 
 from ..base.report import save_figure
-from ..device import calib_mc, zwidth
+from ..device import calib_mc, seu, zwidth
 
 
 def _pos(r: dict[str, Any]) -> str:
@@ -214,3 +214,59 @@ def calib_plot(rows: list[dict[str, Any]], path: Any) -> None:
     fig.tight_layout()
     save_figure(fig, path, dpi=110)
     plt.close(fig)
+
+
+# ---------------------------------------------------------------------------------- seu
+SEU_HEAD = ["runs", "bits", "masked %", "detected %", "latched %", "silent %",
+            "viol.+latched %", "hang %", "dangerous", "SPFM %"]
+
+
+def _seu_row(rows: list[dict[str, Any]], bits: int | str) -> list[str]:
+    n = len(rows)
+    cls = np.array([str(r["class"]) for r in rows])
+    dang = int(sum(bool(r["dangerous"]) for r in rows))
+    def pct(c: str) -> str:
+        return f"{100 * float((cls == c).mean()):.1f}" if n else "-"
+    return [str(n), str(bits), pct("masked"), pct("detected"), pct("latched"), pct("silent"),
+            pct("violation_latched"), pct("hang"), str(dang),
+            f"{100 * seu.spfm(dang, n):.2f}" if n else "-"]
+
+
+def seu_tables(rows: list[dict[str, Any]], bits: dict[str, int] | None = None,
+               registers: int = 20, worst: int = 10
+               ) -> dict[str, tuple[list[str], list[list[str]]]]:
+    """The campaign's tables (header, rows): per block, per register (the `registers` with
+    the most dangerous runs; all of them in the CSV), the worst sites (the dangerous runs with
+    the largest torque deviation, one per site, with the command that replays each)."""
+    bits = bits or {}
+    blocks = sorted({str(r["block"]) for r in rows})
+    per_block = [[b, *_seu_row([r for r in rows if r["block"] == b], bits.get(b, "-"))]
+                 for b in blocks]
+    per_block.append(["all", *_seu_row(rows, sum(bits.values()) if bits else "-")])
+    regs: dict[str, list[dict[str, Any]]] = {}
+    for r in rows:
+        regs.setdefault(str(r["register"]), []).append(r)
+    reg_rows = sorted(([k, *_seu_row(v, "-")] for k, v in regs.items()),
+                      key=lambda x: (-int(x[9]), -int(x[1]), x[0]))
+    head_r = ["register", "runs", "masked %", "detected %", "latched %", "silent %",
+              "viol.+latched %", "hang %", "dangerous", "SPFM %"]
+    reg_rows = [[x[0], *x[1:2], *x[3:]] for x in reg_rows]
+    dang = sorted((r for r in rows if r["dangerous"]),
+                  key=lambda r: -float(r["max_dev_nm"]) if math.isfinite(
+                      float(r["max_dev_nm"])) else -math.inf)
+    seen: set[str] = set()
+    worst_rows = []
+    for r in dang:
+        if r["site"] in seen:
+            continue
+        seen.add(str(r["site"]))
+        worst_rows.append([str(r["site"]), str(r["class"]), str(r["mode"]),
+                           f"{1e3 * float(r['at_s']):.4f}", str(int(r["frames"])),
+                           f"{float(r['max_dev_nm']):.4f}", str(r["replay"])])
+        if len(worst_rows) == worst:
+            break
+    return {"blocks": (["block", *SEU_HEAD], per_block),
+            "registers": (head_r, reg_rows[:registers]),
+            "registers_all": (head_r, reg_rows),
+            "worst": (["site", "class", "mode", "at ms", "frames", "max dev N m", "replay"],
+                      worst_rows)}

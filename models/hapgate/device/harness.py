@@ -36,8 +36,9 @@ HOLD_SAMPLES = 64            # a held axis: the golden interpolator reads it aft
 LOSS_SAMPLES = 16            # interpolator: the 16th bad sample raises signal loss
 ENV_KINDS = {"none": 0, "wall": 1, "spring": 2, "viscous": 3, "pc": 4}
 # the [[fault]] kinds the harnesses simulate, by name (harness_common.h kFaultKinds: a test),
-# the co-simulation's too
-HARNESS_FAULTS = cosim.FAULT_KINDS
+# the co-simulation's too; then the injections into the gateware's flip-flops, which only the
+# device harness on the saboteur netlist simulates (hapgate.device.seu: not scene kinds)
+HARNESS_FAULTS = (*cosim.FAULT_KINDS, "seu", "stuck")
 ERR_NAMES = ("NONE", "NONFINITE", "AXIS_FAULT", "ENCODER", "STALE", "OVERRUN", "WATCHDOG",
              "FPGA_ID", "CONFIG")
 HAND_KINDS = {"none": 0, "spring": 1, "fixed": 2}

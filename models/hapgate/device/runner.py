@@ -16,6 +16,7 @@ import math
 import os
 import subprocess
 import tempfile
+import threading
 import time
 from pathlib import Path
 from typing import Any
@@ -145,7 +146,7 @@ def _train(clk_hz: int, mask: int, test_limits: bool, coarse: bool, vel_obs: boo
 
 def build(clk_hz: int, mask: int = 7, trace: bool = False, test_limits: bool = False,
           coarse: bool = False, vel_obs: bool = False, gate: bool = True,
-          pgo: bool | None = None) -> Path:
+          pgo: bool | None = None, saboteur: Any = None) -> Path:
     """Verilate the top (the held-axis bank for the axes not in mask) with the harness, plant
     and firmware (cached).
     test_limits: the firmware built with HG_SCENE_K_MAX_TEST (scene key firmware.test_limits);
@@ -154,24 +155,38 @@ def build(clk_hz: int, mask: int = 7, trace: bool = False, test_limits: bool = F
     gate: the interpolators' stages on simulation-only stage clocks (HG_SIM_GATE,
     tb/native/device/README.md "Stage clocks"; False: every stage on clk, the same results);
     pgo: compiled with a profile of a short training run (pgo_enabled() when None; never with
-    a trace), the same results."""
+    a trace), the same results;
+    saboteur: a hapgate.flows.saboteur.Design of this clock: its netlist in the top's place,
+    with the injection ports driven from the run configuration's seu/stuck faults
+    (tb/native/device/fault_inject.h; three axes, no stage clocks, no trace)."""
     if pgo is None:
         pgo = pgo_enabled()
     cfg, srcs, params = _top(clk_hz, mask, coarse, vel_obs)
+    fi = ""
+    if saboteur is not None:
+        if mask != 7 or gate or trace or coarse or vel_obs:
+            raise DeviceError("the saboteur build: three axes, gate=False, no trace, the paper's "
+                              "angle and velocity")
+        srcs, params = [saboteur.netlist], {}
+        fi = f"-DHG_FI=1 -DHG_FI_SITES={saboteur.port_bits} "
     fw_srcs = sorted((FW / "src").glob("*.c")) + sorted((FW / "include").glob("*.h"))
     vflags = sim_defines(mask, gate) + (["--trace"] if trace else [])   # VCD (FST needs liblz4)
+    if saboteur is not None:    # a netlist large enough to be split: the wheel's PCH breaks that
+        vflags += ["--output-split", "0"]
     defs = (f"HG_SCENE_K_MAX_TEST={K_MAX_TEST:.1f}",) if test_limits else ()
     return native.verilate_harness(
-        "device_harness", "hapgate_top", srcs, params, HARNESS,
+        "device_harness" if saboteur is None else "device_harness_fi", "hapgate_top", srcs,
+        params, HARNESS,
         cflags=(f"-std=c++17 -DCLK_HZ={clk_hz} -DAXIS_MASK={mask} -DHG_TRACE={int(trace)} "
-                f"-DHG_SIM_GATE={int(gate)} "
+                f"-DHG_SIM_GATE={int(gate)} {fi}"
                 f"-DHG_LOAD_CLOCKS={cfg.comm.load_clocks + 1} -DHG_DAC_BITS={cfg.comm.dac_bits} "
                 f"-DHG_DAC_OFFSET_BINARY={int(cfg.comm.offset_binary)} "
                 f"-I{HERE} -I{FW / 'include'}" + "".join(f" -D{d}" for d in defs)),
         ldflags="fw/libhgfw.a -lm",
         inputs=[HERE / "plant.h", HERE / "uart_link.h", HERE / "view_link.h",
                 HERE / "harness_common.h", HERE / "stage_clocks.h", HERE / "bus_hal.h",
-                HERE / "dac_word.h", HERE.parent / "vl_internals.h", *fw_srcs],
+                HERE / "dac_word.h", HERE.parent / "vl_internals.h", *fw_srcs,
+                *([HERE / "fault_inject.h"] if saboteur is not None else [])],
         prepare=functools.partial(cosim._fw_lib, defines=defs), vflags=vflags,
         train=functools.partial(_train, clk_hz, mask, test_limits, coarse, vel_obs)
         if pgo and not trace else None)
@@ -193,12 +208,16 @@ def parts(scene: Any, mask: int | None = None) -> tuple[list[str], list[str]]:
 
 def simulate(scene: Any, clk_hz: int | None = None, mask: int | None = None,
              progress: Any = None, out_dir: Path | None = None, gate: bool = True,
-             pgo: bool | None = None, view: Any = None) -> Raw:
+             pgo: bool | None = None, view: Any = None, saboteur: Any = None,
+             extra: str = "", timeout_s: float | None = None) -> Raw:
     """Build what the scene needs (or the given clock/mask) and run it once; at model fidelity
     the golden models' harness (hapgate.device.model). gate=False: the rtl build without the
     interpolators' simulation-only stage clocks; pgo: with or without profile-guided
     optimisation (None: pgo_enabled()); build(): the same results either way, slower.
-    view: a hapgate.device.telemetry.Feed to stream the live view to (rtl fidelity only)."""
+    view: a hapgate.device.telemetry.Feed to stream the live view to (rtl fidelity only).
+    saboteur, extra: the saboteur build (build()) and run-configuration lines added to the
+    scene's (its seu/stuck fault: hapgate.device.seu); timeout_s: the harness is stopped after
+    that many wall seconds (a DeviceError)."""
     if scene.run.fidelity == "model":
         if view is not None:
             raise DeviceError("the live view needs run.fidelity = 'rtl'")
@@ -207,14 +226,14 @@ def simulate(scene: Any, clk_hz: int | None = None, mask: int | None = None,
     m = axis_mask(scene) if mask is None else int(mask)
     trace = bool(scene.run.trace)
     exe = build(clk, m, trace, bool(getattr(scene.firmware, "test_limits", False)),
-                _coarse(scene), _observer(scene), gate=gate, pgo=pgo)
+                _coarse(scene), _observer(scene), gate=gate, pgo=pgo, saboteur=saboteur)
     q0 = start_pose(scene)
     built, skipped = parts(scene, m)
     with tempfile.TemporaryDirectory(prefix="scene-", dir=ensure(BUILD / "native" / "runs")) as t:
         tmp = Path(t) if out_dir is None else ensure(out_dir)
         (tmp / "plant.cfg").write_text(plant_config(scene, q0))
         view_cfg, fds = view.open() if view is not None else ("", ())
-        (tmp / "run.cfg").write_text(run_config(scene, q0) + view_cfg)
+        (tmp / "run.cfg").write_text(run_config(scene, q0) + view_cfg + extra)
         argv = [str(exe), str(tmp / "plant.cfg"), str(tmp / "run.cfg"), str(tmp)]
         if scripted_pc(scene):
             script = link_script(scene)
@@ -228,11 +247,16 @@ def simulate(scene: Any, clk_hz: int | None = None, mask: int | None = None,
                                 text=True, pass_fds=fds)
         if view is not None:
             view.started(tmp)
+        timer = threading.Timer(timeout_s, proc.kill) if timeout_s else None
+        if timer is not None:
+            timer.start()
         try:
             errs = _progress_reader(proc, float(scene.run.duration_s), progress)
             stdout = proc.stdout.read() if proc.stdout else ""
             rc = proc.wait()
         finally:
+            if timer is not None:
+                timer.cancel()
             if proc.poll() is None:     # interrupted (Ctrl-C): the harness goes too
                 proc.kill()
                 proc.wait()

@@ -46,9 +46,25 @@ SOURCE_EXT = {".v", ".sv", ".vlt", ".c", ".h", ".cpp", ".py", ".hex", ".toml", "
 _INTERP_ONLY = ("rtl/interp", "tb/native/interp", "models/hapgate/base", "models/hapgate/golden",
                 "models/hapgate/flows", "models/hapgate/runners",
                 "models/hapgate/device/__init__.py", "models/hapgate/device/sweep.py")
+# The fault-injection campaign (seu) runs the virtual device's gateware, firmware and harness
+# and the Python they are built and classified with, named file by file where a folder also
+# holds other work (the SoC, the board tops, other harnesses): a campaign of hours resumes
+# across edits there.
+_DEVICE = ("rtl/interp", "rtl/commutation", "rtl/dac_sched", "rtl/bus", "rtl/capture",
+           "rtl/top", "rtl/include", "rtl/regs", "dsp-fw/src", "dsp-fw/include",
+           "tb/native/device", "tb/native/vl_internals.h", "models/hapgate/base",
+           *(f"models/hapgate/golden/{m}.py" for m in (
+               "__init__", "angle", "calib", "commutation", "configs", "enccal", "encsig",
+               "interp", "interpcfg", "kinematics", "pclink", "regmap", "sine", "top")),
+           "models/hapgate/configs.toml",
+           *(f"models/hapgate/flows/{m}.py" for m in ("__init__", "flow", "regmap", "saboteur")),
+           *(f"models/hapgate/runners/{m}.py" for m in (
+               "__init__", "cosim", "covbuild", "funcov", "native", "records")),
+           "models/hapgate/device")
 KIND_SOURCES: dict[str, tuple[str, ...]] = {
     "soak": (*_INTERP_ONLY, "models/hapgate/device/soak.py"),
-    "calib_mc": (*_INTERP_ONLY, "models/hapgate/device/calib_mc.py")}
+    "calib_mc": (*_INTERP_ONLY, "models/hapgate/device/calib_mc.py"),
+    "seu": _DEVICE}
 CACHE = BUILD / "sweeps" / "cache"
 
 
@@ -208,7 +224,7 @@ def selftest_job(p: Mapping[str, Any]) -> Record:
 # job kind -> the module of hapgate.device that holds `job(params) -> record` (and optionally
 # `check(params)`, run at load on the first job to refuse a bad spec before any worker starts)
 JOBS: dict[str, str] = {"selftest": "sweep", "zwidth": "zwidth", "soak": "soak",
-                        "calib_mc": "calib_mc"}
+                        "calib_mc": "calib_mc", "seu": "seu"}
 
 
 def job_function(kind: str, name: str = "job") -> Callable[[Mapping[str, Any]], Record] | None:
@@ -220,7 +236,8 @@ def job_function(kind: str, name: str = "job") -> Callable[[Mapping[str, Any]], 
 
 
 # columns a job adds that vary between identical runs (excluded from reproducibility checks)
-VOLATILE = ("pid", "wall_s", "cached", "samples_per_s", "cpu_s", "harness_s", "gen_s")
+VOLATILE = ("pid", "wall_s", "cached", "samples_per_s", "cpu_s", "harness_s", "gen_s",
+            "harness_cpu_s")
 
 
 def run_job(kind: str, params: Mapping[str, Any]) -> Record:

@@ -73,8 +73,9 @@ DEFAULTS: dict[str, dict[str, object]] = {
 FAULT_KEYS = {"at_s": 0.0, "kind": "", "axis": 0}
 T_HOMED_S = 3e-3   # the harness's time from the homing sweep's end to the push start (Trajectory)
 KINDS = ("servo", "bus")
-# the fault kinds every harness simulates: hg_dev::kFaultKinds (tb/device/test_record_layout.py
-# compares them, as hapgate.device.harness.HARNESS_FAULTS)
+# the fault kinds every harness simulates: hg_dev::kFaultKinds less the device harness's
+# flip-flop injections (tb/device/test_record_layout.py compares them, as
+# hapgate.device.harness.HARNESS_FAULTS)
 FAULT_KINDS = ("dropout", "hang", "watchdog")
 
 

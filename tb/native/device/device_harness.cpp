@@ -33,6 +33,9 @@
 #include "verilated.h"
 #include "view_link.h"
 #include "../vl_internals.h"
+#if HG_FI
+#include "fault_inject.h"   // the saboteur netlist's injection ports (issue 38)
+#endif
 
 extern "C" {
 #include "hg_fpga_regs.h"
@@ -177,6 +180,9 @@ struct Bench : hg_tb::TestB<Vhapgate_top> {
 
     int steps_per_us = 1;
     bool inputs_changed = true;   // an input other than the clocks changed (eval(), below)
+#if HG_FI
+    hg_fi::Injector fi;           // seu / stuck faults into the flip-flops (fault_inject.h)
+#endif
 
 
 #if !HG_TRACE
@@ -255,11 +261,23 @@ struct Bench : hg_tb::TestB<Vhapgate_top> {
 #else
         const unsigned g = 0;
 #endif
+#if HG_FI
+        if (__builtin_expect(edge + 1 == fi.on_edge(), 0) && fi.before(*top, edge + 1)) inputs_changed = true;
+#endif
 #if HG_TRACE
         rise(clocks(g));   // (the public eval(): it also marks the trace's activity)
 #else
         eval_edge(g);
         ++edge;
+#endif
+#if HG_FI
+        if (__builtin_expect(edge == fi.off_edge(), 0) && fi.after(*top, edge)) {
+#if HG_TRACE
+            top->eval();
+#else
+            Vl::eval_edge(top->rootp, 0, true);   // the input logic again, no clock: the outputs
+#endif                                             // read below are the design's
+        }
 #endif
 #if HG_SIM_GATE
         gates = static_cast<uint8_t>(hg_dev::announced(*out) | (out->rst ? hg_dev::kAllGates : 0U));
@@ -473,6 +491,21 @@ int main(int argc, char** argv) {
     const bool scripted = link && uart_link_scripted(link);   // a scene's scripted PC
     if (scripted) uart_link_set_origin(link, static_cast<uint64_t>(bench.scene0_us));
     SC.start(cfg, bench.scene0_us, D);
+#if HG_FI
+    {
+        std::string ferr;
+        if (bench.fi.start(cfg, bench.scene0_us, D, CLK_HZ, bench.frame, ferr) < 0) {
+            std::fprintf(stderr, "error: %s: %s\n", argv[2], ferr.c_str());
+            return 2;
+        }
+    }
+#else
+    for (const auto& f : cfg.faults)
+        if (hg_dev::is_injection(f.kind)) {
+            std::fprintf(stderr, "error: %s: fault %s needs the saboteur build (HG_FI)\n", argv[2], hg_dev::fault_name(f.kind));
+            return 2;
+        }
+#endif
     bool hang = false;   // (SC.hanging(), kept here for the clock loop's test)
 
     while (bench.edge < end_us * D) {
@@ -567,6 +600,9 @@ int main(int argc, char** argv) {
                            static_cast<uint64_t>(SC.last_key_edge()),
                            bench.scene0_us, bench.skew, bench.frame, D});
     if (link) uart_link_summary(link, stdout);
+#if HG_FI
+    bench.fi.summary(stdout);
+#endif
     if (g_profile)
         std::printf("profile_plant_s=%.6g profile_firmware_s=%.6g profile_gateware_s=%.6g\n", g_plant_s,
                     g_isr_s - g_bus_in_isr_s, wall_s - g_plant_s - (g_isr_s - g_bus_in_isr_s));

@@ -17,15 +17,27 @@ extern "C" {
 
 namespace hg_dev {
 
-// "fault = AT_S KIND AXIS" (KIND by name, kFaultKinds)
-static bool parse_fault(const std::string& rest, RunCfg& c, std::string& err) {
+// "fault = AT_S KIND AXIS" (KIND by name, kFaultKinds); the injections (device harness only):
+// "fault = AT_S seu SITE", "fault = AT_S stuck SITE VALUE FRAMES"
+static bool parse_fault(const std::string& rest, RunCfg& c, std::string& err, bool injections) {
     std::istringstream vs(rest);
     double at = 0;
     std::string name, extra;
     int axis = 0;
     FaultKind k{};
-    if (!(vs >> at >> name >> axis) || (vs >> extra)) err = "fault: expected AT_S KIND AXIS";
+    if (!(vs >> at >> name)) err = "fault: expected AT_S KIND ...";
     else if (!fault_kind_of(name, &k)) err = "fault: unknown kind " + name;
+    else if (is_injection(k)) {
+        RunCfg::Fault f{at, k, 0};
+        const bool stuck = k == FaultKind::stuck;
+        if (!injections) err = "fault: " + name + " needs the device harness";
+        else if (!(vs >> f.site) || (stuck && !(vs >> f.value >> f.frames)) || (vs >> extra))
+            err = stuck ? "fault: expected AT_S stuck SITE VALUE FRAMES" : "fault: expected AT_S seu SITE";
+        else if (f.site < 0 || (stuck && (f.value < 0 || f.value > 1 || f.frames < 1)))
+            err = "fault: " + name + ": site >= 0, value 0 or 1, frames >= 1";
+        else c.faults.push_back(f);
+    }
+    else if (!(vs >> axis) || (vs >> extra)) err = "fault: expected AT_S KIND AXIS";
     else if (axis < 0 || axis > 2) err = "fault: axis must be 0, 1 or 2";
     else c.faults.push_back({at, k, axis});
     return err.empty();
@@ -42,7 +54,7 @@ bool parse_run(const std::string& text, RunCfg& c, std::string& err, Keys keys) 
         std::string key = line.substr(0, eq);
         key.erase(key.find_last_not_of(" \t") + 1);
         if (key == "fault") {
-            if (!parse_fault(line.substr(eq + 1), c, err)) return false;
+            if (!parse_fault(line.substr(eq + 1), c, err, keys == Keys::device)) return false;
             continue;
         }
         std::istringstream vs(line.substr(eq + 1));

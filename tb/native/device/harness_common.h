@@ -30,13 +30,21 @@ constexpr double kPi = 3.14159265358979323846;
 // The scene's [[fault]] kinds a harness simulates, by the scene's own names: the run
 // configuration names them (`fault = AT_S NAME AXIS`), the live view reports them by name, and
 // tb/device/test_record_layout.py checks this list against hapgate.device.harness.HARNESS_FAULTS.
-enum class FaultKind : int { dropout, hang, watchdog };
+enum class FaultKind : int { dropout, hang, watchdog, seu, stuck };
 struct FaultKindName { FaultKind kind; const char* name; };
 constexpr FaultKindName kFaultKinds[] = {
     {FaultKind::dropout, "dropout"},     // the axis's ADC codes are 0 from at_s on
     {FaultKind::hang, "hang"},           // the DSP stops calling its ISR (README "Faults")
     {FaultKind::watchdog, "watchdog"},   // every watchdog key write is lost
+    // injections into the gateware's own flip-flops (fault_inject.h; only the device harness
+    // built on the saboteur netlist, HG_FI, simulates them): `fault = AT_S seu SITE` flips
+    // site SITE's flip-flop once; `fault = AT_S stuck SITE VALUE FRAMES` holds its output at
+    // VALUE (0, 1) for FRAMES DAC frames
+    {FaultKind::seu, "seu"},
+    {FaultKind::stuck, "stuck"},
 };
+// An injection into a flip-flop (seu, stuck) rather than a fault of the world around the FPGA.
+constexpr bool is_injection(FaultKind k) { return k == FaultKind::seu || k == FaultKind::stuck; }
 inline const char* fault_name(FaultKind k) {
     for (const auto& f : kFaultKinds)
         if (f.kind == k) return f.name;
@@ -80,7 +88,10 @@ struct RunCfg {
     double progress_s = 0.05;               // progress line every this much simulated time
     int view_fd = -1, ctl_fd = -1;          // the live view's pipes (view_link.h; device harness only)
     double view_period_s = 0.02;            // its telemetry period, simulated time
-    struct Fault { double at_s; FaultKind kind; int axis; };
+    struct Fault {
+        double at_s; FaultKind kind; int axis;
+        int site = -1, value = 0, frames = 0;   // seu, stuck: the flip-flop site, stuck value, frames
+    };
     std::vector<Fault> faults;              // (the axis matters for a dropout only)
     // model fidelity only (model_harness.cpp); the Verilated harness refuses them
     int mech_us = 0;                        // mechanics step, us (0: the plant's own dt_s)
