@@ -134,6 +134,26 @@ REGRESS: dict[str, str] = {
         "(test_an_unhomed_device_answers_from_reset), the restart with far indexes "
         "(test_a_stored_calibration_restarts_with_the_index_anywhere) and homing in the "
         "firmware's C unit tests (bringup_home, bringup_power_up)",
+    r"^tb/top/test_top\.py::test_top_(bit_exact|homed_truth)\[(hires|hx8k|observer)-":
+        "the top's bit-exact and truth runs of three more named configurations (a build "
+        "each, 30-40 s); tier 1 keeps paper (three seeds, both checks) and ecp5, every "
+        "configuration's lint and synthesis, the hx8k configuration inside the HX8K board "
+        "top's bit-exact run and the observer through the device's velocity tests",
+    r"^tb/commutation/test_commutator\.py::test_commutator_rtl\[c12m5_serial-":
+        "the serial (shift-add) multiplier at 12.5 MHz, its own build (50 s); tier 1 keeps it "
+        "inside the HX8K board top's bit-exact run (SERIAL_MUL = 1) and the other "
+        "multiplier's configurations here",
+    r"^tb/top/test_top_capture\.py::test_top_capture$":
+        "the capture buffer through the top (its own build, 45 s); tier 1 keeps the block's "
+        "bit-exact run (tb/capture) and the buffer read end to end by bring-up's encoder step "
+        "on unaligned.toml",
+    r"^tb/dac_sched/test_dac_sched\.py::test_strobe_high_from_power_up\[verilator\]":
+        "the write strobe from power-up on the RTL (45 s); tier 1 keeps the same check on the "
+        "iCE40 netlist (test_strobe_high_from_power_up_ice40_netlist) and the schedule's "
+        "timing at the shipped clocks",
+    r"^tb/commutation/test_sine_lut\.py::test_sine_lut_rtl\[sine_q64_fs2047-":
+        "the smaller sine ROM (64 entries a quadrant, 11-bit full scale), its own build; tier "
+        "1 keeps the shipped 256-entry ROM bit-exact and against truth",
     r"^tb/bus/test_hg_bus\.py::test_random_accesses_16mhz":
         "random bus accesses at a second FPGA clock (16 MHz, no board's); tier 1 keeps them at "
         "the bus tests' own clock",
