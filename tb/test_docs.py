@@ -269,10 +269,11 @@ def test_bench_keeps_the_hand_written_sections() -> None:
     page = (ROOT / "docs" / "figures.md").read_text(encoding="utf-8")
     old = bench._sections(page)
     hand = [k for k in old if k.startswith("hand:")]
-    assert hand == ["hand:tiers"], hand
+    assert "hand:tiers" in hand, hand
     assert bench.render(old) == page                      # nothing ran: the page as it was
     name = next(iter(bench.SECTIONS))
     new = dict(old, **{name: bench.section_text(name, "Measured now.", "figures", True)})
     out = bench.render(new)
-    assert out.count(old["hand:tiers"]) == 1 and "Measured now." in out
-    assert out.index(old["hand:tiers"]) > out.index("Measured now.")
+    assert "Measured now." in out
+    for k in hand:
+        assert out.count(old[k]) == 1 and out.index(old[k]) > out.index("Measured now."), k
