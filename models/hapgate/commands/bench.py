@@ -24,7 +24,7 @@ from collections.abc import Callable
 from pathlib import Path
 
 from ..base import toolenv
-from ..base.paths import ROOT
+from ..base.paths import BUILD, ROOT, ensure
 from ..base.report import table, write_csv
 from ..runners import cosim
 from . import (
@@ -69,6 +69,21 @@ def _fw(quick: bool) -> bool:
     return r.returncode == 0
 
 
+def _seu(quick: bool) -> bool:
+    """A slice of the fault-injection campaign (scenes/sweeps/seu.toml, the first N of its
+    seeded jobs, uncached): its per-block table and its runs per second on two workers."""
+    n = 60 if quick else 400
+    print(f"== fault injection: the first {n} runs of scenes/sweeps/seu.toml, uncached, "
+          "2 workers ==", flush=True)
+    out = ensure(BUILD / "reports" / "bench_seu")
+    r = subprocess.run([sys.executable, "-m", "hapgate.commands.cli", "sweep",
+                        str(ROOT / "scenes" / "sweeps" / "seu.toml"), "--workers", "2",
+                        "--limit", str(n), "--no-cache", "--out", str(out)],
+                       stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True)
+    print(r.stdout, end="")
+    return r.returncode == 0
+
+
 # name -> (title on the figures page, runner); the order of `make bench`
 SECTIONS: dict[str, tuple[str, Callable[[bool], bool]]] = {
     "sine": ("Sine ROM", _sine),
@@ -82,6 +97,7 @@ SECTIONS: dict[str, tuple[str, Callable[[bool], bool]]] = {
     "host-c": ("The C servo loop beside the Python loop", bench_host.run_c),
     "bringup": ("Bring-up: device time and accuracy per step", bench_bringup.run),
     "fw": ("DSP firmware: servo step cost", _fw),
+    "seu": ("Fault injection: runs per second", _seu),
     "view": ("The live view: real-time factor with and without a viewer", bench_view.run),
 }
 
