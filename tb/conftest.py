@@ -154,6 +154,10 @@ REGRESS: dict[str, str] = {
     r"^tb/commutation/test_sine_lut\.py::test_sine_lut_rtl\[sine_q64_fs2047-":
         "the smaller sine ROM (64 entries a quadrant, 11-bit full scale), its own build; tier "
         "1 keeps the shipped 256-entry ROM bit-exact and against truth",
+    r"^tb/bringup/test_bringup\.py::test_every_scene_answers_its_link_from_reset":
+        "every shipped scene served once (a device build for each clock, axis set and "
+        "gateware option they name); tier 1 keeps the link from reset on an unhomed scene "
+        "and a restarted one (test_an_unhomed_device_answers_from_reset)",
     r"^tb/bus/test_hg_bus\.py::test_random_accesses_16mhz":
         "random bus accesses at a second FPGA clock (16 MHz, no board's); tier 1 keeps them at "
         "the bus tests' own clock",

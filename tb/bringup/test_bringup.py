@@ -585,3 +585,27 @@ def test_homing_on_both_sides_and_an_index_out_of_range(tmp_path: Path, capsys: 
     assert f"beside limit {3 * home_range:g}" in line, line
     covered = float(line.split("NO_INDEX (")[1].split()[0])
     assert 3 * home_range <= covered <= 3 * home_range + 0.01, line
+
+
+@pytest.mark.parametrize("path", sorted([*SCENES.glob("*.toml"), *SCENES.glob("bringup/*.toml"),
+                                         *SCENES.glob("seu/*.toml")]),
+                         ids=lambda p: str(p.relative_to(SCENES)))
+def test_every_scene_answers_its_link_from_reset(path: Path) -> None:
+    """Every shipped scene, served (its calibration stored or none, its indexes wherever they
+    lie): INFO answered within 1 s of the port, before any homing; ENABLE accepted exactly when
+    the scene stores a calibration (the power-up restarted it), else refused as uncalibrated."""
+    scene = sc.load(path)
+    with serve(scene) as srv:
+        t0 = time.monotonic()
+        with Device.open(srv.port) as dev:
+            dev.info()
+            assert time.monotonic() - t0 <= 1.0
+            while dev.state().seq < 20:                  # past the power-up (tick 2)
+                time.sleep(0.01)
+            if scene.calibration == "none":
+                with pytest.raises(Refused) as exc:
+                    dev.enable()
+                assert exc.value.reason == pclink.NAK_UNCALIBRATED
+            else:
+                dev.enable()
+                assert dev.state().enabled
