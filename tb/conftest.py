@@ -134,6 +134,10 @@ REGRESS: dict[str, str] = {
         "(test_an_unhomed_device_answers_from_reset), the restart with far indexes "
         "(test_a_stored_calibration_restarts_with_the_index_anywhere) and homing in the "
         "firmware's C unit tests (bringup_home, bringup_power_up)",
+    r"^tb/top/test_top_bounds\.py::test_top_fault_kinds_zero_torque\[(hires|observer)\]":
+        "the fault kinds' zero torque on two more configurations' builds (15-19 s each, with "
+        "the tests below); tier 1 keeps them on paper, and every configuration's safety path "
+        "is the same RTL the formal proof of the top covers",
     r"^tb/top/test_top\.py::test_top_(bit_exact|homed_truth)\[(hires|hx8k|observer)-":
         "the top's bit-exact and truth runs of three more named configurations (a build "
         "each, 30-40 s); tier 1 keeps paper (three seeds, both checks) and ecp5, every "
