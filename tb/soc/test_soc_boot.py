@@ -50,22 +50,9 @@ REQUESTS = [
     (TICK + 2_000, pclink.encode(pclink.GET_STATS, 4, version=pclink.VERSION2)),
 ]
 
-# The budget's scene: the servo enabled (every axis calibrated over the link: homed and aligned,
-# the FPGA's pole pairs) in a wall of the scene README's 20 N/cm, its surface WALL_DEPTH beyond
-# the pose the still encoders give, so that the hand is in contact on every tick
-WALL_K = 2000.0            # N/m
-WALL_DEPTH = 0.002         # m: 4 N into the wall
-WALL_N = (0.0, 0.0, 1.0)   # the wall's normal
-CAL_WORDS = (3, 1, 0, 2, 0, 0)   # HOMED | ALIGNED, encoder +1, phases in order, 2 pole pairs
+# The budget's scene: hapgate.runners.soc.wall_run (the wall, its depth and the calibration)
+WALL_K, WALL_DEPTH = soc.WALL_K, soc.WALL_DEPTH
 BUDGET_TICKS = 40          # ticks checked with the hand in the wall
-SETUP = 2 * TICK           # when the calibration, ENABLE and the probe's GET_STATE are sent
-SETUP_FRAMES = [
-    *(pclink.encode(pclink.SET_CALIB, 10 + a, pclink.set_calib(a, CAL_WORDS),
-                    version=pclink.VERSION2) for a in range(3)),
-    pclink.encode(pclink.ENABLE, 13, b"\x01"),
-    pclink.encode(pclink.GET_STATE, 14),
-]
-
 
 @pytest.fixture(scope="module")
 def fw() -> soc.Firmware:
@@ -78,35 +65,19 @@ def boot(fw: soc.Firmware, tmp_path_factory: pytest.TempPathFactory) -> soc.SocR
                    clk_hz=CLK_HZ, baud=BAUD)
 
 
-def _states(run: soc.SocRun) -> dict[int, pclink.State]:
-    """The GET_STATE replies of a run, by their seq."""
-    return {f.seq: pclink.parse_state(f.data) for f in pclink.split(run.tx_bytes)
-            if f.msg_type == pclink.GET_STATE | pclink.REPLY}
+_states = soc.states
 
 
 @pytest.fixture(scope="module")
 def wall(fw: soc.Firmware, tmp_path_factory: pytest.TempPathFactory
          ) -> tuple[soc.SocRun, dict[int, pclink.State], int]:
-    """The wall run: a probe finds the pose (GET_STATE after the set-up), then the same set-up
-    with the wall WALL_DEPTH beyond that pose, BUDGET_TICKS ticks in contact and a last
-    GET_STATE (seq 16). Returns the run, its states by seq and the edge from which the wall
-    holds (its SET_SCENE's reply; the run's end if there is none)."""
-    sends = [(SETUP, f) for f in SETUP_FRAMES]
-    probe = soc.run(fw, SETUP + 6 * TICK, sends, tmp_path_factory.mktemp("soc_probe"),
-                    clk_hz=CLK_HZ, baud=BAUD)
-    states = _states(probe)
-    assert 14 in states, "no reply to the probe's GET_STATE: the link loop got no CPU time?"
-    p = states[14].p
-    p0 = tuple(p[i] + WALL_DEPTH * WALL_N[i] for i in range(3))
-    scene = pclink.set_scene(pclink.SCENE_WALL, p0, WALL_N, WALL_K, 0.0)
-    start = SETUP + 4 * TICK
-    sends += [(start, pclink.encode(pclink.SET_SCENE, 15, scene)),
-              (start + (BUDGET_TICKS + 1) * TICK, pclink.encode(pclink.GET_STATE, 16))]
-    run = soc.run(fw, start + (BUDGET_TICKS + 3) * TICK, sends,
-                  tmp_path_factory.mktemp("soc_wall"), clk_hz=CLK_HZ, baud=BAUD)
+    """The wall run (soc.wall_run): its states by seq and the edge from which the wall holds
+    (its SET_SCENE's reply; the run's end if there is none)."""
+    run, states = soc.wall_run(fw, tmp_path_factory.mktemp("soc_wall"), BUDGET_TICKS,
+                               clk_hz=CLK_HZ, rate_hz=RATE_HZ, baud=BAUD)
     held = [first for first, _, f in _frames(run)
             if f.seq == 15 and f.msg_type == pclink.SET_SCENE | pclink.REPLY]
-    return run, _states(run), held[0] if held else run.summary["clocks"]
+    return run, states, held[0] if held else run.summary["clocks"]
 
 
 def _sent_ends() -> list[int]:

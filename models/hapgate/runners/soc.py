@@ -27,7 +27,7 @@ import numpy as np
 
 from ..base import cbuild
 from ..base.paths import BUILD, ROOT, RTL, TB, ensure, locked
-from ..golden import configs
+from ..golden import configs, pclink
 from ..golden.top import SOURCES, TopConfig
 from . import native
 
@@ -162,6 +162,48 @@ def run(fw: Firmware, clocks: int, sends: list[tuple[int, bytes]], out: Path,
     ticks = [(int(a), int(b), int(c), int(d)) for a, b, c, d in
              (ln.split() for ln in (out / "ticks.txt").read_text().splitlines())]
     return SocRun(summary, tx, ticks, {s: words[a] for s, a in peek.items()}, wall, sends)
+
+
+# The budget's scene (issue 36): the servo enabled (every axis calibrated over the link: homed
+# and aligned, the FPGA's pole pairs) in a wall of the scenes' 20 N/cm, its surface WALL_DEPTH
+# beyond the pose the still encoders give, so that the hand is in contact on every tick
+WALL_K = 2000.0            # N/m
+WALL_DEPTH = 0.002         # m: 4 N into the wall
+WALL_N = (0.0, 0.0, 1.0)   # the wall's normal
+CAL_WORDS = (3, 1, 0, 2, 0, 0)   # HOMED | ALIGNED, encoder +1, phases in order, 2 pole pairs
+
+
+def states(r: SocRun) -> dict[int, pclink.State]:
+    """The GET_STATE replies of a run, by their seq."""
+    return {f.seq: pclink.parse_state(f.data) for f in pclink.split(r.tx_bytes)
+            if f.msg_type == pclink.GET_STATE | pclink.REPLY}
+
+
+def wall_run(fw: Firmware, out: Path, ticks: int = 40, clk_hz: int = 48_000_000,
+             rate_hz: int = 1000, baud: int = BAUD) -> tuple[SocRun, dict[int, pclink.State]]:
+    """The budget's wall: at 2 ticks the calibration of every axis, ENABLE and a GET_STATE
+    (seq 14) that finds the pose (a probe run), then the same set-up with the wall WALL_DEPTH
+    beyond that pose (SET_SCENE, seq 15, 4 ticks later), `ticks` ticks in contact and a last
+    GET_STATE (seq 16). Returns the wall run and its states by seq; the probe is out/probe."""
+    tick = clk_hz // rate_hz
+    setup = 2 * tick
+    sends = [(setup, f) for f in (
+        *(pclink.encode(pclink.SET_CALIB, 10 + a, pclink.set_calib(a, CAL_WORDS),
+                        version=pclink.VERSION2) for a in range(3)),
+        pclink.encode(pclink.ENABLE, 13, b"\x01"),
+        pclink.encode(pclink.GET_STATE, 14))]
+    probe = run(fw, setup + 6 * tick, sends, out / "probe", clk_hz=clk_hz, baud=baud)
+    found = states(probe)
+    if 14 not in found:
+        raise RuntimeError("no reply to the probe's GET_STATE: the link loop got no CPU time?")
+    p = found[14].p
+    p0 = tuple(p[i] + WALL_DEPTH * WALL_N[i] for i in range(3))
+    scene = pclink.set_scene(pclink.SCENE_WALL, p0, WALL_N, WALL_K, 0.0)
+    start = setup + 4 * tick
+    sends += [(start, pclink.encode(pclink.SET_SCENE, 15, scene)),
+              (start + (ticks + 1) * tick, pclink.encode(pclink.GET_STATE, 16))]
+    r = run(fw, start + (ticks + 3) * tick, sends, out / "wall", clk_hz=clk_hz, baud=baud)
+    return r, states(r)
 
 
 def profile_by_function(fw: Firmware, out: Path) -> list[tuple[str, int, int]]:
