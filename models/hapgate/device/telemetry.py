@@ -15,7 +15,6 @@ import os
 import threading
 import time
 from collections import deque
-from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -216,39 +215,41 @@ class Feed(_Base):
 
     def state(self) -> dict[str, Any]:
         """The newest frame as the page and `GET /state` read it (docs/view.md). Before the
-        first frame the answer has the same keys, every value taken from the frame None."""
+        first frame the answer has the same keys, the frame's values None (FRAME_KEYS)."""
         with self.lock:
             d = dict(self._state)
             events = [e for e in self.events if e]
             frames, done = self.frames, self.done
             rtf, pc_hz = self._rates()
+        return {**(_from_frame(d, rtf, pc_hz) if d else dict.fromkeys(FRAME_KEYS)),
+                "events": events,
+                "target": None if self.target is None else [float(v) for v in self.target],
+                "frames": frames, "dropped_view": self.dropped_view, "bursts": self.bursts,
+                "done": done, "source": "live"}
 
-        def frame(value: Callable[[], Any]) -> Any:    # a value from the frame, None before one
-            return value() if d else None
 
-        link = d.get("link")
-        err = int(d.get("err", 0))
-        return {
-            "t_s": frame(lambda: d["t"]), "q": frame(lambda: d["q"]),
-            "p": frame(lambda: d["p"]), "f_hand": frame(lambda: d["f"]),
-            "tau": frame(lambda: d["tau"]), "i_ab": frame(lambda: d["i"]),
-            "dac": frame(lambda: [int(x) for x in d["dac"]]), "f_fw": frame(lambda: d["ffw"]),
-            "tau_fw": frame(lambda: d["taufw"]),
-            "rtf": frame(lambda: 0.0 if d["paused"] else rtf),
-            "fw_error": frame(lambda: ERR_NAMES[err] if err < len(ERR_NAMES) else str(err)),
-            "fw_error_axis": frame(lambda: int(d["eax"])),
-            "enabled": frame(lambda: bool(d["en"])), "driving": frame(lambda: bool(d["drv"])),
-            "status": frame(lambda: int(d["st"])), "paused": frame(lambda: bool(d["paused"])),
-            "forces_off": frame(lambda: bool(d["off"])), "events": events,
-            "link": frame(lambda: None if link is None else dict(
-                zip(("good", "bad", "replayed", "timeouts"), (int(x) for x in link)))),
-            "pc_loop_hz": frame(lambda: pc_hz if link is not None else None),
-            "pc_force_age_ms": frame(lambda: _finite(d["pcage"] * 1e3)),
-            "target": None if self.target is None else [float(v) for v in self.target],
-            "frames": frames, "dropped_device": frame(lambda: int(d["drop"])),
-            "dropped_view": self.dropped_view, "bursts": self.bursts, "done": done,
-            "source": "live",
-        }
+# The keys of a live state taken from the telemetry frame (_from_frame; None before the first)
+FRAME_KEYS = ("t_s", "q", "p", "f_hand", "tau", "i_ab", "dac", "f_fw", "tau_fw", "rtf",
+              "fw_error", "fw_error_axis", "enabled", "driving", "status", "paused",
+              "forces_off", "link", "pc_loop_hz", "pc_force_age_ms", "dropped_device")
+
+
+def _from_frame(d: dict[str, Any], rtf: float | None, pc_hz: float | None) -> dict[str, Any]:
+    """A live state's values from one telemetry frame `d` (the keys of FRAME_KEYS)."""
+    link, err = d.get("link"), int(d["err"])
+    return {
+        "t_s": d["t"], "q": d["q"], "p": d["p"], "f_hand": d["f"], "tau": d["tau"],
+        "i_ab": d["i"], "dac": [int(x) for x in d["dac"]], "f_fw": d["ffw"],
+        "tau_fw": d["taufw"], "rtf": 0.0 if d["paused"] else rtf,
+        "fw_error": ERR_NAMES[err] if err < len(ERR_NAMES) else str(err),
+        "fw_error_axis": int(d["eax"]), "enabled": bool(d["en"]),
+        "driving": bool(d["drv"]), "status": int(d["st"]), "paused": bool(d["paused"]),
+        "forces_off": bool(d["off"]),
+        "link": None if link is None else dict(zip(("good", "bad", "replayed", "timeouts"),
+                                                   (int(x) for x in link))),
+        "pc_loop_hz": pc_hz if link is not None else None,
+        "pc_force_age_ms": _finite(d["pcage"] * 1e3), "dropped_device": int(d["drop"]),
+    }
 
 
 class Replay(_Base):
