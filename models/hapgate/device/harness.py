@@ -21,7 +21,7 @@ from ..runners import cosim
 from ..runners.records import FRAME_DT as FRAME_DT  # re-exported: runner, model, the tests
 from ..runners.records import LOAD_DT as LOAD_DT
 from ..runners.records import TICK_DT as TICK_DT
-from .scene import PcCfg
+from .scene import PcCfg, index_at
 
 HERE = TB / "native" / "device"
 FW = ROOT / "dsp-fw"
@@ -31,7 +31,6 @@ FULL_CLK_HZ = 48_000_000     # the shipped default
 SAMPLE_HZ = 1_000_000
 K_MAX_TEST = 50_000.0        # N/m: HG_SCENE_K_MAX_TEST of a firmware.test_limits build
 T_HOLD_S = 9.1e-3            # power-up: a fixture holds the handle in q0 from reset to scene time 0
-DEFAULT_INDEX_DEG = 0.25     # without plant.index_q_deg each index lies this far below q0
 HOLD_SAMPLES = 64            # a held axis: the golden interpolator reads it after this many samples
 LOSS_SAMPLES = 16            # interpolator: the 16th bad sample raises signal loss
 ENV_KINDS = {"none": 0, "wall": 1, "spring": 2, "viscous": 3, "pc": 4}
@@ -95,11 +94,9 @@ def start_pose(scene: Any) -> np.ndarray:
 
 
 def q_index(q0: np.ndarray, scene: Any = None) -> np.ndarray:
-    """The index of each encoder: plant.index_q_deg, else DEFAULT_INDEX_DEG below the start pose."""
-    given = getattr(getattr(scene, "plant", None), "index_q_deg", None)
-    if given is not None:
-        return np.deg2rad(np.asarray(given, dtype=float))
-    return q0 - np.deg2rad(DEFAULT_INDEX_DEG)
+    """The index of each encoder at start pose q0 (scene.index_at: plant.index_q_deg, else
+    just below q0)."""
+    return index_at(q0, getattr(getattr(scene, "plant", None), "index_q_deg", None))
 
 
 def _plant_bringup(scene: Any) -> tuple[tuple[float, ...], tuple[bool, ...], tuple[int, ...]]:

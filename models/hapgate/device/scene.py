@@ -16,7 +16,7 @@ from __future__ import annotations
 import json
 import math
 import re
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import asdict, dataclass, field, fields, replace
 from pathlib import Path
 from typing import Any
@@ -390,10 +390,8 @@ def _calib(mode: str, plant: PlantCfg, run: RunCfg, source: str
     if mode == "none":
         return calib.NONE
     if mode == "truth":   # the harness's index (harness.q_index), to the bit
-        qi = (np.deg2rad(np.asarray(plant.index_q_deg, dtype=np.float64))
-              if plant.index_q_deg is not None else
-              np.deg2rad(np.asarray(run.q0_deg or DEFAULT_Q0_DEG, dtype=np.float64))
-              - np.deg2rad(DEFAULT_INDEX_DEG))
+        qi = index_at(np.deg2rad(np.asarray(run.q0_deg or DEFAULT_Q0_DEG, dtype=np.float64)),
+                      plant.index_q_deg)
         return calib.truth(qi, plant.comm_offset_elec_deg, plant.phases_swapped,
                            plant.encoder_dir, plant.pole_pairs)
     path = Path(mode)
@@ -402,13 +400,18 @@ def _calib(mode: str, plant: PlantCfg, run: RunCfg, source: str
     return calib.load(path)
 
 
-def index_rad(scene: Scene) -> np.ndarray:
-    """The joint angle of each encoder's index [rad]: plant.index_q_deg, else
-    DEFAULT_INDEX_DEG below the start pose (the windings' zero lies there too, unless
+def index_at(q0_rad: np.ndarray, index_q_deg: Sequence[float] | None) -> np.ndarray:
+    """The joint angle of each encoder's index [rad]: index_q_deg (plant.index_q_deg), else
+    DEFAULT_INDEX_DEG below the start pose q0_rad (the windings' zero lies there too, unless
     comm_offset_elec_deg says otherwise)."""
-    if scene.plant.index_q_deg is not None:
-        return np.deg2rad(np.asarray(scene.plant.index_q_deg, dtype=np.float64))
-    return scene.q0_rad - np.deg2rad(DEFAULT_INDEX_DEG)
+    if index_q_deg is not None:
+        return np.deg2rad(np.asarray(index_q_deg, dtype=np.float64))
+    return np.asarray(q0_rad, dtype=np.float64) - np.deg2rad(DEFAULT_INDEX_DEG)
+
+
+def index_rad(scene: Scene) -> np.ndarray:
+    """The scene's index of each encoder [rad] (index_at)."""
+    return index_at(scene.q0_rad, scene.plant.index_q_deg)
 
 
 # ------------------------------------------------------------------------------- validation
