@@ -95,7 +95,7 @@ synth: $(STAMP)
 	$(HG) pnr
 
 flash: $(STAMP)
-	@test -n "$(BOARD)" || { echo "error: make flash BOARD=NAME (ice40-hx8k, ecp5-evn)" >&2; exit 2; }
+	@test -n "$(BOARD)" || { echo "error: make flash BOARD=NAME (ice40-hx8k, ecp5-evn, ecp5-soc)" >&2; exit 2; }
 	$(HG) flash $(BOARD) $(FLASH_ARGS)
 
 gatelevel: $(STAMP)

@@ -1,9 +1,9 @@
 // SPDX-License-Identifier: Apache-2.0
 // Board top for Lattice's ECP5-5G evaluation board (LFE5UM5G-85F): the 12 MHz board clock
-// multiplied to CLK_HZ by an EHXPLLL (USE_PLL=0 bypasses it for simulation: CLK_HZ is then the
-// input clock), reset from the active-low button and the PLL lock, synchronised (held >= 4
-// clocks), the DSP data bus as real bidirectional pins. The headers carry the paper's parallel
-// buses directly (no adapter). Pins: ecp5_evn.lpf.
+// multiplied to CLK_HZ by an EHXPLLL and the reset from the active-low button and the PLL lock
+// (ecp5_pll_reset; USE_PLL=0 bypasses the PLL for simulation), the DSP data bus as real
+// bidirectional pins. The headers carry the paper's parallel buses directly (no adapter).
+// Pins: ecp5_evn.lpf.
 `timescale 1ns / 1ps
 `default_nettype none
 
@@ -31,47 +31,11 @@ module hapgate_ecp5_evn #(
     output wire        bus_ready,
     output wire        irq
 );
-    // 12 MHz * CLKFB_DIV / CLKI_DIV = CLK_HZ; VCO = CLK_HZ * CLKOP_DIV in 400..800 MHz.
-    localparam integer IN_HZ     = 12_000_000;
-    localparam integer FB_DIV    = CLK_HZ / IN_HZ;
-    localparam integer OP_DIV    = 600_000_000 / CLK_HZ;
-    localparam integer VCO_HZ    = CLK_HZ * OP_DIV;
-
-    wire core_clk, locked;
-    generate
-        if (USE_PLL != 0) begin : g_pll
-            if (FB_DIV * IN_HZ != CLK_HZ || VCO_HZ < 400_000_000 || VCO_HZ > 800_000_000) begin : g_bad_pll
-                hapgate_ecp5_evn_CLK_HZ_must_be_a_multiple_of_12_MHz_from_36_to_200_MHz u_stop ();
-            end
-            (* FREQUENCY_PIN_CLKI = "12", ICP_CURRENT = "12", LPF_RESISTOR = "8", MFG_ENABLE_FILTEROPAMP = "1", MFG_GMCREF_SEL = "2" *)
-            EHXPLLL #(
-                .PLLRST_ENA("DISABLED"), .INTFB_WAKE("DISABLED"), .STDBY_ENABLE("DISABLED"),
-                .DPHASE_SOURCE("DISABLED"), .OUTDIVIDER_MUXA("DIVA"), .OUTDIVIDER_MUXB("DIVB"),
-                .OUTDIVIDER_MUXC("DIVC"), .OUTDIVIDER_MUXD("DIVD"),
-                .CLKI_DIV(1), .CLKOP_ENABLE("ENABLED"), .CLKOP_DIV(OP_DIV),
-                .CLKOP_CPHASE(OP_DIV - 1), .CLKOP_FPHASE(0), .FEEDBK_PATH("CLKOP"),
-                .CLKFB_DIV(FB_DIV)
-            ) u_pll (
-                .RST(1'b0), .STDBY(1'b0), .CLKI(clk), .CLKOP(core_clk), .CLKFB(core_clk),
-                .PHASESEL0(1'b0), .PHASESEL1(1'b0), .PHASEDIR(1'b1),
-                .PHASESTEP(1'b1), .PHASELOADREG(1'b1), .PLLWAKESYNC(1'b0), .ENCLKOP(1'b0),
-                .LOCK(locked)
-            );
-        end else begin : g_no_pll
-            assign core_clk = clk;
-            assign locked   = 1'b1;
-        end
-    endgenerate
-
-    // Reset: asserted asynchronously by the button or a PLL out of lock, released synchronously
-    // after 4 core clocks.
-    wire      arst_n = rst_n & locked;
-    reg [3:0] rst_pipe;
-    always @(posedge core_clk or negedge arst_n) begin
-        if (!arst_n) rst_pipe <= 4'hf;
-        else         rst_pipe <= {rst_pipe[2:0], 1'b0};
-    end
-    wire rst = rst_pipe[3];
+    // the PLL and the reset (shared with hapgate_ecp5_soc)
+    wire core_clk, rst;
+    ecp5_pll_reset #(.CLK_HZ(CLK_HZ), .USE_PLL(USE_PLL)) u_clkrst (
+        .clk_in(clk), .rst_n(rst_n), .clk(core_clk), .rst(rst)
+    );
 
     wire [31:0] data_out;
     wire        data_oe;

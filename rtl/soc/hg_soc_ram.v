@@ -27,6 +27,12 @@ module hg_soc_ram #(
         end
     endgenerate
 
+    // no_rw_check: the two ports' collision (A reading the word B writes in the same clock)
+    // is left to the block RAM. Without it Yosys keeps A's "old word" by building the RAM
+    // twice (128 DP16KD for 128 KiB instead of 64). The firmware never executes a word it
+    // writes (no self-modifying code), so such a fetch is never used. B's own read-before-write
+    // is kept: the block RAM's READBEFOREWRITE mode.
+    (* no_rw_check *)
     reg [31:0] mem [0:(1 << ADDR_BITS) - 1];
 
     initial begin

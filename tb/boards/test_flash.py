@@ -36,16 +36,27 @@ def stand_in(tmp: Path, scan: str, rc: int = 0, says: str = "") -> tuple[Path, P
     return exe, log
 
 
-def test_no_board_attached_exits_2_saying_so(tmp_path: Path) -> None:
+@pytest.mark.parametrize("board", ["ecp5-evn", "ecp5-soc"])
+def test_no_board_attached_exits_2_saying_so(tmp_path: Path, board: str) -> None:
     bit = tmp_path / "s1.design.bit"
     bit.write_bytes(b"\xff" * 64)
-    r = run("flash", "ecp5-evn", "--bitstream", str(bit))        # the real openFPGALoader
+    r = run("flash", board, "--bitstream", str(bit))             # the real openFPGALoader
     assert r.returncode == 2, r.stderr
-    assert "no board attached" in r.stderr and "ecp5-evn" in r.stderr, r.stderr
+    assert "no board attached" in r.stderr and board in r.stderr, r.stderr
+
+
+def test_the_soc_board_is_written_as_the_ecp5_evaluation_board(tmp_path: Path) -> None:
+    """ecp5-soc is the same board as ecp5-evn: openFPGALoader's `ecp5_evn`."""
+    exe, log = stand_in(tmp_path, "found 1 USB device")
+    bit = tmp_path / "s1.design.bit"
+    bit.write_bytes(b"\xff" * 64)
+    r = run("flash", "ecp5-soc", "--bitstream", str(bit), env={"HG_OPENFPGALOADER": str(exe)})
+    assert r.returncode == 0, r.stderr
+    assert log.read_text().splitlines() == ["--scan-usb", f"-b ecp5_evn {bit}"]
 
 
 @pytest.mark.parametrize("argv, want", [
-    (("flash", "nope"), "unknown board 'nope'; known: ice40-hx8k, ecp5-evn"),
+    (("flash", "nope"), "unknown board 'nope'; known: ice40-hx8k, ecp5-evn, ecp5-soc"),
     (("flash", "ecp5-evn", "--bitstream", ""), "--bitstream: the path is empty"),
     (("flash", "ecp5-evn", "--bitstream", "/nonexistent/a.bit"),
      "--bitstream /nonexistent/a.bit: no such file"),

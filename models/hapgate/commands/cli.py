@@ -105,6 +105,7 @@ def cmd_pnr(args: argparse.Namespace) -> int:
                   file=sys.stderr)
             return 2
     rows, ok = [], True
+    split: list[tuple[str, dict[str, int]]] = []
     if stage.TARGET in args.board:   # per-stage timing: a table, not a fit / timing verdict
         srows, path = stage.run_all(args.seeds)
         print(table(stage.HEADERS, srows))
@@ -119,6 +120,8 @@ def cmd_pnr(args: argparse.Namespace) -> int:
         r = f.resources
         util = ", ".join(f"{k} {v}/{r[k + '/avail']} ({v / r[k + '/avail']:.0%})"
                          for k, v in r.items() if k + "/avail" in r and v)
+        if b.soc and "cpu LUT4" in r:
+            split.append((name, r))
         rows.append([name, b.doc, "ok" if f.ok else "FAIL",
                      f"{r.get('synth_s', 0)} + {r.get('pnr_s_per_seed', 0)}/seed",
                      f.detail.splitlines()[0] if f.detail else "", util])
@@ -126,6 +129,11 @@ def cmd_pnr(args: argparse.Namespace) -> int:
             print(f"--- {name} ---\n{f.detail}", file=sys.stderr)
     print(table(["board", "device", "result", "seconds (synth + pnr)", "fmax", "utilisation"],
                 rows))
+    if split:   # the SoC boards: Yosys's cells of each side, the hierarchy kept
+        kinds = list(boards.SPLIT_CELLS.values())
+        print(table(["board", "side", *kinds],
+                    [[n, side, *(str(r.get(f"{side} {k}", 0)) for k in kinds)]
+                     for n, r in split for side in ("cpu", "gateware")]))
     return 0 if ok else 1
 
 

