@@ -52,6 +52,20 @@ extern volatile uint32_t soc_isr_count;
 /* the last unexpected trap (mcause, mepc, mtval); the core then stops in a loop */
 extern volatile uint32_t soc_trap_cause, soc_trap_pc, soc_trap_value;
 
+/* The servo's state after each tick handler, for observation (a debugger, or the simulation's
+ * records: hapgate.device.soc reads it from the RAM at the symbol's address): what the
+ * virtual device's native firmware records per tick (tb/native/device/harness_common.h
+ * TickRec), all 32-bit words; count (the handled ticks) is written last. */
+typedef struct {
+    uint32_t count;
+    float q[3], p[3], f[3], tau[3];  /* the servo's joint angles, endpoint, force, torques */
+    int32_t pos[3];                  /* its snapshot's positions, counts                   */
+    uint32_t status;                 /* its STATUS word                                    */
+    uint32_t err;                    /* err | err_axis << 8 | enabled << 16                */
+    uint32_t bringup;                /* a bring-up step runs | its step << 8               */
+} soc_tick_obs_t;
+extern volatile soc_tick_obs_t soc_tick_obs;
+
 void soc_trap(uint32_t mcause, uint32_t mepc);
 #endif /* __ASSEMBLER__ */
 

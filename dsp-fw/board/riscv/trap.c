@@ -7,6 +7,7 @@
  * fault: it is recorded and the core stops here with interrupts off, so the watchdog is no
  * longer petted and the FPGA zeroes the torque (rtl/top/README.md). */
 #include "hg_bringup.h"
+#include "hg_servo.h"
 #include "soc.h"
 
 #define MCAUSE_IRQ      0x80000000u
@@ -16,6 +17,27 @@ volatile uint32_t soc_isr_cycles_last;
 volatile uint32_t soc_isr_cycles_max;
 volatile uint32_t soc_isr_count;
 volatile uint32_t soc_trap_cause, soc_trap_pc, soc_trap_value;
+volatile soc_tick_obs_t soc_tick_obs;
+
+/* the servo's state after the handler (soc.h; outside the measured cycles) */
+static void observe(void)
+{
+    const hg_servo_t *s = hg_servo_isr_ctx;
+    if (!s)
+        return;
+    for (unsigned i = 0; i < 3u; i++) {
+        soc_tick_obs.q[i] = s->q[i];
+        soc_tick_obs.p[i] = s->p[i];
+        soc_tick_obs.f[i] = s->f[i];
+        soc_tick_obs.tau[i] = s->tau[i];
+        soc_tick_obs.pos[i] = s->pos[i];
+    }
+    soc_tick_obs.status = s->status;
+    soc_tick_obs.err = (uint32_t)s->err | (uint32_t)s->err_axis << 8 | (uint32_t)s->enabled << 16;
+    const hg_bringup_t *b = hg_bringup_isr_ctx;
+    soc_tick_obs.bringup = b && hg_bringup_active(b) ? 1u | (uint32_t)b->step << 8 : 0u;
+    soc_tick_obs.count = soc_tick_obs.count + 1u;
+}
 
 void soc_trap(uint32_t mcause, uint32_t mepc)
 {
@@ -27,6 +49,7 @@ void soc_trap(uint32_t mcause, uint32_t mepc)
         if (dt > soc_isr_cycles_max)
             soc_isr_cycles_max = dt;
         soc_isr_count = soc_isr_count + 1u;
+        observe();
         return;
     }
     uint32_t mtval;

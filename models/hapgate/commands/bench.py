@@ -114,7 +114,40 @@ def _soc(quick: bool) -> bool:
                   f"{sim_s / wall_s:.4f}"]]))
     print(f"(the budget: {tick} cycles a tick; soft float alone took ~72 000, rtl/soc/README.md "
           "\"The budget\"; wall s: the probe and the wall run, builds cached)")
-    return ok
+    return _soc_fidelity() and ok
+
+
+def _soc_fidelity() -> bool:
+    """The soc fidelity of the virtual device (scene run.fidelity = "soc"): its real-time
+    factor beside its error against the rtl fidelity on the same scene (scenes/grip.toml, 30 ms:
+    the pose held still, so both fidelities' ticks see the same inputs; the budget is derived
+    in tb/device/test_soc_fidelity.py)."""
+    from ..base.paths import ROOT
+    from ..device import runner, soc
+    from ..device import scene as scene_mod
+
+    print("== the soc fidelity: the SoC in the virtual device's closed loop against the rtl "
+          "fidelity (native firmware), scenes/grip.toml, 30 ms ==", flush=True)
+    raws = {}
+    for fid in ("rtl", "soc"):
+        sc = scene_mod.load(ROOT / "scenes" / "grip.toml").override(
+            {"run.duration_s": 0.03, "run.fidelity": fid})
+        raws[fid] = runner.simulate(sc)
+    dtau, ddac, frames = soc.compare(raws["rtl"], raws["soc"])
+    rows = []
+    for fid, raw in raws.items():
+        s = raw.summary
+        sim, wall, cpu = float(s["sim_s"]), float(s["wall_s"]), float(s["cpu_s"])
+        rows.append([fid, s["clk_hz"], f"{sim:.3f}", f"{wall:.2f}", f"{sim / wall:.4f}",
+                     f"{sim / cpu:.4f}",
+                     f"{dtau * 1e6:.2f}" if fid == "soc" else "-",
+                     ddac if fid == "soc" else "-", frames if fid == "soc" else "-"])
+    print(table(["fidelity", "clock Hz", "simulated s", "wall s", "real-time x (wall)",
+                 "real-time x (CPU)", "torque diff vs rtl uN m", "DAC diff vs rtl LSB",
+                 "frames compared"], rows))
+    print("(simulated s: scene time after the 9.1 ms power-up, which both also simulate; "
+          "budget: torque within one firmware torque code, 14.6 uN m, DAC within 1 LSB)")
+    return 0 <= ddac <= 1 and dtau < 0.48 / 32767
 
 
 # name -> (title on the figures page, runner); the order of `make bench`

@@ -33,7 +33,7 @@ from pathlib import Path
 from typing import Any
 
 from ..base.paths import BUILD, ensure
-from ..device import runner
+from ..device import runner, soc
 from ..device import scene as scene_mod
 from ..device.telemetry import Feed
 from . import view
@@ -41,6 +41,7 @@ from . import view
 SERVE_S = 1e6                 # simulated seconds a server runs for (it stops on a signal)
 STOP_WAIT_S = 2.0             # after SIGTERM, how long the harness may take before SIGKILL
 PACES = ("realtime", "free")
+FIDELITIES = ("rtl", "soc")   # served: the gateware with the native firmware, or the whole SoC
 DEFAULT_BAUD = 1_000_000      # the paper's parallel-port rate
 
 
@@ -80,11 +81,15 @@ def default_scene() -> Any:
                                source="<default serve scene>")
 
 
-def load_scene(path: str | None) -> Any:
-    """The validated scene (SceneError names the file and key), or the default one."""
+def load_scene(path: str | None, fidelity: str | None = None) -> Any:
+    """The validated scene (SceneError names the file and key), or the default one; with
+    `fidelity` (--fidelity) its run.fidelity replaced, validated again."""
     sc = default_scene() if path is None else scene_mod.load(path)
-    if sc.run.fidelity != "rtl":
-        raise ServeError(f"{path}: run.fidelity {sc.run.fidelity!r}: serving needs 'rtl'")
+    if fidelity is not None and fidelity != sc.run.fidelity:
+        sc = sc.override({"run.fidelity": fidelity})
+    if sc.run.fidelity not in FIDELITIES:
+        raise ServeError(f"{path}: run.fidelity {sc.run.fidelity!r}: serving needs one of "
+                         f"{', '.join(FIDELITIES)}")
     return sc
 
 
@@ -119,7 +124,13 @@ class Server:
     def start(self) -> str:
         sc = self.scene
         self.building = True
-        exe = runner.build(runner.choose_clock(sc), runner.axis_mask(sc), False)
+        at_soc = sc.run.fidelity == "soc"
+        if at_soc and self.view is not None:
+            raise ServeError("--view needs run.fidelity 'rtl'")
+        if at_soc and tuple(sc.run.axes) != (0, 1, 2):
+            raise ServeError("--axes: the soc fidelity builds the whole FPGA (axes 0 1 2)")
+        exe = (soc.build(self.baud) if at_soc else
+               runner.build(runner.choose_clock(sc), runner.axis_mask(sc), False))
         self.building = False
         q0 = runner.start_pose(sc)
         self._tmp = tempfile.TemporaryDirectory(prefix="serve-",
@@ -131,13 +142,14 @@ class Server:
         os.close(slave)          # the PC opens it; while nobody has, the device's bytes drop
         (tmp / "plant.cfg").write_text(runner.plant_config(sc, q0))
         view_cfg, fds = self.view.open() if self.view is not None else ("", ())
-        (tmp / "run.cfg").write_text(runner.run_config(sc, q0) + view_cfg)
+        soc_cfg = soc.prepare(sc, q0, tmp, linked=True) if at_soc else ""
+        (tmp / "run.cfg").write_text(runner.run_config(sc, q0) + view_cfg + soc_cfg)
         (tmp / "link.cfg").write_text(f"fd = {master}\nbaud = {self.baud}\npace = {self.pace}\n")
         self.proc = subprocess.Popen(
             [str(exe), *(str(tmp / f) for f in ("plant.cfg", "run.cfg")), str(tmp),
              str(tmp / "link.cfg")],
             stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True,
-            pass_fds=(master, *fds))
+            pass_fds=(master, *fds), cwd=tmp if at_soc else None)
         os.close(master)
         if self.view is not None:
             self.view.started(tmp)
@@ -196,6 +208,10 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--pace", choices=PACES, default="realtime",
                    help="realtime: simulated time follows the wall clock when the device is "
                    "fast enough (and says when it is not); free: as fast as it runs")
+    p.add_argument("--fidelity", choices=FIDELITIES,
+                   help="rtl: the gateware with the firmware compiled natively; soc: the whole "
+                   "SoC, the firmware image on its soft CPU, the link on its UART pins (default: "
+                   "the scene's run.fidelity)")
     p.add_argument("--axes", type=int, nargs="+", choices=(0, 1, 2),
                    help="simulate only these axes (the others held; faster)")
     view.add_view_options(p)
@@ -209,7 +225,7 @@ def main(args: argparse.Namespace) -> int:
     try:
         feed = None
         try:
-            scene = load_scene(args.scene)
+            scene = load_scene(args.scene, getattr(args, "fidelity", None))
             feed = Feed(scene, can_pause=False) if args.view else None
             server = Server(scene, args.baud, args.pace,
                             tuple(args.axes) if args.axes else None, view=feed)
@@ -243,7 +259,8 @@ def _serve(server: Server, feed: Feed | None, args: argparse.Namespace,
         if page is None:
             server.stop()
             return 2
-    print(f"serving the virtual device at {server.baud} baud, pace {server.pace}, axes "
+    print(f"serving the virtual device ({server.scene.run.fidelity} fidelity) at {server.baud} "
+          f"baud, pace {server.pace}, axes "
           f"{list(server.scene.run.axes)}; Ctrl-C stops", file=sys.stderr, flush=True)
     while not stop.is_set():
         if server.proc is not None and server.proc.poll() is not None:

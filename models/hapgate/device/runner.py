@@ -27,7 +27,7 @@ from ..base.paths import BUILD, GEN, ROOT, ensure
 from ..golden import configs, kinematics
 from ..golden.top import SOURCES, TopConfig
 from ..runners import cosim, funcov, native
-from . import model
+from . import model, soc
 from .harness import (
     ENERGY_MIN_J,
     ERR_NAMES,
@@ -222,18 +222,26 @@ def simulate(scene: Any, clk_hz: int | None = None, mask: int | None = None,
         if view is not None:
             raise DeviceError("the live view needs run.fidelity = 'rtl'")
         return model.simulate(scene, clk_hz, mask, progress, out_dir)
-    clk = choose_clock(scene) if clk_hz is None else int(clk_hz)
-    m = axis_mask(scene) if mask is None else int(mask)
+    at_soc = scene.run.fidelity == "soc"
     trace = bool(scene.run.trace)
-    exe = build(clk, m, trace, bool(getattr(scene.firmware, "test_limits", False)),
-                _coarse(scene), _observer(scene), gate=gate, pgo=pgo, saboteur=saboteur)
+    if at_soc:
+        if view is not None or saboteur is not None:
+            raise DeviceError("the live view and the saboteur build need run.fidelity = 'rtl'")
+        clk, m = soc.CLK_HZ, 7
+        exe = soc.build(link_script(scene).baud if scripted_pc(scene) else soc.BAUD)
+    else:
+        clk = choose_clock(scene) if clk_hz is None else int(clk_hz)
+        m = axis_mask(scene) if mask is None else int(mask)
+        exe = build(clk, m, trace, bool(getattr(scene.firmware, "test_limits", False)),
+                    _coarse(scene), _observer(scene), gate=gate, pgo=pgo, saboteur=saboteur)
     q0 = start_pose(scene)
-    built, skipped = parts(scene, m)
+    built, skipped = soc.parts(scene) if at_soc else parts(scene, m)
     with tempfile.TemporaryDirectory(prefix="scene-", dir=ensure(BUILD / "native" / "runs")) as t:
         tmp = Path(t) if out_dir is None else ensure(out_dir)
         (tmp / "plant.cfg").write_text(plant_config(scene, q0))
         view_cfg, fds = view.open() if view is not None else ("", ())
-        (tmp / "run.cfg").write_text(run_config(scene, q0) + view_cfg + extra)
+        soc_cfg = soc.prepare(scene, q0, tmp, scripted_pc(scene)) if at_soc else ""
+        (tmp / "run.cfg").write_text(run_config(scene, q0) + view_cfg + extra + soc_cfg)
         argv = [str(exe), str(tmp / "plant.cfg"), str(tmp / "run.cfg"), str(tmp)]
         if scripted_pc(scene):
             script = link_script(scene)
@@ -244,7 +252,7 @@ def simulate(scene: Any, clk_hz: int | None = None, mask: int | None = None,
             built.append("scripted PC on the link")
         t0 = time.perf_counter()
         proc = subprocess.Popen(argv, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
-                                text=True, pass_fds=fds)
+                                text=True, pass_fds=fds, cwd=tmp if at_soc else None)
         if view is not None:
             view.started(tmp)
         timer = threading.Timer(timeout_s, proc.kill) if timeout_s else None

@@ -33,7 +33,9 @@ class SceneError(ValueError):
 
 # ------------------------------------------------------------------------------- vocabulary
 
-FIDELITIES = ("rtl", "model")
+FIDELITIES = ("rtl", "model", "soc")
+SOC_CLK_HZ = 48_000_000              # the soc fidelity's one clock: the SoC's (rtl/soc/README.md)
+SOC_FAULTS = ("dropout", "hang", "link_garbage")   # what the soc fidelity simulates
 GUIDED_MAX_M = 0.05                # hand.guided: largest displacement from the step's start
 RECORDABLE = ("q", "p", "f_hand", "tau", "dac", "adc", "pos", "current")
 ENV_KINDS = ("none", "wall", "spring", "viscous", "pc")
@@ -66,7 +68,8 @@ GARBAGE_BYTES = 256                  # link_garbage: bytes in the burst unless `
 @dataclass(frozen=True)
 class RunCfg:
     duration_s: float = 0.5          # simulated time, s (0, 600]
-    fidelity: str = "rtl"            # "rtl": Verilated gateware; "model": the golden models
+    fidelity: str = "rtl"            # "rtl": Verilated gateware; "model": the golden models;
+    #                                   "soc": the Verilated SoC, the firmware on its soft CPU
     axes: tuple[int, ...] = (0, 1, 2)   # simulated axes (sorted); the others are not built
     servo_hz: int = 1000             # firmware servo rate, Hz, 100..10000, divides 1 MHz
     clk_hz: int = 0                  # FPGA clock, Hz; 0 = lowest bit-identical clock
@@ -373,7 +376,7 @@ def from_dict(d: Mapping[str, Any], source: str = "<scene>") -> Scene:
     plant = v.plant(v.sub(top, "plant"))
     expect = v.expect(v.sub(top, "expect"))
     pc = v.pc(v.sub(top, "pc")) if "pc" in top else None
-    v.consistent(run, faults, expect, env, pc, plant)
+    v.consistent(run, faults, expect, env, pc, plant, firmware)
     run = replace(run, q0_deg=v.q0(run, hand))
     raw = json.dumps(d, default=str)
     out = Scene(run, env, hand, encoders, faults, firmware, plant, expect, pc=pc,
@@ -814,8 +817,10 @@ class _Validator:
 
     def consistent(self, run: RunCfg, faults: tuple[FaultCfg, ...], expect: ExpectCfg,
                    env: EnvCfg | None = None, pc: PcCfg | None = None,
-                   plant: PlantCfg | None = None) -> None:
+                   plant: PlantCfg | None = None, firmware: FirmwareCfg | None = None) -> None:
         """Rules across sections."""
+        if run.fidelity == "soc":
+            self.soc(run, faults, firmware)
         kind = env.kind if env is not None else "none"
         if pc is not None and kind != "pc":
             raise self.fail("pc", f"a scripted PC needs env kind \"pc\", not {kind!r}")
@@ -832,6 +837,30 @@ class _Validator:
         if expect.zero_torque_within_us is not None and not faults:
             raise self.fail("expect.zero_torque_within_us", "the scene injects no [[fault]] "
                                                             "to react to")
+
+    def soc(self, run: RunCfg, faults: tuple[FaultCfg, ...],
+            firmware: FirmwareCfg | None) -> None:
+        """What the soc fidelity cannot do: it builds the board's SoC as it is (three axes, its
+        clock, the paper's gateware, the shipped firmware image) and simulates the faults of
+        the world around it and the CPU's own (hang: it stops taking interrupts)."""
+        if tuple(run.axes) != (0, 1, 2):
+            raise self.fail("run.axes", "the soc fidelity builds the whole FPGA: axes [0, 1, 2]")
+        if run.clk_hz not in (0, SOC_CLK_HZ):
+            raise self.fail("run.clk_hz", f"the soc fidelity runs at the SoC's clock, "
+                                          f"{SOC_CLK_HZ} Hz (or 0)")
+        if run.config != "paper" or run.position != "interpolated" or run.velocity != "fir":
+            key = ("run.config" if run.config != "paper" else
+                   "run.position" if run.position != "interpolated" else "run.velocity")
+            raise self.fail(key, "the soc fidelity builds the board's gateware (the paper's "
+                                 "configuration, interpolated position, FIR velocity)")
+        if firmware is not None and firmware.test_limits:
+            raise self.fail("firmware.test_limits", "the soc fidelity runs the shipped firmware "
+                                                    "image")
+        for i, f in enumerate(faults):
+            if f.kind not in SOC_FAULTS:
+                raise self.fail(f"fault[{i}].kind",
+                                f"{f.kind!r} is not simulated at the soc fidelity (it "
+                                f"simulates {', '.join(SOC_FAULTS)})")
 
     def q0(self, run: RunCfg, hand: HandCfg) -> tuple[float, float, float]:
         """The initial joint angles: given, else IK of the hand path's first point, else the

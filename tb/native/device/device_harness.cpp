@@ -5,6 +5,12 @@
 // Driven by models/hapgate/device/runner.py; description: tb/native/device/README.md.
 //
 // usage: device_harness PLANT_CFG RUN_CFG OUTDIR [LINK_CFG]   (LINK_CFG: the PC link, uart_link.h)
+//
+// Built with HG_SOC=1 it is the soc fidelity (README "SoC fidelity"): the Verilated SoC
+// (rtl/soc/hapgate_soc_top.v: the soft CPU running the cross-built firmware image, and the same
+// hapgate_top) in the same clock loop, plant, scenario and records; the harness runs no firmware
+// of its own, reads the firmware's tick observation from the CPU's RAM, and bridges the PC link
+// bit by bit on the UART pins.
 // Every clock-dependent event is tied to the 1 us sample grid (README "Why any clock gives the
 // same result"), so a run is bit-identical at every CLK_HZ >= 6 MHz that the RTL accepts.
 #include <algorithm>
@@ -21,8 +27,19 @@
 #include <string>
 #include <vector>
 
+#ifndef HG_SOC
+#define HG_SOC 0
+#endif
+#if HG_SOC
+#include "Vhapgate_soc_top.h"
+#include "Vhapgate_soc_top___024root.h"
+#include "Vhapgate_soc_top_hapgate_soc_top.h"   // the public signals (tb/native/soc/public.vlt)
+#include "Vhapgate_soc_top_hg_soc.h"
+#include "Vhapgate_soc_top_VexRiscv.h"
+#else
 #include "Vhapgate_top.h"
 #include "Vhapgate_top___024root.h"
+#endif
 #include "bus_hal.h"
 #include "dac_word.h"
 #include "harness_common.h"
@@ -40,8 +57,19 @@
 extern "C" {
 #include "hg_fpga_regs.h"
 #include "hg_hal.h"
+#include "hg_link.h"
 #include "hg_servo.h"
 }
+#if HG_SOC
+#if HG_SIM_GATE || AXIS_MASK != 7 || HG_FI
+#error "the soc fidelity builds hapgate_soc_top as the board does: three axes, no stage clocks, no saboteur"
+#endif
+using Top = Vhapgate_soc_top;
+using Root = Vhapgate_soc_top___024root;
+#else
+using Top = Vhapgate_top;
+using Root = Vhapgate_top___024root;
+#endif
 
 #ifndef CLK_HZ
 #error "CLK_HZ must be defined to match the RTL parameter"
@@ -65,7 +93,11 @@ extern "C" {
 // the clock inputs and their previous values are never touched again, nothing else reads them;
 // ~5 % of a run); and the NBA phase runs once (no register drives a clock). These internals are
 // used only through tb/native/vl_internals.h, which checks the Verilator version.
+#if HG_SOC
+HG_VL_DECLARE_PHASES(Vhapgate_soc_top);
+#else
 HG_VL_DECLARE_PHASES(Vhapgate_top);
+#endif
 
 
 namespace {
@@ -98,7 +130,7 @@ using hg_dev::RunCfg;
 // ------------------------------------------------------------------ the testbench
 // The shared wrapper (testb.h: the model, reset, the edge count, the trace) with the virtual
 // device's clock loop: its stage clocks, the DAC and irq monitors, the sample grid.
-struct Bench : hg_tb::TestB<Vhapgate_top> {
+struct Bench : hg_tb::TestB<Top> {
     hg_plant* plant = nullptr;
     RunCfg* cfg = nullptr;
     ViewLink* view = nullptr;     // the live view (off: null)
@@ -180,6 +212,28 @@ struct Bench : hg_tb::TestB<Vhapgate_top> {
 
     int steps_per_us = 1;
     bool inputs_changed = true;   // an input other than the clocks changed (eval(), below)
+#if HG_SOC
+    // The SoC's own pins and bus, watched at every edge: the UART (uart_link.h UartPins: the
+    // PC's bytes shifted onto uart_rx, uart_tx decoded) and the watchdog's key writes (the
+    // bridge's strobe to the WDOG word: the edge its access starts).
+    hg_uart::UartPins* uart_pins = nullptr;
+    int prev_ce = 1;
+    int64_t key_edge = 0;
+    __attribute__((always_inline)) void soc_edge(const Root* out) {
+        const auto* st = out->hapgate_soc_top;
+        const int ce = st->bus_ce_n;
+        if (!ce && prev_ce && !st->bus_we_n && st->bus_addr == HG_REG_WDOG) key_edge = static_cast<int64_t>(edge);
+        prev_ce = ce;
+        if (uart_pins) {
+            uint8_t rx = top->uart_rx;
+            uart_pins->at(edge, rx, out->uart_tx);
+            if (rx != top->uart_rx) {
+                top->uart_rx = rx;
+                inputs_changed = true;
+            }
+        }
+    }
+#endif
 #if HG_FI
     hg_fi::Injector fi;           // seu / stuck faults into the flip-flops (fault_inject.h)
 #endif
@@ -194,7 +248,7 @@ struct Bench : hg_tb::TestB<Vhapgate_top> {
     // raise them with clk and let the generated code compute its trigger vector
     // (learn_trigger, tb/native/vl_internals.h). Each clock must own one trigger bit of its own, which is checked.
     void learn_triggers() {
-        Vhapgate_top___024root* r = top->rootp;
+        Root* r = top->rootp;
         const unsigned n = HG_SIM_GATE ? hg_dev::kAllGates + 1 : 1;
         for (unsigned g = 0; g < n; ++g) {
             top->clk = 1;
@@ -222,7 +276,11 @@ struct Bench : hg_tb::TestB<Vhapgate_top> {
         Vl::eval_edge(top->rootp, trig[g], inputs_changed);
         inputs_changed = false;
     }
+#if HG_SOC
+    using Vl = HG_VL_PHASES(Vhapgate_soc_top);
+#else
     using Vl = HG_VL_PHASES(Vhapgate_top);
+#endif
 #endif
 
 #if HG_SIM_GATE
@@ -254,7 +312,7 @@ struct Bench : hg_tb::TestB<Vhapgate_top> {
     __attribute__((always_inline)) void tick() {
         // the ports read after the edge, from the model's own variables (the wrapper's members
         // are references to them: one load fewer each)
-        const Vhapgate_top___024root* out = top->rootp;
+        const Root* out = top->rootp;
 #if HG_SIM_GATE
         const unsigned g = pins_changed ? (gates | hg_dev::kBusGate) : gates;
         pins_changed = false;
@@ -297,11 +355,17 @@ struct Bench : hg_tb::TestB<Vhapgate_top> {
                 std::memcpy(frames.back().dac, frame_codes, sizeof frame_codes);
         }
         prev_wr_n = wr_n;
-        if (out->irq && !prev_irq) {
+#if HG_SOC
+        const int irq = out->hapgate_soc_top->irq;
+        soc_edge(out);
+#else
+        const int irq = out->irq;
+#endif
+        if (irq && !prev_irq) {
             irq_rose = true;
             irq_edge = edge;
         }
-        prev_irq = out->irq;
+        prev_irq = irq;
 #if HG_TRACE
         fall(clocks(0));
 #endif
@@ -317,6 +381,7 @@ hg_dev::Scenario SC;   // the scene's faults, ISR records, enable (harness_commo
 
 }  // namespace
 
+#if !HG_SOC
 // ------------------------------------------------------------------ the HAL: one access per 2 us
 // The shared bus master (bus_hal.h) on the grid: CE and address at a grid point g, strobe from
 // g + 1 clock to the next grid point (D - 1 >= 5 clocks), hold 2 clocks; the next access starts
@@ -372,6 +437,7 @@ void view_send(ViewLink* v, const hg_servo_t& s, const ViewCtl& ctl, const UartL
 }
 }  // namespace
 extern "C" void hg_hal_irq_restore(uint32_t token) { (void)token; }
+#endif  // !HG_SOC
 
 // The hand during bring-up: as configured until the first step starts; from then on off (the
 // operator lets go for bring-up), except on the scripted move while a GUIDED step runs (scene
@@ -381,16 +447,16 @@ extern "C" void hg_hal_irq_restore(uint32_t token) { (void)token; }
 // A rigid grip (hand kind fixed) never lets go: the held handle. Called after each ISR.
 constexpr double kGuidedHoldS = 0.2;   // s the hand holds the end of the guided move
 
-static void guided_hand(hg_plant* plant, const hg_dev::RunCfg& cfg, const hg_bringup_t& bu,
-                        const hg_servo_t& s) {
+static void guided_hand(hg_plant* plant, const hg_dev::RunCfg& cfg, bool bu_active, int bu_step,
+                        bool enabled) {
     static int mode = -2;   // -1 configured hand, 0 off, 1 guided
     static bool session = false;
     static double guided_until = -1.0;   // plant time the scripted move ends (the hand lets go)
-    if (hg_bringup_active(&bu)) session = true;
-    if (s.enabled) session = false;
+    if (bu_active) session = true;
+    if (enabled) session = false;
     hg_plant_out o;
     hg_plant_read(plant, &o);
-    const bool guided = (hg_bringup_active(&bu) && bu.step == HG_BU_STEP_GUIDED && !cfg.guided.empty())
+    const bool guided = (bu_active && bu_step == HG_BU_STEP_GUIDED && !cfg.guided.empty())
                      || (mode == 1 && o.t < guided_until);   // the operator finishes the move
     const int want = guided ? 1 : session ? 0 : -1;
     if (want == mode) return;
@@ -407,6 +473,146 @@ static void guided_hand(hg_plant* plant, const hg_dev::RunCfg& cfg, const hg_bri
     }
     hg_plant_set_hand(plant, 1, path.data(), static_cast<int>(path.size() / 4));
 }
+
+#if HG_SOC
+// ------------------------------------------------------------------ soc fidelity
+namespace {
+// The firmware's tick observation in the CPU's RAM (dsp-fw/board/riscv/soc.h soc_tick_obs_t)
+struct SocObs {
+    uint32_t count;
+    float q[3], p[3], f[3], tau[3];
+    int32_t pos[3];
+    uint32_t status, err, bringup;
+};
+static_assert(sizeof(SocObs) == 19 * 4, "soc_tick_obs_t: 19 words");
+
+struct SocRam {
+    const Root* root;
+    uint32_t word(uint32_t addr) const {
+        return root->hapgate_soc_top->u_soc->u_ram__DOT__mem[addr / 4];
+    }
+    template <class T>
+    void read(uint32_t addr, T* out) const {
+        uint32_t w[sizeof(T) / 4];
+        for (size_t i = 0; i < sizeof(T) / 4; ++i) w[i] = word(addr + 4 * static_cast<uint32_t>(i));
+        std::memcpy(out, w, sizeof(T));
+    }
+};
+
+void link_counters(void* ctx, uint32_t out[4]) {
+    const auto* r = static_cast<const std::pair<SocRam, uint32_t>*>(ctx);
+    hg_link_stats_t st;
+    r->first.read(r->second, &st);
+    out[0] = st.good;
+    out[1] = st.bad_framing + st.bad_crc + st.bad_version + st.bad_type + st.bad_len;
+    out[2] = st.replayed;
+    out[3] = st.timeouts;
+}
+}  // namespace
+
+// The closed loop with the SoC: the same clock loop (Bench::tick: the DAC monitor, the grid,
+// the plant), the scene's fixture and faults (hg_dev::Scenario), the records; everything the
+// firmware does, it does on the CPU from the image's stored setup (hapgate.device.soc). Per
+// grid point: the release at scene time 0, the faults, a tick record whenever the firmware's
+// observation count advanced (the tick it belongs to: the last rise of the interrupt), the
+// operator's hand during bring-up, the PC link.
+static int run_soc(Bench& bench, const RunCfg& cfg, hg_plant* plant, const char* link_cfg,
+                   const char* run_cfg, const std::string& outdir,
+                   std::chrono::steady_clock::time_point w0, std::clock_t c0) {
+    auto& top = *bench.top;
+    if (!cfg.soc_obs_seen) {
+        std::fprintf(stderr, "error: %s: soc_obs = OBS LINK ISR_MAX (the firmware's RAM addresses) is required\n", run_cfg);
+        return 2;
+    }
+    if (cfg.view_fd >= 0) {
+        std::fprintf(stderr, "error: %s: view_fd: the live view needs the rtl fidelity\n", run_cfg);
+        return 2;
+    }
+    for (const auto& f : cfg.faults)
+        if (f.kind != hg_dev::FaultKind::dropout && f.kind != hg_dev::FaultKind::hang) {
+            std::fprintf(stderr, "error: %s: fault %s is not simulated at the soc fidelity\n", run_cfg, hg_dev::fault_name(f.kind));
+            return 2;
+        }
+    const SocRam ram{top.rootp};
+    const std::pair<SocRam, uint32_t> link_ram{ram, cfg.soc_obs[1]};
+    UartLink* link = link_cfg ? uart_link_open(link_cfg, nullptr, cfg.servo_hz) : nullptr;
+    hg_uart::UartPins pins;
+    if (link) {
+        uart_link_attach_pins(link, &pins, CLK_HZ, link_counters, const_cast<std::pair<SocRam, uint32_t>*>(&link_ram));
+        bench.uart_pins = &pins;
+    }
+    bench.scene0_us = static_cast<int64_t>(std::llround(cfg.t_hold_s * 1e6));
+    const uint64_t end_us = static_cast<uint64_t>(bench.scene0_us) + static_cast<uint64_t>(std::llround(cfg.duration_s * 1e6));
+    const bool scripted = link && uart_link_scripted(link);
+    if (scripted) uart_link_set_origin(link, static_cast<uint64_t>(bench.scene0_us));
+    SC.start(cfg, bench.scene0_us, D);
+    auto* cpu = top.rootp->hapgate_soc_top->u_soc->u_cpu;
+    const uint32_t obs_addr = cfg.soc_obs[0];
+    uint32_t obs_count = 0;
+    bool ticking = false;          // the interrupt has risen once: the RAM holds the firmware's
+    uint64_t tick_g = 0;
+    SocObs obs{};
+    hg_servo_t s{};                // the observed state, as the native harness records it
+
+    while (bench.edge < end_us * D) {
+        bench.tick();
+        if (bench.edge % D != 0) continue;
+        const uint64_t g_now = bench.edge / D;
+        if (!bench.dynamic && static_cast<int64_t>(g_now) >= bench.scene0_us) {
+            hg_plant_hold(plant, 0);
+            hg_plant_set_q(plant, cfg.q0, cfg.qd0);
+            bench.dynamic = true;
+        }
+        SC.at_grid(static_cast<int64_t>(g_now), [&](const RunCfg::Fault& f) {
+            if (f.kind == hg_dev::FaultKind::dropout) bench.dropout[f.axis] = true;
+            // the CPU stops taking interrupts: an upset clears mstatus.MIE (nothing sets it again)
+            if (f.kind == hg_dev::FaultKind::hang) cpu->CsrPlugin_mstatus_MIE = 0;
+        });
+        if (bench.irq_rose) {
+            bench.irq_rose = false;
+            tick_g = bench.irq_edge / D;
+            if (!ticking) obs_count = ram.word(obs_addr);
+            ticking = true;
+        }
+        if (ticking && ram.word(obs_addr) != obs_count) {
+            ram.read(obs_addr, &obs);
+            obs_count = obs.count;
+            for (int i = 0; i < 3; ++i) {
+                s.q[i] = obs.q[i];
+                s.p[i] = obs.p[i];
+                s.f[i] = obs.f[i];
+                s.tau[i] = obs.tau[i];
+                s.pos[i] = obs.pos[i];
+            }
+            s.status = obs.status;
+            s.err = static_cast<uint8_t>(obs.err & 0xFFu);
+            s.err_axis = static_cast<uint8_t>((obs.err >> 8) & 0xFFu);
+            s.enabled = (obs.err >> 16) & 1u;
+            const uint64_t gs = tick_g - 1;   // the snapshot holds the sample before the tick
+            SC.ticks.push_back(hg_dev::tick_record(s, bench.scene_t(tick_g), &bench.qtrue_ring[(gs % Bench::kRing) * 3]));
+            if (link && !scripted && SC.ticks.size() >= 65536) SC.ticks.clear();  // serving: runs until a signal
+            if (s.enabled && !SC.is_enabled()) SC.enabled(bench.scene_t(tick_g));
+            guided_hand(plant, cfg, obs.bringup & 1u, static_cast<int>(obs.bringup >> 8), s.enabled);
+        }
+        if (link) uart_link_service(link, g_now);
+    }
+    const double wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - w0).count();
+    const double cpu_s = static_cast<double>(std::clock() - c0) / CLOCKS_PER_SEC;
+    bench.frames.close();
+    SC.finish(outdir);
+    bench.loads.close();
+    bench.adc.close();
+    const uint32_t wdog_us = top.rootp->hapgate_soc_top->u_top__DOT__u_bus__DOT__u_regs__DOT__wd_timeout_q;
+    const double sim_s = static_cast<double>(end_us - static_cast<uint64_t>(bench.scene0_us)) * 1e-6;
+    hg_dev::print_summary({CLK_HZ, AXIS_MASK, sim_s, wall_s, cpu_s, bench.edge, bench.frames.size(), SC.ticks.size(),
+                           bench.loads.size(), 0, s.err, s.err_axis, SC.enable_t(), wdog_us,
+                           static_cast<uint64_t>(bench.key_edge), bench.scene0_us, bench.skew, bench.frame, D});
+    std::printf("soc_isr_cycles_max=%u soc_isr_count=%u\n", ram.word(cfg.soc_obs[2]), obs_count);
+    if (link) uart_link_summary(link, stdout);
+    hg_plant_free(plant);
+    return 0;
+}
+#endif  // HG_SOC
 
 int main(int argc, char** argv) {
     if (argc != 4 && argc != 5) {
@@ -452,7 +658,11 @@ int main(int argc, char** argv) {
 #if AXIS_MASK != 7
     hg_dev::set_held(top, cfg.hold_pos_homed, cfg.hold_index_pos, cfg.hold_index_count);
 #endif
+#if HG_SOC
+    top.uart_rx = 1;                                 // the line idles high
+#else
     top.bus_ce_n = top.bus_re_n = top.bus_we_n = 1;
+#endif
     top.eval();                                      // the initial blocks, clk low, rst high
     bench.hold_reset(4, bench.clocks(hg_dev::kAllGates));
     bench.release();
@@ -460,11 +670,18 @@ int main(int argc, char** argv) {
     bench.learn_triggers();
 #endif
     bench.prev_wr_n = top.dac_wr_n;
+#if HG_SOC
+    bench.frame = HG_DAC_FRAME;
+    bench.skew = HG_DAC_SKEW;
+#endif
     hg_plant_hold(plant, 1);
     bench.grid(0);
 
     const auto w0 = std::chrono::steady_clock::now();
     const std::clock_t c0 = std::clock();
+#if HG_SOC
+    return run_soc(bench, cfg, plant, argc == 5 ? argv[4] : nullptr, argv[2], outdir, w0, c0);
+#else
     // ---------------------------------------------------------------- firmware bring-up
     hg_servo_cfg_t fw;
     hg_dev::fw_config(cfg, CLK_HZ, &fw);
@@ -564,7 +781,7 @@ int main(int argc, char** argv) {
         }
         // the snapshot holds the sample of grid point tick_g - 1 (the one visible at the tick)
         const uint64_t gs = tick_g - 1;
-        guided_hand(plant, cfg, bu, s);
+        guided_hand(plant, cfg, hg_bringup_active(&bu), bu.step, s.enabled);
         if (link && !scripted && SC.ticks.size() >= 65536) SC.ticks.clear();  // serving: runs until a signal
         // ---- background loop (board.c's main): the power-up once the snapshot has settled, then
         // the scene's start at the tick before scene time 0 (its enable, unless a PC enables)
@@ -608,4 +825,5 @@ int main(int argc, char** argv) {
                     g_isr_s - g_bus_in_isr_s, wall_s - g_plant_s - (g_isr_s - g_bus_in_isr_s));
     hg_plant_free(plant);
     return 0;   // (~TestB: the model's final(), the trace closed)
+#endif  // !HG_SOC
 }

@@ -3,6 +3,10 @@
 // bring-up (harness_common.h).
 #include "harness_common.h"
 
+#ifndef HG_SOC
+#define HG_SOC 0
+#endif
+
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -95,6 +99,10 @@ bool parse_run(const std::string& text, RunCfg& c, std::string& err, Keys keys) 
         else if (key == "view_fd" && need(1)) c.view_fd = static_cast<int>(v[0]);
         else if (key == "ctl_fd" && need(1)) c.ctl_fd = static_cast<int>(v[0]);
         else if (key == "view_period_s" && need(1)) c.view_period_s = v[0];
+        else if (keys == Keys::device && key == "soc_obs" && need(3)) {
+            for (int i = 0; i < 3; ++i) c.soc_obs[i] = static_cast<uint32_t>(v[i]);
+            c.soc_obs_seen = 1;
+        }
         else if (model_keys && key == "mech_us" && need(1)) c.mech_us = static_cast<int>(v[0]);
         else if (model_keys && key == "axis_mask" && need(1)) c.axis_mask = static_cast<int>(v[0]);
         else if (model_keys && key == "clk_hz" && need(1)) c.clk_hz = static_cast<uint32_t>(v[0]);
@@ -201,6 +209,7 @@ void progress_line(double t) {
     std::fflush(stderr);
 }
 
+#if !HG_SOC   // the soc fidelity runs the firmware on its CPU: none of it here
 void fw_config(const RunCfg& cfg, uint32_t clk_hz, hg_servo_cfg_t* fw) {
     hg_servo_default_cfg(fw);
     fw->rate_hz = cfg.servo_hz;
@@ -280,5 +289,7 @@ int fw_home_scene_enable(hg_servo_t* s, const RunCfg& cfg, bool enable) {
     }
     return 0;
 }
+
+#endif
 
 }  // namespace hg_dev

@@ -93,6 +93,11 @@ struct RunCfg {
         int site = -1, value = 0, frames = 0;   // seu, stuck: the flip-flop site, stuck value, frames
     };
     std::vector<Fault> faults;              // (the axis matters for a dropout only)
+    // soc fidelity only (device_harness.cpp built with HG_SOC): the RAM addresses of the
+    // firmware's tick observation, its link counters and its handler's longest cycle count
+    // (dsp-fw/board/riscv/soc.h soc_tick_obs, hg_board_link_stats, soc_isr_cycles_max)
+    uint32_t soc_obs[3] = {0, 0, 0};
+    int soc_obs_seen = 0;
     // model fidelity only (model_harness.cpp); the Verilated harness refuses them
     int mech_us = 0;                        // mechanics step, us (0: the plant's own dt_s)
     int axis_mask = 7;                      // axes built (the RTL's AXIS_MASK)

@@ -2,7 +2,13 @@
 // The UART of the virtual device (uart_link.h): a byte takes 10 bit-times on the line in each
 // direction; what the PC wrote to the pty is read every byte time and arrives at the firmware
 // one byte time after the line is free; the firmware's frames leave the same way. Everything
-// happens at 1 us grid points, so the link is independent of the simulated clock.
+// happens at 1 us grid points, so the link is independent of the simulated clock. At the soc
+// fidelity (HG_SOC) the firmware's side is the SoC's UART pins (hg_uart::UartPins): a PC byte
+// starts on rx one byte time before the native link would hand it over, and the bytes decoded
+// from tx go to the pty as they are complete.
+#ifndef HG_SOC
+#define HG_SOC 0
+#endif
 #include "uart_link.h"
 
 #include <fcntl.h>
@@ -63,6 +69,11 @@ struct UartLink {
     std::deque<Burst> script;
     bool scripted = false;
     uint64_t origin_us = 0;
+    // soc fidelity: the pins, the clock, and the firmware's own counters
+    hg_uart::UartPins* pins = nullptr;
+    uint64_t clocks_per_us = 0;
+    void (*counters)(void*, uint32_t[4]) = nullptr;
+    void* counters_ctx = nullptr;
 };
 
 namespace {
@@ -159,8 +170,10 @@ UartLink* uart_link_open(const char* cfg_path, hg_servo_t* s, uint32_t servo_hz)
     u->servo = s;
     u->byte_us = 10.0 * 1e6 / u->baud;
     u->poll_us = u->byte_us >= 2 ? static_cast<uint64_t>(u->byte_us) : 1;
+#if !HG_SOC
     hg_link_init(&u->link, s);
     u->link.cfg.baud = u->baud;
+#endif
     (void)servo_hz;
     if (u->scripted) return u;       // ends with the run, like any scene
     std::signal(SIGINT, on_signal);
@@ -174,14 +187,28 @@ bool uart_link_scripted(const UartLink* u) { return u->scripted; }
 void uart_link_set_origin(UartLink* u, uint64_t g0_us) { u->origin_us = g0_us; }
 
 void uart_link_summary(const UartLink* u, FILE* out) {
-    const hg_link_stats_t& st = u->link.st;
+    uint32_t c[4];
+    uart_link_counters(u, c);
     std::fprintf(out, "link_good=%u link_bad=%u link_timeouts=%u link_bytes_in=%llu link_bytes_out=%llu\n",
-                 st.good, st.bad_framing + st.bad_crc + st.bad_version + st.bad_type + st.bad_len,
-                 st.timeouts, static_cast<unsigned long long>(u->bytes_in),
+                 c[0], c[1], c[3], static_cast<unsigned long long>(u->bytes_in),
                  static_cast<unsigned long long>(u->bytes_out));
+    if (u->pins) std::fprintf(out, "link_tx_framing=%llu\n", static_cast<unsigned long long>(u->pins->framing));
+}
+
+void uart_link_attach_pins(UartLink* u, hg_uart::UartPins* pins, uint32_t clk_hz,
+                           void (*counters)(void*, uint32_t[4]), void* ctx) {
+    u->pins = pins;
+    u->clocks_per_us = clk_hz / 1000000u;
+    pins->bit = static_cast<double>(clk_hz) / u->baud;
+    u->counters = counters;
+    u->counters_ctx = ctx;
 }
 
 void uart_link_counters(const UartLink* u, uint32_t out[4]) {
+    if (u->counters) {
+        u->counters(u->counters_ctx, out);
+        return;
+    }
     const hg_link_stats_t& st = u->link.st;
     out[0] = st.good;
     out[1] = st.bad_framing + st.bad_crc + st.bad_version + st.bad_type + st.bad_len;
@@ -189,7 +216,7 @@ void uart_link_counters(const UartLink* u, uint32_t out[4]) {
     out[3] = st.timeouts;
 }
 
-static void queue_tx(UartLink* u, const uint8_t* b, size_t n, double g) {
+[[maybe_unused]] static void queue_tx(UartLink* u, const uint8_t* b, size_t n, double g) {
     double t = std::max(u->tx_free_us, g);
     for (size_t i = 0; i < n; ++i) {
         t += u->byte_us;
@@ -223,6 +250,17 @@ static void pace(UartLink* u, uint64_t g) {
 
 void uart_link_service(UartLink* u, uint64_t g_us) {
     const double g = static_cast<double>(g_us);
+    if (g_stop && u->pins) {
+        uint32_t c[4];
+        uart_link_counters(u, c);
+        std::fprintf(stderr, "link: bytes in %llu out %llu lost %llu | frames good %u bad %u replayed %u "
+                     "timeouts %u | tx framing errors %llu\n",
+                     static_cast<unsigned long long>(u->bytes_in), static_cast<unsigned long long>(u->bytes_out),
+                     static_cast<unsigned long long>(u->bytes_lost), c[0], c[1], c[2], c[3],
+                     static_cast<unsigned long long>(u->pins->framing));
+        std::fflush(stderr);
+        std::_Exit(0);
+    }
     if (g_stop) {
         const hg_link_stats_t& st = u->link.st;
         std::fprintf(stderr, "link: bytes in %llu out %llu lost %llu | frames good %u bad %u "
@@ -260,6 +298,15 @@ void uart_link_service(UartLink* u, uint64_t g_us) {
             pace(u, g_us);
         }
     }
+#if HG_SOC
+    // the byte starts on the rx pin one byte time before it has crossed the line
+    while (!u->rx.empty() && u->rx.front().t_us - u->byte_us <= g) {
+        u->pins->send(u->rx.front().b, g_us * u->clocks_per_us);
+        u->rx.pop_front();
+    }
+    for (const char c : u->pins->decoded) u->tx.push_back({g, static_cast<uint8_t>(c)});
+    u->pins->decoded.clear();
+#else
     uint8_t frame[HG_LINK_MAX_FRAME];
     while (!u->rx.empty() && u->rx.front().t_us <= g) {
         const size_t m = hg_link_rx_byte(&u->link, u->rx.front().b, frame);
@@ -268,6 +315,7 @@ void uart_link_service(UartLink* u, uint64_t g_us) {
     }
     const size_t m = hg_link_poll(&u->link, u->tx.empty(), frame);
     if (m) queue_tx(u, frame, m, g);
+#endif
     // Bytes that have crossed the line are handed to the pty a frame at a time (at its
     // delimiter): the PC's decoder sees nothing before the delimiter anyway.
     bool flush = false;
