@@ -307,7 +307,8 @@ class Scene:
 
     def override(self, changes: Mapping[str, object]) -> Scene:
         """A new scene with dotted keys replaced (``{"env.k": 3000.0, "encoder.1.h2": 0.01}``),
-        validated like a file; a key naming a missing table creates it."""
+        validated like a file; a key naming a missing table creates it, a value None removes
+        the key (TOML has no null: only code can ask for that)."""
         d = json.loads(self.raw)
         for dotted, value in changes.items():
             *head, last = dotted.split(".")
@@ -316,7 +317,10 @@ class Scene:
                 node = node.setdefault(part, {})
                 if not isinstance(node, dict):
                     raise SceneError(f"{self.source}: {dotted}: not a table")
-            node[last] = json.loads(json.dumps(value))   # tuples -> arrays, like TOML
+            if value is None:
+                node.pop(last, None)
+            else:
+                node[last] = json.loads(json.dumps(value))   # tuples -> arrays, like TOML
         return from_dict(d, self.source)
 
     def digest(self) -> str:
