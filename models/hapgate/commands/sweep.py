@@ -92,6 +92,11 @@ def main(args: argparse.Namespace) -> int:
         return EXIT_BAD_INPUT
 
 
+def _latency_k(t: dict[str, float]) -> float:
+    """A K_max row's latency bound (b - |B|)/(T/2 + tau), with its own loop latency."""
+    return zwidth.latency_bound(t["b_phys"], t["b_wall"], 1 / t["servo_hz"], t["tau_s"])
+
+
 def _report(args: argparse.Namespace, spec: sweep.Spec, res: sweep.SweepResult, out: Path
             ) -> int:
     """Write the results (base.atomic) and print the kind's tables; the exit status."""
@@ -101,13 +106,22 @@ def _report(args: argparse.Namespace, spec: sweep.Spec, res: sweep.SweepResult, 
     if spec.kind == "zwidth":
         for d in args.compare:
             rows = rows + read_rows(d / "results.csv")
+        hits = [r for r in rows if "rate_hardness" in r]     # test = "impact"
+        rows = [r for r in rows if "rate_hardness" not in r]
+        if hits:
+            print(table(["servo Hz", "K N/m", "B N s/m", "v contact m/s", "rate-hardness N/m",
+                         "/ K", "static F/x N/m", "/ K"], sweep_report.impact_table(hits)))
+        if not rows:
+            print(f"{len(res.records)} jobs in {res.wall_s:.1f} s on {res.workers} workers")
+            print("wrote " + ", ".join(str(f) for f in files))
+            return status
         tab = sweep_report.kmax_table(rows)
         print(table(["position", "servo Hz", "B N s/m", "K_max N/m", "first unstable K",
                      "2(b-|B|)/T", "(b-|B|)/(T/2+tau)", "35 N/cm stable"],
                     [[t["position"], str(t["servo_hz"]), f"{t['b_wall']:g}",
                       f"{t['k_max']:.0f}", f"{t['k_first_unstable']:.0f}",
                       f"{max(2 * (t['b_phys'] - t['b_wall']) * t['servo_hz'], 0):.0f}",
-                      f"{zwidth.latency_bound(t['b_phys'], t['b_wall'], 1 / t['servo_hz']):.0f}",
+                      f"{_latency_k(t):.0f}",
                       "yes" if t["k_max"] >= 3500 else "no"] for t in tab]))
         write_bytes(out / "kmax.json", json.dumps(tab, indent=2, default=str))
         sweep_report.zwidth_plot(rows, out / "zwidth.png")

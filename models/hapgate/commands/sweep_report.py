@@ -14,11 +14,20 @@ from ..device import calib_mc, seu, zwidth
 
 
 def _pos(r: dict[str, Any]) -> str:
-    """The configuration's name: the position source, and the velocity when not the FIR
-    (records from before the velocity axis have none: the FIR)."""
-    pos = str(r.get("position") or "interpolated")
-    vel = str(r.get("velocity") or "fir")
-    return pos if vel == "fir" else f"{pos}, {vel}"
+    """The configuration's name: the position source, then what differs from the base
+    configuration: the velocity when not the FIR, the hand when not the light one, the current
+    loop when not 2 kHz, a link compliance (records from before an axis have none: its
+    default)."""
+    parts = [str(r.get("position") or "interpolated")]
+    if str(r.get("velocity") or "fir") != "fir":
+        parts.append(str(r["velocity"]))
+    if str(r.get("hand") or "light") != "light":
+        parts.append(f"{r['hand']} hand")
+    if float(r.get("current_bw_hz") or 2000.0) != 2000.0:
+        parts.append(f"{float(r['current_bw_hz']) / 1e3:g} kHz amplifier")
+    if float(r.get("link_k") or 0.0):
+        parts.append(f"link {float(r['link_k']):g} N m/rad")
+    return ", ".join(parts)
 
 
 def kmax_table(rows: list[dict[str, Any]]) -> list[dict[str, Any]]:
@@ -36,7 +45,23 @@ def kmax_table(rows: list[dict[str, Any]]) -> list[dict[str, Any]]:
         first_bad = next((float(r["k"]) for r in sel if not r["stable"]), math.inf)
         out.append({"position": pos, "servo_hz": hz, "b_wall": bw, "k_max": kmax,
                     "k_first_unstable": first_bad, "b_phys": float(sel[0]["b_phys_nsm"]),
-                    "m_eff": float(sel[0]["m_eff_kg"])})
+                    "m_eff": float(sel[0]["m_eff_kg"]),
+                    "tau_s": float(sel[0].get("tau_s") or zwidth.TAU_LOOP_S)})
+    return out
+
+
+def impact_table(rows: list[dict[str, Any]]) -> list[list[str]]:
+    """The impact runs (zwidth test = "impact"): rate-hardness and the static F/x beside the
+    virtual K, per servo rate and K."""
+    def f(x: Any, fmt: str) -> str:
+        v = float(x) if x not in (None, "") else math.nan
+        return "-" if not math.isfinite(v) else format(v, fmt)
+    out = []
+    for r in sorted(rows, key=lambda r: (int(r["servo_hz"]), float(r["k"]), float(r["b_wall"]))):
+        k = float(r["k"])
+        out.append([str(r["servo_hz"]), f(k, ".0f"), f(r["b_wall"], "g"), f(r["v_contact"], ".3f"),
+                    f(r["rate_hardness"], ".0f"), f(float(r["rate_hardness"]) / k, ".2f"),
+                    f(r["k_static"], ".0f"), f(float(r["k_static"]) / k, ".3f")])
     return out
 
 

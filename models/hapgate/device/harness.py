@@ -150,6 +150,9 @@ def plant_config(scene: Any, q0: np.ndarray) -> str:
     if gk:
         lines += ["gravity_on = 1", f"gravity_k = {_vec(gk)}",
                   f"gravity_q = {_vec(getattr(pl, 'gravity_q', (0.0, 0.0)))}"]
+    if any(pl.link_k_nm_per_rad):
+        lines += [f"link_k_nm_per_rad = {_vec(pl.link_k_nm_per_rad)}",
+                  f"link_b_nms_per_rad = {_vec(pl.link_b_nms_per_rad)}"]
     if hand.kind == "spring" or getattr(hand, "guided", ()):
         lines += [f"hand_k = {hand.k!r}", f"hand_b = {hand.b!r}"]
     if hand.kind == "spring":

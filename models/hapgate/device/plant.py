@@ -25,7 +25,7 @@ class Out(C.Structure):
     _fields_ = [("t", C.c_double), ("q", C.c_double * 3), ("qd", C.c_double * 3),
                 ("p", C.c_double * 3), ("v", C.c_double * 3), ("f_hand", C.c_double * 3),
                 ("tau", C.c_double * 3), ("i_ab", C.c_double * 6), ("energy", C.c_double),
-                ("theta_e", C.c_double * 3)]
+                ("theta_e", C.c_double * 3), ("qm", C.c_double * 3), ("qdm", C.c_double * 3)]
 
 
 def library() -> C.CDLL:

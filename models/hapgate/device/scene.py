@@ -203,6 +203,14 @@ class FirmwareCfg:
     #                                   else "truth"
 
 
+# The link mode's bounds: a stiffness whose rotor mode, sqrt(k / j_rotor), stays below
+# 1 / (16 us), the model fidelity's mechanics step (semi-implicit Euler is stable below
+# 2 / step), with the default rotor (a stiffer link is rigid for the ~10 kHz loops here);
+# a damper that the explicit step keeps stable (b dt / j_rotor < 2 at 16 us)
+LINK_K_MAX = 1.6e-5 / 16e-6 ** 2     # 62 500 N m/rad (a ~10 kHz rotor mode)
+LINK_B_MAX = 1.0                     # N m s/rad
+
+
 @dataclass(frozen=True)
 class PlantCfg:
     """The plant's parameters (their meaning, units and sources: the plant's block doc)."""
@@ -216,6 +224,10 @@ class PlantCfg:
     m_handle_kg: float = 0.01
     b_visc_nms: tuple[float, float, float] = (2e-4, 2e-4, 2e-4)
     tau_coulomb_nm: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    # link compliance, one structural mode per joint (tb/native/device/README.md, "Link
+    # compliance"): rotor-to-linkage spring and damper; 0: rigid (the paper's direct drive)
+    link_k_nm_per_rad: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    link_b_nms_per_rad: tuple[float, float, float] = (0.0, 0.0, 0.0)
     gravity_k: tuple[float, ...] = ()      # empty: no gravity; else k1..k12 (hg_gravity.h order)
     gravity_q: tuple[float, float] = (0.0, 0.0)   # (Q_ab, Q_ac) of eq (2) (hg_gravity_t)
     dt_s: float = 1e-6                     # integrator step: 1e-6 / n, n = 1..16
@@ -298,7 +310,8 @@ class Scene:
 
     def override(self, changes: Mapping[str, object]) -> Scene:
         """A new scene with dotted keys replaced (``{"env.k": 3000.0, "encoder.1.h2": 0.01}``),
-        validated like a file; a key naming a missing table creates it."""
+        validated like a file; a key naming a missing table creates it, a value None removes
+        the key (TOML has no null: only code can ask for that)."""
         d = json.loads(self.raw)
         for dotted, value in changes.items():
             *head, last = dotted.split(".")
@@ -307,7 +320,10 @@ class Scene:
                 node = node.setdefault(part, {})
                 if not isinstance(node, dict):
                     raise SceneError(f"{self.source}: {dotted}: not a table")
-            node[last] = json.loads(json.dumps(value))   # tuples -> arrays, like TOML
+            if value is None:
+                node.pop(last, None)
+            else:
+                node[last] = json.loads(json.dumps(value))   # tuples -> arrays, like TOML
         return from_dict(d, self.source)
 
     def digest(self) -> str:
@@ -781,7 +797,13 @@ class _Validator:
             "b_visc_nms": vec3(1.0, " N m s"), "tau_coulomb_nm": vec3(1.0, " N m"),
             "gravity_k": gravity,
             "gravity_q": lambda x, k: self.vec(x, k, 2, lambda v: abs(v) <= 10, "|Q| <= 10"),
-            "dt_s": dt})
+            "dt_s": dt, "link_k_nm_per_rad": vec3(LINK_K_MAX, " N m/rad"),
+            "link_b_nms_per_rad": vec3(LINK_B_MAX, " N m s/rad")})
+        for i, (k, b) in enumerate(zip(kw.get("link_k_nm_per_rad", (0.0,) * 3),  # type: ignore
+                                       kw.get("link_b_nms_per_rad", (0.0,) * 3))):  # type: ignore
+            if b and not k:
+                raise self.fail(f"plant.link_b_nms_per_rad[{i}]",
+                                "a link damper needs its spring (link_k_nm_per_rad > 0)")
         return PlantCfg(**kw)  # type: ignore[arg-type]
 
     def expect(self, d: dict[str, Any]) -> ExpectCfg:

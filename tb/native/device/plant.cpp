@@ -33,6 +33,10 @@ struct Params {
     double b_visc[3] = {2e-4, 2e-4, 2e-4};  // N m s / rad
     double tau_c[3] = {0, 0, 0};            // N m, Coulomb
     double coulomb_w = 1e-3;                // rad/s, width of the regularised sign
+    // Link compliance (README "Link compliance"): one structural mode per joint, the rotor
+    // (motor and encoder side) coupled to the linkage by a spring and a damper; 0: rigid
+    double k_link[3] = {0, 0, 0};           // N m / rad
+    double b_link[3] = {0, 0, 0};           // N m s / rad
     bool gravity = false;
     double gk[12] = {0};
     double q_ab = 0, q_ac = 0;
@@ -87,7 +91,9 @@ struct hg_plant {
     std::vector<double> path0;
     Rng rng;
     double t = 0;
-    double q[3], qd[3];
+    double q[3], qd[3];               // the linkage's joint angles and rates
+    double qm[3], qdm[3];             // the rotors' (the encoders'): q, qd when rigid
+    bool compliant = false;           // any link compliance (link_k_nm_per_rad not all 0)
     double ia[3] = {0, 0, 0}, ib[3] = {0, 0, 0};
     double icmd_a[3] = {0, 0, 0}, icmd_b[3] = {0, 0, 0};
     double alpha = 0;                 // current-loop step factor
@@ -308,14 +314,14 @@ void winding_factors(hg_plant* s) {
 // the sines and cosines of pole_pairs * q).
 inline void elec_angles(const hg_plant* s, double* th) {
     for (int m = 0; m < 3; ++m)
-        th[m] = s->P.pole_pairs * (s->q[m] - s->P.q_index[m]) + s->P.comm_off[m];
+        th[m] = s->P.pole_pairs * (s->qm[m] - s->P.q_index[m]) + s->P.comm_off[m];
 }
 
 // The motor torques of the amplifier's present currents, their angles evaluated (read-out).
 void motor_torque(const hg_plant* s, double* tau, double* th) {
     double sp[3], cp[3];
     elec_angles(s, th);
-    for (int m = 0; m < 3; ++m) sincos(s->P.pole_pairs * s->q[m], &sp[m], &cp[m]);
+    for (int m = 0; m < 3; ++m) sincos(s->P.pole_pairs * s->qm[m], &sp[m], &cp[m]);
     torque_pq(s, s->ia, s->ib, sp, cp, tau);
 }
 
@@ -384,7 +390,8 @@ bool parse(const char* text, Params& P, std::string& err) {
               take("q0", P.q0, 3) && take("t0_s", &P.t0, 1) && take("free", fr, 3) &&
               take("seed", &seed, 1) && take("lines", &P.lines, 1) &&
               take("comm_offset_deg", co_deg, 3) && take("phases_swapped", sw, 3) &&
-              take("encoder_dir", edir, 3);
+              take("encoder_dir", edir, 3) && take("link_k_nm_per_rad", P.k_link, 3) &&
+              take("link_b_nms_per_rad", P.b_link, 3);
     if (!ok) return false;
     if (kv.count("gravity_k")) {
         if (!take("gravity_k", P.gk, 12)) return false;
@@ -418,6 +425,12 @@ bool parse(const char* text, Params& P, std::string& err) {
         P.swapped[i] = sw[i] != 0;
         P.enc_swap[i] = edir[i] < 0;
     }
+    for (int i = 0; i < 3; ++i)
+        if (P.k_link[i] < 0 || P.b_link[i] < 0 || (P.k_link[i] == 0 && P.b_link[i] != 0)) {
+            err = "link_k_nm_per_rad and link_b_nms_per_rad must be >= 0, and a damper needs "
+                  "its spring";
+            return false;
+        }
     if (!(P.dt > 0) || P.pole_pairs < 1 || !(P.bw_hz > 0) || !(P.j_rotor > 0) || P.hand < 0 || P.hand > 2) {
         err = "impossible value (dt_s, pole_pairs, current_bw_hz, j_rotor_kg_m2 or hand_kind)";
         return false;
@@ -507,9 +520,10 @@ hg_plant* hg_plant_new(const char* config_text, char* err, int errlen) {
     s->rng = Rng(P.seed);
     s->t = P.t0;
     for (int i = 0; i < 3; ++i) {
-        s->q[i] = P.q0[i];
-        s->qd[i] = 0;
+        s->q[i] = s->qm[i] = P.q0[i];
+        s->qd[i] = s->qdm[i] = 0;
     }
+    s->compliant = P.k_link[0] != 0 || P.k_link[1] != 0 || P.k_link[2] != 0;
     s->alpha = 1.0 - std::exp(-2 * kPi * P.bw_hz * P.dt);
     s->alpha_us = 1.0 - std::exp(-2 * kPi * P.bw_hz * 1e-6);
     s->decay[0] = 1.0;
@@ -548,8 +562,8 @@ void hg_plant_hold(hg_plant* p, int on) {
 
 void hg_plant_set_q(hg_plant* p, const double q[3], const double qd[3]) {
     for (int i = 0; i < 3; ++i) {
-        p->q[i] = q[i];
-        p->qd[i] = qd[i];
+        p->q[i] = p->qm[i] = q[i];
+        p->qd[i] = p->qdm[i] = qd[i];
     }
 }
 
@@ -577,7 +591,13 @@ void fill_out(const hg_plant* s, const Trig& kq, const double* tau, const double
     }
     const double m = s->m_end;
     double e = 0;
-    for (int i = 0; i < 3; ++i) e += 0.5 * (m * o->v[i] * o->v[i] + P.j_rotor * s->qd[i] * s->qd[i]);
+    for (int i = 0; i < 3; ++i) {
+        e += 0.5 * (m * o->v[i] * o->v[i] + P.j_rotor * s->qdm[i] * s->qdm[i]);
+        const double dq = s->qm[i] - s->q[i];
+        e += 0.5 * P.k_link[i] * dq * dq;
+        o->qm[i] = s->qm[i];
+        o->qdm[i] = s->qdm[i];
+    }
     if (P.hand == 1) {
         double pt[3], vt[3];
         target(s, s->t, pt, vt);
@@ -657,7 +677,14 @@ inline void hold_rows(const bool* fr, double& m00, double& m01, double& m02, dou
 // joint_trig, torque_pq, hg_plant_step and hg_plant_adc_mask, are unrolled (#pragma GCC
 // unroll 3): at -O2 gcc keeps them loops with their values in memory; written out, the values
 // stay in registers (a quarter of the step's instructions).
+void mech_step_compliant(hg_plant* s, double dt, const double* ia, const double* ib,
+                         hg_plant_out* out);
+
 void mech_step(hg_plant* s, double dt, const double* ia, const double* ib, hg_plant_out* out = nullptr) {
+    if (s->compliant) {
+        mech_step_compliant(s, dt, ia, ib, out);
+        return;
+    }
     const Params& P = s->P;
     const double m = s->m_end;
     double sp[3], cp[3], tau[3];
@@ -704,7 +731,7 @@ void mech_step(hg_plant* s, double dt, const double* ia, const double* ib, hg_pl
             for (int i = 0; i < 3; ++i) s->f_hand[i] = b[i];
         }
         if (s->held)
-            for (int i = 0; i < 3; ++i) s->q[i] += dt * qd[i];
+            for (int i = 0; i < 3; ++i) s->qm[i] = s->q[i] += dt * qd[i];
         s->have_prev = false;
         s->t += dt;
         return;
@@ -741,6 +768,110 @@ void mech_step(hg_plant* s, double dt, const double* ia, const double* ib, hg_pl
     solve_spd3(m00, m01, m02, m11, m12, m22, b);
     // semi-implicit (symplectic) Euler
 #pragma GCC unroll 3
+    for (int i = 0; i < 3; ++i) {
+        const double qdn = P.free_[i] ? qd[i] + dt * b[i] : 0;
+        s->qd[i] = s->qdm[i] = qdn;
+        s->qm[i] = s->q[i] += dt * qdn;   // rigid: the rotor is the joint
+    }
+    std::memcpy(s->Jprev, J, sizeof J);
+    s->have_prev = true;
+    s->t += dt;
+}
+
+// mech_step with link compliance (README "Link compliance"): per joint the rotor (inertia
+// j_rotor, the winding's torque, the bearing's viscous and Coulomb friction; the encoder reads
+// its angle qm) and the linkage (the endpoint mass through J, the hand, gravity) coupled by
+// tau_s = k (qm - q) + b (qdm - qd). Semi-implicit Euler on both; exact trigonometry each step
+// (the rigid step's rotation shortcut is not used: this path is an option, not the default).
+//   J_r qdd_m = tau - b_visc qdm - coulomb(qdm) - tau_s
+//   m J^T J qdd = J^T w + tau_s - grad U,  w = F_dev - m Jdot qd
+// A rigid grip holds the linkage (qd = 0): the rotors move against the springs and the hand's
+// force is the static J^T F = -tau_s (+ gravity); a held joint (fixture) moves both sides.
+void mech_step_compliant(hg_plant* s, double dt, const double* ia, const double* ib,
+                         hg_plant_out* out) {
+    const Params& P = s->P;
+    const double m = s->m_end;
+    double sp[3], cp[3], tau[3];
+    for (int i = 0; i < 3; ++i) sincos(P.pole_pairs * s->qm[i], &sp[i], &cp[i]);
+    torque_pq(s, ia, ib, sp, cp, tau);
+    const Trig kq = trig(s->q);
+    if (out) {
+        double th[3], tau_now[3];
+        elec_angles(s, th);
+        torque_pq(s, s->ia, s->ib, sp, cp, tau_now);
+        fill_out(s, kq, tau_now, th, out);
+    }
+    for (int i = 0; i < 3; ++i) s->tau[i] = tau[i];
+    double J[9];
+    jac_t(P.arm, kq, J);
+    const double qd[3] = {s->qd[0], s->qd[1], s->qd[2]};
+    double ts[3], gq[3] = {0, 0, 0};
+    for (int i = 0; i < 3; ++i)
+        ts[i] = P.k_link[i] * (s->qm[i] - s->q[i]) + P.b_link[i] * (s->qdm[i] - qd[i]);
+    if (P.gravity) grad_u(P, kq, gq);
+    double fdev[3] = {0, 0, 0};
+    if (P.hand == 1) {
+        double p[3], pt[3], vt[3];
+        fk_t(P.arm, kq, p);
+        target(s, s->t, pt, vt);
+        for (int i = 0; i < 3; ++i) {
+            const double v = J[3 * i] * qd[0] + J[3 * i + 1] * qd[1] + J[3 * i + 2] * qd[2];
+            fdev[i] = P.hand_k * (pt[i] - p[i]) + P.hand_b * (vt[i] - v);
+        }
+        for (int i = 0; i < 3; ++i) s->f_hand[i] = -fdev[i];
+    }
+    if (s->held) {   // the fixture moves both sides together
+        for (int i = 0; i < 3; ++i) {
+            s->q[i] += dt * qd[i];
+            s->qm[i] = s->q[i];
+            s->qdm[i] = qd[i];
+        }
+        s->have_prev = false;
+        s->t += dt;
+        return;
+    }
+    // the rotors
+    for (int i = 0; i < 3; ++i) {
+        double acc = tau[i] - P.b_visc[i] * s->qdm[i] - ts[i];
+        if (s->coulomb && P.tau_c[i] != 0) acc -= P.tau_c[i] * std::tanh(s->qdm[i] / P.coulomb_w);
+        const double qdn = P.free_[i] ? s->qdm[i] + dt * acc / P.j_rotor : 0;
+        s->qdm[i] = qdn;
+        s->qm[i] += dt * qdn;
+    }
+    if (P.hand == 2) {   // rigid grip: the linkage held, J^T F_dev + tau_s - grad U = 0
+        double a[3][3], b[3];
+        for (int r = 0; r < 3; ++r) {
+            b[r] = ts[r] - gq[r];
+            for (int c = 0; c < 3; ++c) a[r][c] = J[3 * c + r];
+        }
+        solve(a, b, 3);
+        for (int i = 0; i < 3; ++i) {
+            s->f_hand[i] = b[i];
+            s->qd[i] = 0;
+        }
+        s->have_prev = false;
+        s->t += dt;
+        return;
+    }
+    // the linkage
+    double w[3] = {fdev[0], fdev[1], fdev[2]};
+    if (s->have_prev) {
+        const double m_dt = m / dt;
+        const double* Jp = s->Jprev;
+        for (int r = 0; r < 3; ++r)
+            w[r] -= m_dt * ((J[3 * r] - Jp[3 * r]) * qd[0] + (J[3 * r + 1] - Jp[3 * r + 1]) * qd[1] +
+                            (J[3 * r + 2] - Jp[3 * r + 2]) * qd[2]);
+    }
+    double b[3];
+    for (int i = 0; i < 3; ++i) b[i] = ts[i] - gq[i] + J[i] * w[0] + J[3 + i] * w[1] + J[6 + i] * w[2];
+    double m00 = m * (J[0] * J[0] + J[3] * J[3] + J[6] * J[6]);
+    double m11 = m * (J[1] * J[1] + J[4] * J[4] + J[7] * J[7]);
+    double m22 = m * (J[2] * J[2] + J[5] * J[5] + J[8] * J[8]);
+    double m01 = m * (J[0] * J[1] + J[3] * J[4] + J[6] * J[7]);
+    double m02 = m * (J[0] * J[2] + J[3] * J[5] + J[6] * J[8]);
+    double m12 = m * (J[1] * J[2] + J[4] * J[5] + J[7] * J[8]);
+    if (!s->all_free) hold_rows(P.free_, m00, m01, m02, m11, m12, m22, b);
+    solve_spd3(m00, m01, m02, m11, m12, m22, b);
     for (int i = 0; i < 3; ++i) {
         const double qdn = P.free_[i] ? qd[i] + dt * b[i] : 0;
         s->qd[i] = qdn;
@@ -787,7 +918,10 @@ void hg_plant_amp(hg_plant* s, int n_us) {
 
 void hg_plant_held_us(hg_plant* s) {
     hg_plant_amp_us(s);
-    for (int i = 0; i < 3; ++i) s->q[i] += 1e-6 * s->qd[i];
+    for (int i = 0; i < 3; ++i) {
+        s->q[i] += 1e-6 * s->qd[i];
+        s->qm[i] += 1e-6 * s->qdm[i];
+    }
     s->have_prev = false;
     s->t += 1e-6;
 }
@@ -825,7 +959,7 @@ void hg_plant_adc_mask(hg_plant* s, int mask, int8_t a[3], int8_t b[3], uint8_t 
 #pragma GCC unroll 3
     for (int i = 0; i < 3; ++i) {
         if (!((mask >> i) & 1)) continue;
-        const double x = (s->q[i] - P.q_index[i]) / (2 * kPi) * P.lines;
+        const double x = (s->qm[i] - P.q_index[i]) / (2 * kPi) * P.lines;
         double na = 0, nb = 0;
         if (P.noise[i] > 0) {
             na = P.noise[i] * s->rng.normal();
@@ -847,7 +981,7 @@ void hg_plant_read(const hg_plant* s, hg_plant_out* o) {
 }
 
 void hg_plant_q(const hg_plant* p, double q[3]) {
-    for (int i = 0; i < 3; ++i) q[i] = p->q[i];
+    for (int i = 0; i < 3; ++i) q[i] = p->qm[i];
 }
 
 void hg_plant_fk(const hg_plant* p, const double q[3], double out[3]) { fk(p->P.arm, q, out); }

@@ -57,11 +57,13 @@ typedef struct {
     double i_ab[6];     // phase currents a, b per motor, A
     double energy;      // J: 0.5 qd^T M qd (+ 0.5 k |hand stretch|^2 with a spring hand)
     double theta_e[3];  // true electrical angle per motor, rad
+    double qm[3], qdm[3];   // the rotors' angles and rates (the encoders'): q, qd when rigid
 } hg_plant_out;
 void hg_plant_read(const hg_plant* p, hg_plant_out* o);
 // hg_plant_mech with the read-out of the state before the step (shared trigonometry).
 void hg_plant_mech_read(hg_plant* p, int n_us, hg_plant_out* o);
-// Joint angles only (cheap; every grid point).
+// The encoders' angles (the rotors'; the joints' unless link_k_nm_per_rad is set), cheap:
+// every grid point.
 void hg_plant_q(const hg_plant* p, double q[3]);
 
 // Geometry (for tests): forward kinematics and Jacobian (row-major 3x3) at q.
