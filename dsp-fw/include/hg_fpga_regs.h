@@ -44,6 +44,13 @@
 #define HG_STAT_CFG_ERR      ((uint32_t)HAPGATE__STATUS__CFG_ERR_bm)
 #define HG_STAT_BUS_ERR      ((uint32_t)HAPGATE__STATUS__BUS_ERR_bm)
 #define HG_STAT_PROTO_ERR    ((uint32_t)HAPGATE__STATUS__PROTO_ERR_bm)
+#define HG_STAT_HW_FAULT     ((uint32_t)HAPGATE__STATUS__HW_FAULT_bm)  /* HW_FAULT latched */
+
+/* HW_FAULT (RO): the FPGA's integrity alarms, cause bits [4:0] (sticky, FAULT_CLR clears). */
+#define HG_REG_HW_FAULT      HG_WORD(offsetof(hapgate_t, HW_FAULT))
+#define HG_HWF_CAUSES        ((uint32_t)(HAPGATE__HW_FAULT__REGS_bm | HAPGATE__HW_FAULT__COMM_bm | \
+                                         HAPGATE__HW_FAULT__DAC_bm | HAPGATE__HW_FAULT__TICK_bm | \
+                                         HAPGATE__HW_FAULT__POS_bm))
 
 /* SEQ (RO): +1 each time the snapshot is latched (servo tick or CTRL.SNAP). */
 #define HG_REG_SEQ           HG_WORD(offsetof(hapgate_t, SEQ))

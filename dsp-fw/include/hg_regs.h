@@ -15,7 +15,7 @@ extern "C" {
 #define HAPGATE__ID__VERSION_bm 0xffff
 #define HAPGATE__ID__VERSION_bp 0
 #define HAPGATE__ID__VERSION_bw 16
-#define HAPGATE__ID__VERSION_reset 0x103
+#define HAPGATE__ID__VERSION_reset 0x104
 #define HAPGATE__ID__MAGIC_bm 0xffff0000
 #define HAPGATE__ID__MAGIC_bp 16
 #define HAPGATE__ID__MAGIC_bw 16
@@ -80,6 +80,10 @@ extern "C" {
 #define HAPGATE__STATUS__PROTO_ERR_bp 15
 #define HAPGATE__STATUS__PROTO_ERR_bw 1
 #define HAPGATE__STATUS__PROTO_ERR_reset 0x0
+#define HAPGATE__STATUS__HW_FAULT_bm 0x10000
+#define HAPGATE__STATUS__HW_FAULT_bp 16
+#define HAPGATE__STATUS__HW_FAULT_bw 1
+#define HAPGATE__STATUS__HW_FAULT_reset 0x0
 
 // reg - hapgate::SEQ
 #define HAPGATE__SEQ__SEQ_bm 0xffffffff
@@ -385,6 +389,32 @@ typedef struct __attribute__ ((__packed__)) {
 #define HAPGATE__CAP_DATA__B_bw 8
 #define HAPGATE__CAP_DATA__B_reset 0x0
 
+// reg - hapgate::HW_FAULT
+#define HAPGATE__HW_FAULT__REGS_bm 0x1
+#define HAPGATE__HW_FAULT__REGS_bp 0
+#define HAPGATE__HW_FAULT__REGS_bw 1
+#define HAPGATE__HW_FAULT__REGS_reset 0x0
+#define HAPGATE__HW_FAULT__COMM_bm 0x2
+#define HAPGATE__HW_FAULT__COMM_bp 1
+#define HAPGATE__HW_FAULT__COMM_bw 1
+#define HAPGATE__HW_FAULT__COMM_reset 0x0
+#define HAPGATE__HW_FAULT__DAC_bm 0x4
+#define HAPGATE__HW_FAULT__DAC_bp 2
+#define HAPGATE__HW_FAULT__DAC_bw 1
+#define HAPGATE__HW_FAULT__DAC_reset 0x0
+#define HAPGATE__HW_FAULT__TICK_bm 0x8
+#define HAPGATE__HW_FAULT__TICK_bp 3
+#define HAPGATE__HW_FAULT__TICK_bw 1
+#define HAPGATE__HW_FAULT__TICK_reset 0x0
+#define HAPGATE__HW_FAULT__POS_bm 0x10
+#define HAPGATE__HW_FAULT__POS_bp 4
+#define HAPGATE__HW_FAULT__POS_bw 1
+#define HAPGATE__HW_FAULT__POS_reset 0x0
+#define HAPGATE__HW_FAULT__BUILT_bm 0x1f00
+#define HAPGATE__HW_FAULT__BUILT_bp 8
+#define HAPGATE__HW_FAULT__BUILT_bw 5
+#define HAPGATE__HW_FAULT__BUILT_reset 0x0
+
 // addrmap - hapgate
 typedef struct __attribute__ ((__packed__)) {
     uint32_t ID;
@@ -408,6 +438,7 @@ typedef struct __attribute__ ((__packed__)) {
     uint32_t CAP_STAT;
     uint32_t CAP_ADDR;
     uint32_t CAP_DATA;
+    uint32_t HW_FAULT;
 } hapgate_t;
 
 

@@ -29,6 +29,8 @@ enum {
     HG_ERR_WATCHDOG = 6,   /* FPGA reports its watchdog expired                       */
     HG_ERR_FPGA_ID = 7,    /* ID register magic or major map version mismatch at init */
     HG_ERR_CONFIG = 8,     /* configuration rejected at init                          */
+    HG_ERR_FPGA_FAULT = 9, /* FPGA integrity alarm (STATUS.HW_FAULT); err_axis = its   */
+                           /* cause bits, HW_FAULT[4:0] (REGS, COMM, DAC, TICK, POS)  */
 };
 
 typedef struct {

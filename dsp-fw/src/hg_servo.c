@@ -266,7 +266,14 @@ void hg_servo_step(hg_servo_t *s)
     s->status = status;
 
     uint8_t axis = 0;
-    uint8_t err = check_snapshot(s, seq0, seq1, pos, vel, &axis);
+    uint8_t err;
+    if (status & HG_STAT_HW_FAULT) {
+        /* the FPGA's own logic failed a check and zeroes the DACs: latch with its cause */
+        err = HG_ERR_FPGA_FAULT;
+        axis = (uint8_t)(fpga_read32(HG_REG_HW_FAULT) & HG_HWF_CAUSES);
+    } else {
+        err = check_snapshot(s, seq0, seq1, pos, vel, &axis);
+    }
     if (err == HG_ERR_NONE) {
         const uint32_t dseq = s->have_prev ? seq0 - s->seq : 1u;
         err = compute(s, pos, vel, (hg_real)dseq / (hg_real)s->cfg.rate_hz);

@@ -7,6 +7,7 @@
 
 uint32_t hal_sim_regs[HAL_SIM_NREGS];
 uint32_t hal_sim_nwrites[HAL_SIM_NREGS];
+uint32_t hal_sim_nreads[HAL_SIM_NREGS];
 uint32_t hal_sim_bad_access;
 uint8_t hal_sim_harm[HG_NAXES][256];
 unsigned hal_sim_harm_log2 = 6;
@@ -20,7 +21,7 @@ bool hal_sim_tear;
 void hal_sim_reset(void)
 {
     for (unsigned i = 0; i < HAL_SIM_NREGS; i++)
-        hal_sim_regs[i] = hal_sim_nwrites[i] = 0;
+        hal_sim_regs[i] = hal_sim_nwrites[i] = hal_sim_nreads[i] = 0;
     hal_sim_regs[HG_REG_ID] = HG_ID_MAGIC << HG_ID_MAGIC_SHIFT | HG_ID_VERSION;
     hal_sim_regs[HG_REG_HARM_CTRL] = (uint32_t)hal_sim_harm_log2 << HAPGATE__HARM_CTRL__LOG2_bp;
     hal_sim_regs[HG_REG_CAP_STAT] = (uint32_t)hal_sim_cap_log2 << HAPGATE__CAP_STAT__DEPTH_LOG2_bp;
@@ -78,6 +79,7 @@ uint32_t fpga_read32(uint32_t addr)
         hal_sim_bad_access++;
         return 0xDEADBEEFu;
     }
+    hal_sim_nreads[addr]++;
     if (harm_reg(addr) && hal_sim_harm_log2 == 0)
         return 0;
     if (addr == HG_REG_HARM_DATA)

@@ -13,6 +13,7 @@
 
 extern uint32_t hal_sim_regs[HAL_SIM_NREGS];
 extern uint32_t hal_sim_nwrites[HAL_SIM_NREGS]; /* writes per address since reset */
+extern uint32_t hal_sim_nreads[HAL_SIM_NREGS];  /* reads per address since reset  */
 extern uint32_t hal_sim_bad_access;             /* accesses outside the map        */
 extern int hal_sim_irq_depth;                   /* > 0 while masked                */
 extern uint32_t hal_sim_irq_saves;

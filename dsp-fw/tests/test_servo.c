@@ -255,6 +255,30 @@ void test_safety_fault_bit(void)
     expect_latched(&s, HG_ERR_WATCHDOG, 0);
 }
 
+void test_safety_fpga_fault(void)
+{
+    /* STATUS.HW_FAULT: latched as HG_ERR_FPGA_FAULT with HW_FAULT's cause bits in err_axis,
+     * read in the same tick; the alarm wins over an axis fault reported with it */
+    hg_servo_t s;
+    armed(&s);
+    const uint32_t reads = hal_sim_nreads[HG_REG_HW_FAULT];
+    hal_sim_regs[HG_REG_STATUS] = HG_STAT_HW_FAULT | HG_STAT_FAULT(1);
+    hal_sim_regs[HG_REG_HW_FAULT] = (0x1Fu << 8) | 0x12u;       /* built: all; COMM and POS */
+    fx_pose(&s, Q45, QD0);
+    hg_servo_step(&s);
+    CHECK(hal_sim_nreads[HG_REG_HW_FAULT] == reads + 1);
+    hal_sim_regs[HG_REG_HW_FAULT] = 0;
+    expect_latched(&s, HG_ERR_FPGA_FAULT, 0x12);
+    /* without the STATUS bit the register is not read and nothing latches */
+    armed(&s);
+    const uint32_t reads2 = hal_sim_nreads[HG_REG_HW_FAULT];
+    hal_sim_regs[HG_REG_HW_FAULT] = 0x4u;
+    fx_pose(&s, Q45, QD0);
+    hg_servo_step(&s);
+    CHECK(s.err == HG_ERR_NONE && hal_sim_nreads[HG_REG_HW_FAULT] == reads2);
+    hal_sim_regs[HG_REG_HW_FAULT] = 0;
+}
+
 void test_safety_encoder_jump(void)
 {
     hg_servo_t s;

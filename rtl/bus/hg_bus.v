@@ -17,7 +17,8 @@ module hg_bus #(
     parameter integer VEL_OBS      = 0,          // 1: the interpolator has the velocity observer
     parameter integer VEL_SEL_RST  = 0,          // 1: VEL_CTRL.SEL resets to 7
     parameter integer HARM         = 0,          // 1: the interpolator has the harmonic table
-    parameter integer HARM_LOG2    = 6           // HARM = 1: its entries per line, log2
+    parameter integer HARM_LOG2    = 6,          // HARM = 1: its entries per line, log2
+    parameter integer SEC          = 0           // integrity countermeasures built (hg_regfile)
 ) (
     input  wire                 clk,
     input  wire                 rst,
@@ -63,6 +64,8 @@ module hg_bus #(
     input  wire [23:0]          in_harm_rdata,
     input  wire [127:0]         in_cap,          // capture buffer's registers (see hg_regfile)
     output wire                 wdog_expired,
+    input  wire [4:0]           in_sec_err,      // the top's integrity alarms (see hg_regfile)
+    output wire                 sec_fault,       // HW_FAULT latched: all torque to zero
     output wire                 irq,
     output wire                 tick,
     output wire                 dbg_req,         // observation: a served access (one clock)
@@ -90,7 +93,8 @@ module hg_bus #(
     hg_regfile #(
         .CLK_HZ(CLK_HZ), .SAMPLE_HZ(SAMPLE_HZ), .VEL_LOG2W(VEL_LOG2W), .VEL_BITS(VEL_BITS),
         .SKEW_CLOCKS(SKEW_CLOCKS), .FRAME_CLOCKS(FRAME_CLOCKS), .ADDR_BITS(ADDR_BITS),
-        .VEL_OBS(VEL_OBS), .VEL_SEL_RST(VEL_SEL_RST), .HARM(HARM), .HARM_LOG2(HARM_LOG2)
+        .VEL_OBS(VEL_OBS), .VEL_SEL_RST(VEL_SEL_RST), .HARM(HARM), .HARM_LOG2(HARM_LOG2),
+        .SEC(SEC)
     ) u_regs (
         .clk(clk), .rst(rst),
         .s_raddr(raddr), .s_rdata(rdata), .s_req(req), .s_we(we), .s_addr(addr),
@@ -109,7 +113,8 @@ module hg_bus #(
         .ctl_global_en(ctl_global_en), .ctl_axis_en(ctl_axis_en),
         .ctl_fault_clear(ctl_fault_clear), .ctl_home_arm(ctl_home_arm),
         .ctl_torque(ctl_torque), .ctl_offset(ctl_offset), .ctl_mode(ctl_mode),
-        .ctl_tq_limit(ctl_tq_limit), .wdog_expired(wdog_expired), .irq(irq), .tick(tick)
+        .ctl_tq_limit(ctl_tq_limit), .wdog_expired(wdog_expired), .irq(irq), .tick(tick),
+        .in_sec_err(in_sec_err), .sec_fault(sec_fault)
         `HG_SIM_BIND(sim_gclk, sim_en[1])
     );
     `HG_SIM_EN((|sim_en))

@@ -19,7 +19,11 @@ module hg_regfile #(
     parameter integer VEL_OBS      = 0,          // 1: the interpolator has the velocity observer
     parameter integer VEL_SEL_RST  = 0,          // 1: VEL_CTRL.SEL resets to 7 (every axis the observer's)
     parameter integer HARM         = 0,          // 1: the interpolator has the harmonic table (HARM_*)
-    parameter integer HARM_LOG2    = 6           // HARM = 1: its entries per line, log2 (4..8)
+    parameter integer HARM_LOG2    = 6,          // HARM = 1: its entries per line, log2 (4..8)
+    parameter integer SEC          = 0           // countermeasures built, HW_FAULT's bits
+                                                 // (rtl/top/README.md, "Integrity alarms"): bit 0
+                                                 // parity of the command and snapshot words, 3 the
+                                                 // tick range check (here); 1, 2, 4 the top's
 ) (
     input  wire                 clk,
     input  wire                 rst,
@@ -70,6 +74,9 @@ module hg_regfile #(
                                                  // 0x40..0x43; rtl/capture/hg_capture.v, which
                                                  // decodes their writes itself; 0: not built)
     output wire                 wdog_expired,    // sticky: all torque to zero
+    input  wire [4:0]           in_sec_err,      // the top's integrity alarms this clock
+                                                 // (HW_FAULT bits 1, 2, 4; 0 and 3 unused)
+    output wire                 sec_fault,       // HW_FAULT latched (sticky): all torque to zero
     output wire                 irq,             // servo tick pending (level)
     output reg                  tick             // one clock after each servo tick (observation)
     `HG_SIM_PORTS(1)  // simulation only (rtl/include/hg_sim.vh): the bus clock
@@ -91,7 +98,7 @@ module hg_regfile #(
     localparam [19:0] WD_MIN   = WD_MIN_I[19:0];
     localparam [19:0] WD_MAX   = WD_MAX_I[19:0];
     localparam [19:0] WD_RST   = WD_RST_I[19:0];
-    localparam [31:0] ID_VALUE = 32'h4847_0103;      // magic "HG", map version 1.3
+    localparam [31:0] ID_VALUE = 32'h4847_0104;      // magic "HG", map version 1.4
     localparam [31:0] WD_KEY   = 32'h5AFE_C0DE;
     localparam [31:0] UNMAPPED = 32'hDEAD_BEEF;
     localparam integer CLK_KHZ_I = CLK_HZ / 1000;
@@ -110,6 +117,9 @@ module hg_regfile #(
     localparam [5:0] A_VEL_CTRL = 6'h0C;
     localparam [5:0] A_HARM_CTRL = 6'h0D, A_HARM_ADDR = 6'h0E, A_HARM_DATA = 6'h0F;
     localparam integer A_CAP_W = 16;                 // CAP_CTRL..CAP_DATA: words 0x40..0x43
+    localparam integer A_HWF_I = 68;                 // HW_FAULT: word 0x44
+    localparam [ADDR_BITS-1:0] A_HWF = A_HWF_I[ADDR_BITS-1:0];
+    localparam [4:0] SEC_B = SEC[4:0];
     localparam [2:0] VEL_SEL_R  = (VEL_SEL_RST != 0) ? 3'b111 : 3'b000;
     // VEL_CTRL {BW2, BW1, BW0, 1'b0, TYPE3, 1'b0, SEL}: BW = 6, TYPE3 = 1 on every axis
     localparam [19:0] VEL_CTRL_RST = {4'd6, 4'd6, 4'd6, 1'b0, 3'b111, 1'b0, VEL_SEL_R};
@@ -141,6 +151,9 @@ module hg_regfile #(
         begin : g_bad_harm
             hg_regfile_HARM_must_be_0_or_1_and_HARM_LOG2_4_to_8 u_stop ();
         end
+        if (SEC < 0 || SEC > 31) begin : g_bad_sec
+            hg_regfile_SEC_must_be_a_5_bit_mask u_stop ();
+        end
     endgenerate
 
     // ---------------------------------------------------------------- decode
@@ -166,7 +179,7 @@ module hg_regfile #(
     function mapped;
         input [ADDR_BITS-1:0] a;
         begin
-            if (is_cap(a[ADDR_BITS-1:2]))
+            if (is_cap(a[ADDR_BITS-1:2]) || a == A_HWF)
                 mapped = 1'b1;
             else if (a[ADDR_BITS-1:6] != {(ADDR_BITS - 6){1'b0}})
                 mapped = 1'b0;
@@ -315,6 +328,7 @@ module hg_regfile #(
     // A tick every tick_div_q clocks, exactly; a TICK_DIV write restarts the period (the first
     // tick comes tick_div_q clocks after the write's edge).
     reg [23:0] tick_cnt;
+    wire       tick_bad;            // SEC bit 3: above TICK_DIV - 1 (an upset): restart the period
     wire       tick_now = (tick_cnt == tick_div_q - 24'd1);
     wire       snap_now = tick_now | snap_req;
     reg [31:0] seq_q;
@@ -329,7 +343,8 @@ module hg_regfile #(
             irq_tick_q   <= 1'b0;
             irq_missed_q <= 1'b0;
         end else begin
-            tick_cnt <= (tick_now || (tick_div_w && tick_ok)) ? 24'd0 : tick_cnt + 24'd1;
+            tick_cnt <= (tick_now || (tick_div_w && tick_ok) || tick_bad) ? 24'd0
+                                                                         : tick_cnt + 24'd1;
             tick     <= tick_now;
             if (snap_now)
                 seq_q <= seq_q + 32'd1;
@@ -424,6 +439,103 @@ module hg_regfile #(
     end
     assign wdog_expired = wd_exp_q;
 
+    // ---------------------------------------------------------------- integrity alarms
+    // HW_FAULT (rtl/top/README.md, "Integrity alarms"): a cause bit latches on the clock after
+    // its alarm, forces zero torque through the top's kill path (sec_fault, as the watchdog's
+    // expiry does) and stays until CTRL.FAULT_CLR (a cause still present latches again at once).
+    // SEC bit 0: an even-parity bit beside each command word (written with it, on clk_g) and
+    // each snapshot word the servo reads (POS, VEL), compared on every clock. SEC bit 3: the
+    // servo-tick counter never exceeds TICK_DIV - 1, nor the watchdog's prescaler CLK_PER_US - 1
+    // (an upset above would count through the whole counter: no tick for seconds, a slow
+    // watchdog); the tick counter then restarts its period (one tick late).
+    wire [4:0] sec_now;
+    wire [4:0] hw_fault;       // HW_FAULT's cause bits, latched
+    generate
+        if (SEC_B[0]) begin : g_sec_regs
+            reg [2:0] p_tq, p_ofs, p_mode, p_lim, p_pos, p_vel;
+            reg       p_ctrl, p_tick, p_wd;
+            always @(posedge clk_g) begin
+                if (rst) begin
+                    p_ctrl <= 1'b0;
+                    p_tick <= ^TICK_RST;
+                    p_wd   <= ^WD_RST;
+                    p_tq   <= 3'b000;
+                    p_ofs  <= 3'b000;
+                    p_mode <= 3'b000;                 // ^2'b11 (OFF)
+                    p_lim  <= 3'b000;
+                end else begin
+                    if (wr && glob_w && wa[3:0] == A_CTRL[3:0]) p_ctrl <= ^s_wdata[3:0];
+                    if (tick_div_w && tick_ok) p_tick <= ^s_wdata[23:0];
+                    if (wd_to_w && wd_ok) p_wd <= ^s_wdata[19:0];
+                    if (wr && axis_w && ax_w != 2'd3) begin
+                        case (wa[3:0])
+                            R_TORQUE:   p_tq[ax_w]   <= ^s_wdata[15:0];
+                            R_OFFSET:   p_ofs[ax_w]  <= ^s_wdata[9:0];
+                            R_MODE:     p_mode[ax_w] <= ^s_wdata[1:0];
+                            R_TQ_LIMIT: p_lim[ax_w]  <= ^s_wdata[15:0];
+                            default: ;
+                        endcase
+                    end
+                end
+            end
+            integer pa;
+            always @(posedge clk) begin
+                if (rst) begin
+                    p_pos <= 3'b000;
+                    p_vel <= 3'b000;
+                end else if (snap_now) begin
+                    for (pa = 0; pa < 3; pa = pa + 1) begin
+                        p_pos[pa] <= ^in_pos[32*pa +: 32];
+                        p_vel[pa] <= ^in_vel_n[VEL_BITS*pa +: VEL_BITS];
+                    end
+                end
+            end
+            wire [2:0] e_tq, e_ofs, e_mode, e_lim, e_pos, e_vel;
+            genvar pg;
+            for (pg = 0; pg < 3; pg = pg + 1) begin : g_ax
+                assign e_tq[pg]   = ^torque_q[16*pg +: 16] ^ p_tq[pg];
+                assign e_ofs[pg]  = ^offset_q[10*pg +: 10] ^ p_ofs[pg];
+                assign e_mode[pg] = ^mode_q[2*pg +: 2] ^ p_mode[pg];
+                assign e_lim[pg]  = ^tq_lim_q[16*pg +: 16] ^ p_lim[pg];
+                assign e_pos[pg]  = ^sn_pos[32*pg +: 32] ^ p_pos[pg];
+                assign e_vel[pg]  = ^sn_vel[VEL_BITS*pg +: VEL_BITS] ^ p_vel[pg];
+            end
+            assign sec_now[0] = |{e_tq, e_ofs, e_mode, e_lim, e_pos, e_vel,
+                                  ^{axis_en_q, global_en_q} ^ p_ctrl,
+                                  ^tick_div_q ^ p_tick, ^wd_timeout_q ^ p_wd};
+        end else begin : g_no_sec_regs
+            assign sec_now[0] = 1'b0;
+        end
+        if (SEC_B[3]) begin : g_sec_tick
+            assign tick_bad   = tick_cnt >= tick_div_q;
+            assign sec_now[3] = tick_bad || (wd_pre > PLAST);
+        end else begin : g_no_sec_tick
+            assign tick_bad   = 1'b0;
+            assign sec_now[3] = 1'b0;
+        end
+    endgenerate
+    assign sec_now[1] = SEC_B[1] & in_sec_err[1];
+    assign sec_now[2] = SEC_B[2] & in_sec_err[2];
+    assign sec_now[4] = SEC_B[4] & in_sec_err[4];
+    wire unused_sec_in = &{1'b0, in_sec_err[0], in_sec_err[3]};
+
+    generate
+        if (SEC != 0) begin : g_hw_fault
+            reg [4:0] hw_fault_q;
+            always @(posedge clk) begin
+                if (rst)
+                    hw_fault_q <= 5'd0;
+                else
+                    hw_fault_q <= sec_now | (hw_fault_q & ~{5{fault_clr_w}});
+            end
+            assign hw_fault = hw_fault_q;
+        end else begin : g_no_hw_fault                 // (nothing built: no latch)
+            assign hw_fault = 5'd0;
+            wire unused_sec_now = &{1'b0, sec_now};
+        end
+    endgenerate
+    assign sec_fault = |hw_fault;
+
     // ---------------------------------------------------------------- status
     reg [2:0] index_seen;
     reg       cfg_err_q, bus_err_q, proto_err_q;
@@ -449,7 +561,7 @@ module hg_regfile #(
         end
     end
 
-    wire [31:0] status = {16'd0, proto_err_q, bus_err_q, cfg_err_q, wd_exp_q, 1'b0, in_homed,
+    wire [31:0] status = {15'd0, sec_fault, proto_err_q, bus_err_q, cfg_err_q, wd_exp_q, 1'b0, in_homed,
                           1'b0, index_seen, 1'b0, in_fault};
 
     // ---------------------------------------------------------------- read mux
@@ -510,6 +622,8 @@ module hg_regfile #(
         s_rdata = UNMAPPED;
         if (is_cap(ra[ADDR_BITS-1:2])) begin
             s_rdata = in_cap[32*ra[1:0] +: 32];
+        end else if (ra == A_HWF) begin
+            s_rdata = {19'd0, SEC_B, 3'd0, hw_fault};
         end else if (mapped(ra)) begin
             if (ra[5:4] == 2'b00) begin
                 case (ra[3:0])

@@ -62,7 +62,15 @@ module hapgate_top #(
     parameter integer LATCH_RAM     = 0,          // 1: commutator's latched torques/limits in block RAM
     parameter integer CAPTURE       = 1,          // 1: raw ADC capture buffer, CAP_* registers
                                                   // (0: they read 0 and ignore writes)
-    parameter integer CAP_DEPTH_LOG2 = 10         // CAPTURE = 1: 2**N 16-bit entries (block RAM)
+    parameter integer CAP_DEPTH_LOG2 = 10,        // CAPTURE = 1: 2**N 16-bit entries (block RAM)
+    // ---- integrity countermeasures against upsets and stuck-at faults of the FPGA's own
+    // flip-flops (rtl/top/README.md, "Integrity alarms"; each latches its HW_FAULT bit and
+    // forces zero torque; 0: not built, the design bit for bit without them)
+    parameter integer SEC_REGS      = 0,          // 1: parity of the command and snapshot words
+    parameter integer SEC_COMM      = 0,          // 1: a second commutator compared at its DAC port
+    parameter integer SEC_DAC       = 0,          // 1: the DAC pin registers duplicated, compared
+    parameter integer SEC_TICK      = 0,          // 1: servo-tick and watchdog counters range-checked
+    parameter integer SEC_POS       = 0           // 1: each axis's position checked sample to sample
 ) (
     input  wire                     clk,
     input  wire                     rst,
@@ -122,7 +130,15 @@ module hapgate_top #(
         if (HARM != 0 && CLK_HZ < 2 * SAMPLE_HZ) begin : g_bad_harm_clk
             hapgate_top_HARM_needs_CLK_HZ_at_least_2_SAMPLE_HZ u_stop ();
         end
+        if (SEC_REGS < 0 || SEC_REGS > 1 || SEC_COMM < 0 || SEC_COMM > 1 || SEC_DAC < 0 ||
+            SEC_DAC > 1 || SEC_TICK < 0 || SEC_TICK > 1 || SEC_POS < 0 || SEC_POS > 1)
+        begin : g_bad_sec
+            hapgate_top_SEC_parameters_must_be_0_or_1 u_stop ();
+        end
     endgenerate
+    localparam integer SEC = SEC_REGS + 2 * SEC_COMM + 4 * SEC_DAC + 8 * SEC_TICK + 16 * SEC_POS;
+    wire [4:0] sec_err;        // the top's integrity alarms this clock (HW_FAULT bits 1, 2, 4)
+    wire       sec_fault;      // HW_FAULT latched in the register file
 
     // ---------------------------------------------------------------- ADC sample clock
     // The converters' clock (rtl/top/README.md, "Converter timing"): SAMPLE_HZ, ADC_HI clocks
@@ -265,6 +281,48 @@ module hapgate_top #(
     wire [47:0] index_count_ok = ok_now ? index_count : 48'd0;
     wire [2:0]  homed_ok       = ok_now ? homed : 3'b000;
 
+    // ---------------------------------------------------------------- position check (SEC_POS)
+    // Each axis's position, sample to sample (rtl/top/README.md, "Integrity alarms"): it never
+    // moves more than 3.5 quadrants (overspeed counts two, the fine angle less than one more),
+    // and POS - POS_HOMED (the home) changes only in a sample with an index edge. An upset of
+    // the quadrant counter, the home or a position register between them breaks one or the other.
+    generate
+        if (SEC_POS != 0) begin : g_sec_pos
+            localparam integer QB_I = LUT_BITS + 1;                 // counts per quadrant, log2
+            localparam integer JUMP_I = 7 << (QB_I - 1);             // 3.5 quadrants
+            localparam [31:0] JUMP = JUMP_I[31:0];
+            reg  [95:0] pos_p, home_p;      // the last sample's position and home, per axis
+            reg  [47:0] icnt_p;             // ... and index count
+            reg         prev_ok;            // a sample has been seen since reset
+            wire [2:0]  jump, moved;
+            always @(posedge clk) begin
+                if (rst)
+                    prev_ok <= 1'b0;
+                else if (m_valid)
+                    prev_ok <= 1'b1;
+            end
+            genvar pa;
+            for (pa = 0; pa < 3; pa = pa + 1) begin : g_ax
+                wire [31:0] d    = pos[32*pa +: 32] - pos_p[32*pa +: 32];
+                wire [31:0] ad   = d[31] ? ~d + 32'd1 : d;
+                wire [31:0] home = pos[32*pa +: 32] - pos_homed[32*pa +: 32];
+                always @(posedge clk) begin
+                    if (m_valid) begin
+                        pos_p[32*pa +: 32]  <= pos[32*pa +: 32];
+                        home_p[32*pa +: 32] <= home;
+                        icnt_p[16*pa +: 16] <= index_count[16*pa +: 16];
+                    end
+                end
+                assign jump[pa]  = ad > JUMP;
+                assign moved[pa] = home != home_p[32*pa +: 32] &&
+                                   index_count[16*pa +: 16] == icnt_p[16*pa +: 16];
+            end
+            assign sec_err[4] = m_valid & prev_ok & |{jump, moved};
+        end else begin : g_no_sec_pos
+            assign sec_err[4] = 1'b0;
+        end
+    endgenerate
+
     // ---------------------------------------------------------------- bus and registers
     wire        global_en, wdog_expired, tick;
     wire [2:0]  axis_en;
@@ -281,7 +339,8 @@ module hapgate_top #(
         .VEL_BITS(VEL_OBS != 0 ? 32 : LUT_BITS + VEL_LOG2W + 4),  // the interpolator's
         //                                       stored velocity bits (the observer's: all 32)
         .SKEW_CLOCKS(SKEW_CLOCKS), .FRAME_CLOCKS(FRAME_CLOCKS), .ADDR_BITS(BUS_ADDR_BITS),
-        .VEL_OBS(VEL_OBS), .VEL_SEL_RST(VEL_OBS_SEL), .HARM(HARM), .HARM_LOG2(HARM_LOG2)
+        .VEL_OBS(VEL_OBS), .VEL_SEL_RST(VEL_OBS_SEL), .HARM(HARM), .HARM_LOG2(HARM_LOG2),
+        .SEC(SEC)
     ) u_bus (
         .clk(clk), .rst(rst),
         .bus_ce_n(bus_ce_n), .bus_re_n(bus_re_n), .bus_we_n(bus_we_n), .bus_addr(bus_addr),
@@ -300,7 +359,7 @@ module hapgate_top #(
         .ctl_home_arm(home_arm), .ctl_torque(torque), .ctl_offset(offset), .ctl_mode(mode),
         .ctl_tq_limit(tq_limit), .wdog_expired(wdog_expired), .irq(irq), .tick(tick),
         .dbg_req(dbg_req), .dbg_we(dbg_we), .dbg_addr(dbg_addr), .dbg_wdata(dbg_wdata),
-        .dbg_proto_err(dbg_proto_err)
+        .dbg_proto_err(dbg_proto_err), .in_sec_err(sec_err), .sec_fault(sec_fault)
         `HG_SIM_BIND(sim_gclk_bus, sim_gate_en_bus)
     );
     wire unused_dbg = &{1'b0, tick, dbg_proto_err};
@@ -349,7 +408,7 @@ module hapgate_top #(
     wire [2:0]          c_addr;
     wire                c_wr_n;
     wire                m_frame;
-    wire                kill_all = wdog_expired | ~global_en;
+    wire                kill_all = wdog_expired | ~global_en | sec_fault;
 
     commutator #(
         .CLK_HZ(CLK_HZ), .SKEW_NS(SKEW_NS), .FRAME_NS(FRAME_NS), .SETTLE_NS(SETTLE_NS),
@@ -365,6 +424,39 @@ module hapgate_top #(
         `HG_SIM_BIND(sim_gclk_comm, sim_gate_en[4])
     );
     wire unused_frame = m_frame;
+
+    // ---------------------------------------------------------------- commutator check (SEC_COMM)
+    // A second commutator (its own scheduler, latches, pipeline and sine ROM) on the same inputs;
+    // its DAC port must equal the first's on every clock: the strobe always, the data and address
+    // while either strobe is low (a DAC takes them only then). keep_hierarchy: synthesis must
+    // not merge the two (hapgate.flows.saboteur flattens it for the fault sites).
+    generate
+        if (SEC_COMM != 0) begin : g_sec_comm
+            wire [DAC_BITS-1:0] k_data;
+            wire [2:0]          k_addr;
+            wire                k_wr_n, k_frame;
+            `HG_SIM_GATE_ONLY(wire k_gate_en; wire unused_k_gate = k_gate_en;)
+            (* keep_hierarchy *)
+            commutator #(
+                .CLK_HZ(CLK_HZ), .SKEW_NS(SKEW_NS), .FRAME_NS(FRAME_NS), .SETTLE_NS(SETTLE_NS),
+                .WR_CYCLES(WR_EFF), .COUNT_BITS(COUNT_BITS), .POLE_PAIRS(POLE_PAIRS),
+                .ADDR_BITS(ADDR_BITS), .MAG_BITS(MAG_BITS), .FS(FS), .LUT_FILE(SINE_FILE),
+                .DAC_BITS(DAC_BITS), .OFFSET_BINARY(OFFSET_BINARY), .SERIAL_MUL(SERIAL_MUL),
+                .LIMITS(3), .LATCH_RAM(LATCH_RAM)
+            ) u_comm_chk (
+                .clk(clk), .rst(rst), .s_pos(s_pos), .s_torque(torque), .ctl_offset(offset),
+                .ctl_mode(mode_eff), .ctl_enable(~kill_all), .ctl_torque_limit(tq_limit),
+                .axis_fault(fault), .m_frame(k_frame),
+                .dac_data(k_data), .dac_addr(k_addr), .dac_wr_n(k_wr_n)
+                `HG_SIM_BIND(sim_gclk_comm, k_gate_en)   // (its enable equals the first's)
+            );
+            wire unused_k = k_frame;
+            assign sec_err[1] = (k_wr_n != c_wr_n) ||
+                                ((~k_wr_n | ~c_wr_n) && {k_data, k_addr} != {c_data, c_addr});
+        end else begin : g_no_sec_comm
+            assign sec_err[1] = 1'b0;
+        end
+    endgenerate
 
     // ---------------------------------------------------------------- DAC output stage
     // One register stage on every DAC pin (the timing between them is the commutator's). The
@@ -392,6 +484,31 @@ module hapgate_top #(
         else
             dac_wr_n <= c_wr_n;
     end
+
+    // The pin registers' check (SEC_DAC): a second copy of the stage, with its own kill register
+    // and strobe, must show the same strobe on every clock and the same word and address while
+    // either strobe is low. (* keep *): synthesis must not merge the copies.
+    generate
+        if (SEC_DAC != 0) begin : g_sec_dac
+            (* keep *) reg                kill_k, wr_n_k;
+            (* keep *) reg [DAC_BITS-1:0] data_k;
+            (* keep *) reg [2:0]          addr_k;
+            wire use_k = (~c_wr_n | ~wr_n_k) ? kill_k : kill_ch;
+            initial wr_n_k = 1'b1;
+            always @(posedge clk) begin
+                kill_k <= use_k;
+                data_k <= use_k ? ZERO : c_data;
+                addr_k <= c_addr;
+                wr_n_k <= rst | c_wr_n;
+            end
+            assign sec_err[2] = (wr_n_k != dac_wr_n) ||
+                                ((~wr_n_k | ~dac_wr_n) && {data_k, addr_k} != {dac_data, dac_addr});
+        end else begin : g_no_sec_dac
+            assign sec_err[2] = 1'b0;
+        end
+    endgenerate
+    assign sec_err[0] = 1'b0;    // (the register file's own: parity)
+    assign sec_err[3] = 1'b0;    // (the register file's own: the tick range)
 endmodule
 
 `default_nettype wire

@@ -64,7 +64,7 @@ def test_firmware_header_matches_rdl() -> None:
         want = (1 << (f.lsb + int(sub))) if sub else f.mask
         assert got[name] == want, f"{name}: header {got[name]:#x}, RDL {want:#x}"
     assert got["MAGIC"] == regs["ID"].field("MAGIC").reset == 0x4847
-    assert got["NREGS"] == 0x44   # the map spans 0x110 bytes = 68 words (CAP_* at 0x40..0x43)
+    assert got["NREGS"] == 0x45   # the map spans 0x114 bytes = 69 words (HW_FAULT at 0x44)
 
 
 def test_rdl_safety_defaults() -> None:

@@ -46,8 +46,8 @@ def test_c_unit_tests() -> None:
 
 
 @pytest.mark.parametrize("group", ["servo_step_response", "servo_torque_clamp", "safety_nonfinite",
-                                   "safety_fault_bit", "safety_encoder_jump", "safety_stale",
-                                   "link_bad_frames", "scene_antiwindup"])
+                                   "safety_fault_bit", "safety_fpga_fault", "safety_encoder_jump",
+                                   "safety_stale", "link_bad_frames", "scene_antiwindup"])
 def test_c_group(group: str) -> None:
     """The controller and safety tests one by one, so a failure names its path."""
     built(str(BUILD / "hg_tests"))

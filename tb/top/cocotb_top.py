@@ -28,7 +28,7 @@ from cocotb.clock import Clock
 from cocotb.triggers import ClockCycles, RisingEdge, Timer
 from cocotb.utils import get_sim_time
 from hapgate.flows import regmap
-from hapgate.golden import commutation, emif, encsig, interp, velobs
+from hapgate.golden import commutation, configs, emif, encsig, interp, velobs
 from hapgate.golden import top as topm
 from hapgate.golden.commutation import SINE, SIX_STEP
 from hapgate.golden.regmodel import WDOG_KEY, AxisInputs, RegModel
@@ -39,6 +39,8 @@ P = tbutil.params()
 CLK_HZ = int(P["CLK_HZ"])  # type: ignore[arg-type]
 PERIOD_PS = 10**12 // CLK_HZ
 CFG = tbutil.config().top()   # the named configuration (or sweep point) the DUT was built with
+SEC = sum(int(tbutil.config().rtl_params().get(n, 0)) << i      # the integrity checks built
+          for i, n in enumerate(configs.SEC_PARAMS))            # (HW_FAULT.BUILT)
 assert CFG.clk_hz == CLK_HZ, (CFG.clk_hz, CLK_HZ)
 # A board top under tb/boards/board_harness.v: its reset synchroniser releases the core
 # RESET_DELAY clocks after rst (held RESET_CYCLES clocks: past a power-on reset), an ADC adapter
@@ -237,7 +239,7 @@ async def firmware_like_run(dut) -> None:
                            faults=int(x.faults[s])) for x, v in zip(axes, vels)]
 
     changes = [k * CFG.div + CFG.interp.latency + 1 for k in range(1, a.shape[0] + 1)]
-    model = RegModel(RM, inputs=inputs, input_edges=changes)
+    model = RegModel(RM, inputs=inputs, input_edges=changes, sec=SEC)
     timeline = topm.Timeline()
     errors: list[str] = []
     assert len(mon.committed) == len(master.log)

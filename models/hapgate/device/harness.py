@@ -39,7 +39,7 @@ ENV_KINDS = {"none": 0, "wall": 1, "spring": 2, "viscous": 3, "pc": 4}
 # device harness on the saboteur netlist simulates (hapgate.device.seu: not scene kinds)
 HARNESS_FAULTS = (*cosim.FAULT_KINDS, "seu", "stuck")
 ERR_NAMES = ("NONE", "NONFINITE", "AXIS_FAULT", "ENCODER", "STALE", "OVERRUN", "WATCHDOG",
-             "FPGA_ID", "CONFIG")
+             "FPGA_ID", "CONFIG", "FPGA_FAULT")
 HAND_KINDS = {"none": 0, "spring": 1, "fixed": 2}
 COUNTS_PER_REV = 1 << 20
 ENERGY_MIN_J = 1e-9          # energy_drift_frac only for a scene that starts moving (coast.toml)

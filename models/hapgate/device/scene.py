@@ -43,7 +43,7 @@ HAND_KINDS = ("none", "spring", "fixed")
 FAULT_KINDS = ("dropout", "hang", "watchdog", "link_garbage")
 BRINGUP_KEYS = ("comm_offset_elec_deg", "phases_swapped", "encoder_dir", "index_q_deg")
 FW_ERRORS = ("NONE", "NONFINITE", "AXIS_FAULT", "ENCODER", "STALE", "OVERRUN", "WATCHDOG",
-             "FPGA_ID", "CONFIG")                     # dsp-fw/include/hg_servo.h, HG_ERR_*
+             "FPGA_ID", "CONFIG", "FPGA_FAULT")       # dsp-fw/include/hg_servo.h, HG_ERR_*
 # Keys of [env] that apply to each kind (the others are refused).
 ENV_KEYS = {"none": (), "wall": ("point", "normal", "k", "b"), "spring": ("point", "k", "b", "ki"),
             "viscous": ("b",), "pc": ()}
@@ -98,7 +98,8 @@ class RunCfg:
 
 # what the virtual device builds of a configuration: the paper's, but for these keys (and the
 # clock, which the run chooses)
-DEVICE_KEYS = {"angle": ("arcsine", "quadrature"), "velocity": ("fir", "observer")}
+DEVICE_KEYS = {"angle": ("arcsine", "quadrature"), "velocity": ("fir", "observer"),
+               "harden": ("none", "all")}
 
 
 def device_refusal(c: configs.Config) -> str:
@@ -112,7 +113,8 @@ def device_refusal(c: configs.Config) -> str:
         return ""
     return (f"configuration {c.name!r} sets {', '.join(other)}: the virtual device builds the "
             f"paper's configuration with angle {' or '.join(DEVICE_KEYS['angle'])} and velocity "
-            f"{' or '.join(DEVICE_KEYS['velocity'])} (models/hapgate/configs.toml)")
+            f"{' or '.join(DEVICE_KEYS['velocity'])}, hardened or not "
+            f"(models/hapgate/configs.toml)")
 
 
 @dataclass(frozen=True)

@@ -62,7 +62,7 @@ BUDGET_STEP_NM = 0.02       # N m per frame (16 us) beyond the reference's own s
 REACT_S = 50e-6             # latch tick -> all DAC codes zero: the ISR's 14 accesses (28 us),
                             # one frame (16 us) and the load (2 us), rounded up
 HANG_TICKS = 2              # ticks missing after the injection that make the DSP "not served"
-STICKY = 0x7 | 0xF000       # STATUS: FAULT[2:0], WDOG, CFG_ERR, BUS_ERR, PROTO_ERR
+STICKY = 0x7 | 0x1F000      # STATUS: FAULT[2:0], WDOG, CFG_ERR, BUS_ERR, PROTO_ERR, HW_FAULT
 CLASSES = ("masked", "detected", "latched", "silent", "violation_latched", "hang")
 MODES = ("flip", "stuck0", "stuck1")
 DEFAULTS: dict[str, Any] = {"p_seu": 0.5, "t_min_s": 1e-3, "t_max_s": 20e-3, "frames_max": 512}

@@ -20,8 +20,10 @@ from typing import Any
 
 import numpy as np
 
+from ..golden import pclink
+
 ERR_NAMES = ("NONE", "NONFINITE", "AXIS_FAULT", "ENCODER", "STALE", "OVERRUN", "WATCHDOG",
-             "FPGA_ID", "CONFIG")        # HG_ERR_* (runner.ERR_NAMES, dsp-fw/include/hg_servo.h)
+             "FPGA_ID", "CONFIG", "FPGA_FAULT")  # HG_ERR_* (runner.ERR_NAMES, hg_servo.h)
 PERIOD_S = 0.02          # telemetry period, simulated time (50 Hz at real time)
 HISTORY = 500            # telemetry frames kept for the scopes (10 s of simulated time)
 VECTORS = {"q": 3, "p": 3, "f": 3, "tau": 3, "i": 6, "dac": 6, "ffw": 3, "taufw": 3}
@@ -230,7 +232,7 @@ class Feed(_Base):
 
 # The keys of a live state taken from the telemetry frame (_from_frame; None before the first)
 FRAME_KEYS = ("t_s", "q", "p", "f_hand", "tau", "i_ab", "dac", "f_fw", "tau_fw", "rtf",
-              "fw_error", "fw_error_axis", "enabled", "driving", "status", "paused",
+              "fw_error", "fw_error_axis", "fpga_fault", "enabled", "driving", "status", "paused",
               "forces_off", "link", "pc_loop_hz", "pc_force_age_ms", "dropped_device")
 
 
@@ -242,7 +244,9 @@ def _from_frame(d: dict[str, Any], rtf: float | None, pc_hz: float | None) -> di
         "i_ab": d["i"], "dac": [int(x) for x in d["dac"]], "f_fw": d["ffw"],
         "tau_fw": d["taufw"], "rtf": 0.0 if d["paused"] else rtf,
         "fw_error": ERR_NAMES[err] if err < len(ERR_NAMES) else str(err),
-        "fw_error_axis": int(d["eax"]), "enabled": bool(d["en"]),
+        "fw_error_axis": int(d["eax"]),
+        "fpga_fault": pclink.fpga_fault_causes(err, int(d["eax"])),   # the FPGA alarm's causes
+        "enabled": bool(d["en"]),
         "driving": bool(d["drv"]), "status": int(d["st"]), "paused": bool(d["paused"]),
         "forces_off": bool(d["off"]),
         "link": None if link is None else dict(zip(("good", "bad", "replayed", "timeouts"),

@@ -415,6 +415,7 @@ class Page:
             f"p {vec(st['p'], 1e3)} mm · F {vec(st['f_hand'], 1.0, '{:+.2f}')} N",
             f"q {vec(st['q'])} rad · τ {vec(st['tau'], 1.0, '{:+.4f}')} N·m",
             f"firmware error **{st.get('fw_error')}**"
+            + (f" (FPGA alarm **{', '.join(st['fpga_fault'])}**)" if st.get("fpga_fault") else "")
             + ("" if st.get("enabled") is None else
                f" · forces {'on' if st.get('driving') else 'off'}"),
         ]

@@ -102,7 +102,10 @@ def _script(sources: list[Path], params: Params, wd: Path) -> str:
     if params:
         sets = " ".join(f"-set {k} {param_text(v, wd)}" for k, v in params.items())
         lines.append(f"chparam {sets} {TOP}")
+    # (a check's second copy keeps its hierarchy in synthesis, so that nothing merges it with
+    # the first: here it is flattened like the rest, its flip-flops sites of their own)
     lines += [f"hierarchy -check -top {TOP}", "proc", "opt_clean", "write_json hier.json",
+              "setattr -unset keep_hierarchy *",
               "flatten -noscopeinfo", "opt_clean", "dffunmap", "opt_clean",
               "write_json flat.json"]
     return "\n".join(lines) + "\n"

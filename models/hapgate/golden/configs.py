@@ -47,7 +47,12 @@ FITS = {   # resource trade-offs, each bit-identical at the pins
     "dsp": {"SERIAL_MUL": 0, "SQ_RAM": 0, "HOLD_C": 0, "LATCH_RAM": 0},
     "lut": {"SERIAL_MUL": 1, "SQ_RAM": 1, "HOLD_C": 1, "LATCH_RAM": 1},   # no DSP blocks
 }
-ENUMS = {"angle": ANGLES, "velocity": VELOCITIES, "fit": FITS}
+SEC_PARAMS = ("SEC_REGS", "SEC_COMM", "SEC_DAC", "SEC_TICK", "SEC_POS")
+HARDENS = {   # integrity countermeasures (rtl/top/README.md, "Integrity alarms"), none changes
+    "none": dict.fromkeys(SEC_PARAMS, 0),         # a fault-free run's outputs
+    "all": dict.fromkeys(SEC_PARAMS, 1),
+}
+ENUMS = {"angle": ANGLES, "velocity": VELOCITIES, "fit": FITS, "harden": HARDENS}
 
 
 class ConfigError(ValueError):
@@ -87,6 +92,7 @@ class Config:
     rom_addr_bits: int     # sine ROM: 2**rom_addr_bits quarter-wave entries
     rom_fs: int            # sine ROM full scale
     fit: str               # FITS
+    harden: str            # HARDENS
 
     def replace(self, **changes: object) -> Config:
         """This configuration with some keys changed (a sweep point), checked again."""
@@ -120,7 +126,8 @@ class Config:
     def rtl_params(self) -> Params:
         """hapgate_top's parameters: the golden model's, plus the fit's switches that are on
         (the RTL's defaults are the paper's, so a parameter at its default is left out)."""
-        return self.top().rtl_params() | {k: v for k, v in FITS[self.fit].items() if v}
+        return (self.top().rtl_params() | {k: v for k, v in FITS[self.fit].items() if v}
+                | {k: v for k, v in HARDENS[self.harden].items() if v})
 
     def values(self) -> dict[str, object]:
         """Every key and its value (without name and doc)."""
@@ -164,7 +171,8 @@ def from_top(t: TopConfig) -> dict[str, object]:
 def defaults() -> dict[str, object]:
     """The value of every key a configuration leaves out: the golden models' defaults (the
     requested DAC strobe: TopConfig lengthens it to the DAC's t_WCS at its own clock)."""
-    return from_top(TopConfig()) | {"wr_cycles": CommutationConfig().wr_cycles}
+    return from_top(TopConfig()) | {"wr_cycles": CommutationConfig().wr_cycles,
+                                    "harden": "none"}
 
 
 # ------------------------------------------------------------------------------- validity
@@ -371,5 +379,5 @@ def markdown() -> str:
 def table_params(key: str) -> list[str]:
     """The RTL parameters an enum key decides."""
     return {"angle": ["ANGLE", "HARM", "COARSE"], "velocity": ["VEL_OBS", "VEL_OBS_SEL"],
-            "fit": list(FITS["dsp"])}[key]
+            "fit": list(FITS["dsp"]), "harden": list(SEC_PARAMS)}[key]
 

@@ -27,6 +27,19 @@ NAK_REASONS = {NAK_RANGE: "value out of range", NAK_ERROR_LATCHED: "an error is 
                NAK_UNCALIBRATED: "an axis is not calibrated (homed and aligned)",
                NAK_ENABLED: "not while the forces are enabled",
                NAK_BRINGUP: "a bring-up step is running (or the device has no bring-up)"}
+# the FPGA's integrity alarm (HG_ERR_FPGA_FAULT, dsp-fw/include/hg_servo.h): the latched
+# error's axis byte carries HW_FAULT's cause bits [4:0] (rtl/regs/hapgate.rdl), bit i = name i
+ERR_FPGA_FAULT = 9
+HW_FAULT_CAUSES = ("REGS", "COMM", "DAC", "TICK", "POS")
+
+
+def fpga_fault_causes(err: int, axis: int) -> list[str]:
+    """The causes of a latched FPGA integrity alarm (empty for any other error)."""
+    if err != ERR_FPGA_FAULT:
+        return []
+    return [n for i, n in enumerate(HW_FAULT_CAUSES) if axis >> i & 1]
+
+
 # bring-up (dsp-fw/include/hg_bringup.h): steps, states, errors, the message layouts
 BU_STEPS = {"align": 1, "homing": 2, "restart": 3, "guided": 4, "dynamics": 5, "encoder": 6}
 BU_STATES = ("IDLE", "ALIGN_LOCK", "ALIGN_FWD", "ALIGN_BACK", "HOME_SEARCH", "RETURN",

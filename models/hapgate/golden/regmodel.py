@@ -93,6 +93,7 @@ class RegModel:
     harm: bool = False                   # the interpolator has the harmonic table (HARM = 1)
     harm_log2: int = 6                   # its entries per line, log2 (HARM_LOG2)
     capture: CaptureModel | None = None  # the capture buffer (CAPTURE = 1)
+    sec: int = 0                         # integrity checks built (SEC_*: HW_FAULT.BUILT)
     inputs: Inputs = _zero_inputs
     input_edges: list[int] = field(default_factory=list)  # sorted edges where inputs(e) changes
     # state
@@ -327,7 +328,11 @@ class RegModel:
             return self.seq
         if reg == "HARM_CTRL":     # LOG2: the build's table size
             return self.harm_log2 if self.harm else 0
+        if reg == "HW_FAULT":      # a fault-free design raises no alarm; BUILT: the build's
+            return self.sec if name == "BUILT" else 0
         if reg == "STATUS":
+            if name == "HW_FAULT":
+                return 0
             ins = self.inputs(self.done + 1)
             if name == "FAULT":
                 return sum(a.fault << i for i, a in enumerate(ins))

@@ -30,7 +30,7 @@ from ..golden import calib, pclink
 DEFAULT_TTL_MS = 10          # a PC force outlives ten missed 1 kHz updates, no more
 PUSH_QUEUE = 4096
 ERR_NAMES = ("NONE", "NONFINITE", "AXIS_FAULT", "ENCODER", "STALE", "OVERRUN", "WATCHDOG",
-             "FPGA_ID", "CONFIG")
+             "FPGA_ID", "CONFIG", "FPGA_FAULT")
 
 
 class HapticError(Exception):
@@ -64,7 +64,9 @@ class DeviceFault(HapticError):
     def __init__(self, err: int, axis: int) -> None:
         self.err, self.axis = err, axis
         self.name = ERR_NAMES[err] if err < len(ERR_NAMES) else str(err)
-        super().__init__(f"device fault {self.name} (code {err}) on axis {axis}")
+        self.causes = pclink.fpga_fault_causes(err, axis)   # FPGA_FAULT: HW_FAULT's causes
+        where = f"causes {', '.join(self.causes)}" if self.causes else f"on axis {axis}"
+        super().__init__(f"device fault {self.name} (code {err}) {where}")
 
 
 class Scene(IntEnum):
