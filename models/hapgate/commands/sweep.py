@@ -140,7 +140,7 @@ def _report(args: argparse.Namespace, spec: sweep.Spec, res: sweep.SweepResult, 
         sweep_report.calib_plot(rows, out / "histogram.png")
         files += [out / "percentiles.csv", out / "histogram.png"]
     elif spec.kind == "seu":
-        files += _seu_report(spec, rows, res, out)
+        files += _seu_report(spec, rows, res, out, list(args.compare))
     print(f"{len(res.records)} jobs ({sum(res.cached)} from the cache, {res.retried} rerun after a "
           f"lost worker or a retry) in {res.wall_s:.1f} s on {res.workers} workers "
           f"({res.scheduler}); "
@@ -151,7 +151,7 @@ def _report(args: argparse.Namespace, spec: sweep.Spec, res: sweep.SweepResult, 
 
 
 def _seu_report(spec: sweep.Spec, rows: list[dict[str, object]], res: sweep.SweepResult,
-                out: Path) -> list[Path]:
+                out: Path, compare: list[Path] = ()) -> list[Path]:  # type: ignore[assignment]
     """The injection campaign's tables (per block, per register, the worst sites) and CSVs."""
     from ..device import seu
     _sc, design, _clk = seu.setup(spec.base or seu.SCENE)
@@ -172,4 +172,12 @@ def _seu_report(spec: sweep.Spec, rows: list[dict[str, object]], res: sweep.Swee
         f = out / f"seu_{key}.csv"
         write_bytes(f, csv_text(*tabs[key]))
         files.append(f)
-    return files
+    campaigns = {spec.name: rows}
+    for d in compare:   # other campaigns beside this one (e.g. the unhardened paper's)
+        other = read_rows(d / "results.csv")
+        campaigns[json.loads((d / "summary.json").read_text()).get("name", d.name)
+                  if (d / "summary.json").is_file() else d.name] = other
+        print(f"\n{d.name}: per block")
+        print(table(*sweep_report.seu_tables(other, design.bits_per_block())["blocks"]))
+    sweep_report.seu_plot(campaigns, out / "seu.png")
+    return [*files, out / "seu.png"]

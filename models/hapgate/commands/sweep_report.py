@@ -257,6 +257,43 @@ def _seu_row(rows: list[dict[str, Any]], bits: int | str) -> list[str]:
             f"{100 * seu.spfm(dang, n):.2f}" if n else "-"]
 
 
+def seu_plot(campaigns: dict[str, list[dict[str, Any]]], path: Any) -> None:
+    """The injection campaigns side by side: per block (and all), the share of runs in each
+    class as a stacked bar, one bar per campaign, with its SPFM; dangerous classes in red."""
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    colours = {"masked": "#9ecae1", "detected": "#31a354", "latched": "#a1d99b",
+               "silent": "#de2d26", "violation_latched": "#fc9272", "hang": "#fdae6b"}
+    blocks = sorted({str(r["block"]) for rows in campaigns.values() for r in rows}) + ["all"]
+    names = list(campaigns)
+    width = 0.8 / len(names)
+    fig, ax = plt.subplots(figsize=(9, 4.8))
+    for j, name in enumerate(names):
+        rows = campaigns[name]
+        left = np.zeros(len(blocks))
+        for cls in seu.CLASSES:
+            share = np.array([
+                100.0 * sum(1 for r in sel if r["class"] == cls) / max(len(sel), 1)
+                for sel in ([r for r in rows if b == "all" or r["block"] == b]
+                            for b in blocks)])
+            ax.barh(np.arange(len(blocks)) + (j - (len(names) - 1) / 2) * width, share,
+                    width * 0.95, left=left, color=colours[cls],
+                    label=cls.replace("_", " + ") if j == 0 else None,
+                    hatch="//" if j else None, edgecolor="white", linewidth=0.3)
+            left += share
+        dang = sum(1 for r in rows if r["dangerous"])
+        ax.annotate(f"{name}: SPFM {seu.spfm(dang, len(rows)):.2f} % ({len(rows)} runs)",
+                    (0.01, 0.97 - 0.06 * j), xycoords="axes fraction", fontsize=8, va="top")
+    ax.set_yticks(np.arange(len(blocks)), blocks)
+    ax.set_xlabel("share of runs, %  (bars: " + " / ".join(names) + ", hatched after the first)")
+    ax.set_xlim(0, 100)
+    ax.legend(fontsize=7, loc="lower right", ncol=3)
+    ax.set_title("Fault injection: outcome per block")
+    save_figure(fig, path)
+    plt.close(fig)
+
+
 def seu_tables(rows: list[dict[str, Any]], bits: dict[str, int] | None = None,
                registers: int = 20, worst: int = 10
                ) -> dict[str, tuple[list[str], list[list[str]]]]:
