@@ -10,6 +10,12 @@
 module hapgate_ecp5_evn #(
     parameter integer CLK_HZ    = 48_000_000, // core clock: the PLL output (a multiple of 1 MHz)
     parameter integer USE_PLL   = 1,          // 0: simulation bypass, the core runs on clk
+    // the integrity countermeasures (hapgate_top; issue 38, `hapgate pnr --harden all`)
+    parameter integer SEC_REGS  = 0,
+    parameter integer SEC_COMM  = 0,
+    parameter integer SEC_DAC   = 0,
+    parameter integer SEC_TICK  = 0,
+    parameter integer SEC_POS   = 0,
     parameter         ASIN_FILE = "asin.hex", // arcsine table (hapgate.golden.interp.write_lut)
     parameter         SINE_FILE = "sine.hex"  // sine ROM (hapgate.golden.sine.write_rom)
 ) (
@@ -42,7 +48,9 @@ module hapgate_ecp5_evn #(
     assign bus_data = data_oe ? data_out : 32'bz;
 
     hapgate_top #(
-        .CLK_HZ(CLK_HZ), .ASIN_FILE(ASIN_FILE), .SINE_FILE(SINE_FILE)
+        .CLK_HZ(CLK_HZ), .ASIN_FILE(ASIN_FILE), .SINE_FILE(SINE_FILE),
+        .SEC_REGS(SEC_REGS), .SEC_COMM(SEC_COMM), .SEC_DAC(SEC_DAC), .SEC_TICK(SEC_TICK),
+        .SEC_POS(SEC_POS)
     ) u_top (
         .clk(core_clk), .rst(rst),
         .adc_strobe(adc_strobe), .adc_clk(adc_clk), .adc_a(adc_a), .adc_b(adc_b), .enc_index(enc_index),

@@ -15,6 +15,12 @@ module hapgate_ice40_hx8k #(
     parameter integer LATCH_RAM  = 1,          // frame-latched torques/limits in block RAM (fit)
     parameter integer CAPTURE    = 0,          // ADC capture buffer: off (fit: with it the logic
                                                // cells exceed the 75 % limit, 78.9 %)
+    // the integrity countermeasures (hapgate_top; issue 38, `hapgate pnr --harden all`)
+    parameter integer SEC_REGS   = 0,
+    parameter integer SEC_COMM   = 0,
+    parameter integer SEC_DAC    = 0,
+    parameter integer SEC_TICK   = 0,
+    parameter integer SEC_POS    = 0,
     parameter         ASIN_FILE  = "asin.hex", // arcsine table (hapgate.golden.interp.write_lut)
     parameter         SINE_FILE  = "sine.hex"  // sine ROM (hapgate.golden.sine.write_rom)
 ) (
@@ -68,6 +74,8 @@ module hapgate_ice40_hx8k #(
     hapgate_top #(
         .CLK_HZ(CLK_HZ), .ASIN_FILE(ASIN_FILE), .SINE_FILE(SINE_FILE), .SERIAL_MUL(SERIAL_MUL),
         .SQ_RAM(SQ_RAM), .HOLD_C(HOLD_C), .LATCH_RAM(LATCH_RAM), .CAPTURE(CAPTURE),
+        .SEC_REGS(SEC_REGS), .SEC_COMM(SEC_COMM), .SEC_DAC(SEC_DAC), .SEC_TICK(SEC_TICK),
+        .SEC_POS(SEC_POS),
         .ADC_CAPTURE_LEAD(1)   // adc_pair_mux takes the B words one clock before the core
     ) u_top (
         .clk(clk), .rst(rst),

@@ -257,6 +257,36 @@ module hapgate_top #(
         `HG_SIM_BIND(({sim_gclk_de, sim_gclk_c, sim_gclk_b, sim_gclk_a}), sim_gate_en[3:0])
     );
     wire unused_cal_valid = &{1'b0, cal_valid};  // (the registers read the live state)
+
+    // The axis faults as the rest of the FPGA acts on them (zero torque, STATUS.FAULT). With
+    // SEC_REGS a reported fault holds until CTRL.FAULT_CLR and the interpolator's first clean
+    // report after it, whether or not the interpolator's own sticky flag holds it: an upset or
+    // a stuck bit of the reported copy (m_faults) cannot zero an axis for a few frames and let
+    // its torque step back unannounced. Fault-free the two are equal (the interpolator's flags
+    // are sticky themselves, and cleared by the same FAULT_CLR).
+    wire [8:0] faults_k;
+    wire [2:0] fault_k;
+    generate
+        if (SEC_REGS != 0) begin : g_fault_hold
+            reg [8:0] held;       // every fault reported since the last clear
+            reg       clr_pend;   // FAULT_CLR seen, the interpolators not yet clean
+            always @(posedge clk) begin
+                if (rst) begin
+                    held     <= 9'd0;
+                    clr_pend <= 1'b0;
+                end else begin
+                    if (m_valid) held <= clr_pend ? faults : (held | faults);
+                    if (fault_clear)                    clr_pend <= 1'b1;
+                    else if (m_valid && faults == 9'd0) clr_pend <= 1'b0;
+                end
+            end
+            assign faults_k = clr_pend ? faults : (held | faults);
+        end else begin : g_fault_live
+            assign faults_k = faults;
+        end
+    endgenerate
+    assign fault_k = {|faults_k[8:6], |faults_k[5:3], |faults_k[2:0]};
+    wire unused_fault = &{1'b0, fault};   // (fault_k: the same OR of the held copy)
     wire [95:0] cal_ofs_w, cal_gain_w, cal_stat_w;
 
     genvar ax;
@@ -348,7 +378,7 @@ module hapgate_top #(
         .bus_ready(bus_ready),
         .in_pos(pos), .in_pos_homed(pos_homed), .in_vel(vel), .in_index_pos(index_pos),
         .in_index_count(index_count_ok), .in_overspeed_count(overspeed_count),
-        .in_homed(homed_ok), .in_faults(faults), .in_fault(fault),
+        .in_homed(homed_ok), .in_faults(faults_k), .in_fault(fault_k),
         .in_cal_ofs(cal_ofs_w), .in_cal_gain(cal_gain_w), .in_cal_phase(cal_phase),
         .in_cal_stat(cal_stat_w), .ctl_cal_en(cal_en), .ctl_cal_freeze(cal_freeze),
         .cfg_cal_mu(cal_mu),
@@ -419,7 +449,7 @@ module hapgate_top #(
     ) u_comm (
         .clk(clk), .rst(rst), .s_pos(s_pos), .s_torque(torque), .ctl_offset(offset),
         .ctl_mode(mode_eff), .ctl_enable(~kill_all), .ctl_torque_limit(tq_limit),
-        .axis_fault(fault), .m_frame(m_frame),
+        .axis_fault(fault_k), .m_frame(m_frame),
         .dac_data(c_data), .dac_addr(c_addr), .dac_wr_n(c_wr_n)
         `HG_SIM_BIND(sim_gclk_comm, sim_gate_en[4])
     );
@@ -446,7 +476,7 @@ module hapgate_top #(
             ) u_comm_chk (
                 .clk(clk), .rst(rst), .s_pos(s_pos), .s_torque(torque), .ctl_offset(offset),
                 .ctl_mode(mode_eff), .ctl_enable(~kill_all), .ctl_torque_limit(tq_limit),
-                .axis_fault(fault), .m_frame(k_frame),
+                .axis_fault(fault_k), .m_frame(k_frame),
                 .dac_data(k_data), .dac_addr(k_addr), .dac_wr_n(k_wr_n)
                 `HG_SIM_BIND(sim_gclk_comm, k_gate_en)   // (its enable equals the first's)
             );
@@ -466,7 +496,7 @@ module hapgate_top #(
     // so a load in progress completes unchanged and every later load is zero (the bound on when
     // all six channels are at zero torque: rtl/top/README.md, "Zero torque within one frame").
     wire       [1:0] c_motor = (c_addr[2:1] == 2'd3) ? 2'd0 : c_addr[2:1];
-    wire             kill_ch = kill_all | fault[c_motor] | ~axis_en[c_motor];
+    wire             kill_ch = kill_all | fault_k[c_motor] | ~axis_en[c_motor];
     wire             in_load = ~c_wr_n | ~dac_wr_n;
     reg              kill_q;
     wire             kill_use = in_load ? kill_q : kill_ch;

@@ -82,3 +82,21 @@ def test_hardened_loads_the_papers_dac_words(scenes):
     assert a.loads.size > 1000 and a.ticks.size > 10
     for k in ("frames", "ticks", "loads"):
         assert getattr(a, k).tobytes() == getattr(b, k).tobytes(), k
+
+
+ERR_AXIS_FAULT = 2          # dsp-fw/include/hg_servo.h
+
+
+def test_a_reported_axis_fault_holds_until_cleared(scenes):
+    """SEC_REGS's fault hold (rtl/top/hapgate_top.v, g_fault_hold): the interpolator's reported
+    fault copy m_faults stuck at 1 for 20 frames (the interpolator's own sticky flag never set).
+    In `hardened` the axis stays at zero torque and STATUS.FAULT holds, so the firmware latches
+    HG_ERR_AXIS_FAULT at its next tick and zeroes every axis within seu.REACT_S of it: detected.
+    In `paper` the axis drops to zero for the 20 frames and steps back with nothing latched: a
+    silent violation."""
+    site = "u_interp.g_axis[1].u_axis.m_faults[2]"
+    rec, _ = inject(scenes["hardened"], site, "stuck1", 20)
+    assert rec["class"] == "detected" and rec["fw_err"] == ERR_AXIS_FAULT, rec
+    assert AT <= rec["t_zero_s"] <= AT + 1e-3 + seu.REACT_S     # the next 1 kHz tick
+    rec_p, _ = inject(scenes["paper"], site, "stuck1", 20)
+    assert rec_p["class"] == "silent" and rec_p["fw_err"] != ERR_AXIS_FAULT, rec_p

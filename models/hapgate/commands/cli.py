@@ -114,7 +114,12 @@ def cmd_pnr(args: argparse.Namespace) -> int:
         if args.board == [stage.TARGET]:
             return 0 if ok else 1
     for name in [b for b in args.board if b != stage.TARGET] or list(boards.BOARDS):
-        b = boards.BOARDS[name]
+        try:
+            b = boards.hardened(boards.BOARDS[name], args.harden)
+        except ValueError as exc:
+            print(f"error: {exc}", file=sys.stderr)
+            return 2
+        name = b.name
         f = boards.pnr(b, seeds=args.seeds, timeout_s=args.timeout)
         ok &= f.ok
         r = f.resources
@@ -212,6 +217,9 @@ def main(argv: list[str] | None = None) -> int:
     pp.add_argument("board", nargs="*", help="boards (default: all)")
     pp.add_argument("--seeds", type=int, default=1,
                     help="place and route with seeds 1..N, report the fmax spread")
+    pp.add_argument("--harden", default="none", choices=("none", "all"),
+                    help="with the integrity countermeasures (issue 38; the `hardened` "
+                         "configuration's) on top of each board's configuration")
     pp.add_argument("--timeout", type=float, default=3600.0,
                     help="wall seconds per nextpnr run before the seed counts as failed "
                          "(router1 can livelock on a full HX8K)")

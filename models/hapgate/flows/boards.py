@@ -18,7 +18,7 @@ import re
 import statistics
 import subprocess
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 from ..base import cache, toolenv
@@ -65,6 +65,8 @@ class Board:
     more_constraints: tuple[str, ...] = ()   # pin files read after `constraints` (rtl/boards/)
     soc: bool = False          # the whole controller (hapgate_soc_top: the soft CPU and its
                                # firmware image, the UART); no DSP bus pins
+    harden: str = "none"       # the integrity countermeasures on top of `config` (configs'
+                               # `harden` enum; `hapgate pnr --harden all`, issue 38)
 
     @property
     def clk_hz(self) -> int:
@@ -153,12 +155,29 @@ def module_params(path: Path) -> dict[str, str]:
                            text))
 
 
+def hardened(board: Board, harden: str) -> Board:
+    """The board with the configuration's integrity countermeasures `harden` on (issue 38;
+    its own work folder build/pnr/BOARD-hardened). Refused for a board top without them."""
+    if harden == "none":
+        return board
+    if harden not in configs.HARDENS:
+        raise ValueError(f"--harden {harden!r}: one of {', '.join(configs.HARDENS)}")
+    takes = module_params(RTL / "boards" / f"{board.top}.v")
+    missing = [k for k in configs.SEC_PARAMS if k not in takes]
+    if missing:
+        raise ValueError(f"board {board.name}: rtl/boards/{board.top}.v does not take "
+                         f"{', '.join(missing)}")
+    return replace(board, name=f"{board.name}-hardened", harden=harden)
+
+
 def board_params(board: Board, sim: bool = False, clk_hz: int | None = None) -> Params:
     """The board top's parameters: its configuration's core parameters that the board top
     takes, and the board's own. `sim`: the simulation/lint set (PLL bypassed: the core then runs
     on the board oscillator, so CLK_HZ is that clock); `clk_hz`: another clock (a simulation's).
     A configuration that sets a core parameter the board top does not pass on is refused."""
     cfg = configs.get(board.config)
+    if board.harden != "none":
+        cfg = cfg.replace(harden=board.harden)
     if clk_hz is None and sim and board.sim_extra.get("USE_PLL", 1) == 0:
         clk_hz = board.osc_hz
     if clk_hz is not None:
