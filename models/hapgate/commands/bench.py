@@ -71,18 +71,22 @@ def _fw(quick: bool) -> bool:
 
 
 def _seu(quick: bool) -> bool:
-    """A slice of the fault-injection campaign (scenes/sweeps/seu.toml, the first N of its
-    seeded jobs, uncached): its per-block table and its runs per second on two workers."""
+    """A slice of each fault-injection campaign (scenes/sweeps/seu.toml on `paper`,
+    seu_hardened.toml on `hardened`: the first N of their seeded jobs, uncached): the per-block
+    table and the runs per second on two workers."""
     n = 60 if quick else 400
-    print(f"== fault injection: the first {n} runs of scenes/sweeps/seu.toml, uncached, "
-          "2 workers ==", flush=True)
-    out = ensure(BUILD / "reports" / "bench_seu")
-    r = subprocess.run([sys.executable, "-m", "hapgate.commands.cli", "sweep",
-                        str(ROOT / "scenes" / "sweeps" / "seu.toml"), "--workers", "2",
-                        "--limit", str(n), "--no-cache", "--out", str(out)],
-                       stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True)
-    print(r.stdout, end="")
-    return r.returncode == 0
+    ok = True
+    for spec in ("seu", "seu_hardened"):
+        print(f"== fault injection: the first {n} runs of scenes/sweeps/{spec}.toml, uncached, "
+              "2 workers ==", flush=True)
+        out = ensure(BUILD / "reports" / f"bench_{spec}")
+        r = subprocess.run([sys.executable, "-m", "hapgate.commands.cli", "sweep",
+                            str(ROOT / "scenes" / "sweeps" / f"{spec}.toml"), "--workers", "2",
+                            "--limit", str(n), "--no-cache", "--out", str(out)],
+                           stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True)
+        print(r.stdout, end="")
+        ok &= r.returncode == 0
+    return ok
 
 
 def _soc(quick: bool) -> bool:
