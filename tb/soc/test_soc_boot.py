@@ -32,7 +32,7 @@ TICK = CLK_HZ // RATE_HZ   # FPGA clocks per servo tick (rtl/regs: TICK_DIV = CL
 BIT = CLK_HZ // BAUD       # clocks per UART bit
 RAM_BYTES = 128 * 1024     # rtl/soc/README.md: the SoC's RAM
 FW_VERSION = 0x0100        # dsp-fw/README.md: PING's firmware version
-FPGA_ID = 0x4847_0103      # rtl/bus/README.md: ID, "HG" map 1.3
+FPGA_ID = 0x4847_0104      # rtl/bus/README.md: ID, "HG" map 1.4
 IRQ_WORD = 0x05            # rtl/bus/README.md: IRQ, W1C
 # libgcc's entry points the float unit takes over, by function id (funct3; rtl/soc/README.md)
 FLOAT_UNIT_OPS = ("addsf3", "subsf3", "mulsf3", "divsf3")
