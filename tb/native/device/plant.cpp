@@ -659,6 +659,33 @@ void joint_trig(hg_plant* s, double* sp, double* cp) {
     }
 }
 
+// The spring hand's force on the device at the step's pose (fdev; the hand's own, f_hand, is
+// its negative): k (p_target - p) + b (v_target - J qd). Shared by both mechanics steps.
+[[gnu::always_inline]] inline void hand_force(hg_plant* s, const Trig& kq, const double* J,
+                                              const double* qd, double* fdev) {
+    const Params& P = s->P;
+    double p[3], pt[3], vt[3];
+    fk_t(P.arm, kq, p);
+    target(s, s->t, pt, vt);
+#pragma GCC unroll 3
+    for (int i = 0; i < 3; ++i) {
+        const double v = J[3 * i] * qd[0] + J[3 * i + 1] * qd[1] + J[3 * i + 2] * qd[2];
+        fdev[i] = P.hand_k * (pt[i] - p[i]) + P.hand_b * (vt[i] - v);
+    }
+    for (int i = 0; i < 3; ++i) s->f_hand[i] = -fdev[i];
+}
+
+// The endpoint mass's Coriolis/centrifugal force taken from w: m Jdot qd, Jdot qd = (J - Jprev)
+// qd / dt (m_dt = m / dt: one division instead of one per element).
+[[gnu::always_inline]] inline void coriolis(const hg_plant* s, const double* J,
+                                            const double* qd, double m_dt, double* w) {
+    const double* Jp = s->Jprev;
+#pragma GCC unroll 3
+    for (int r = 0; r < 3; ++r)
+        w[r] -= m_dt * ((J[3 * r] - Jp[3 * r]) * qd[0] + (J[3 * r + 1] - Jp[3 * r + 1]) * qd[1] +
+                        (J[3 * r + 2] - Jp[3 * r + 2]) * qd[2]);
+}
+
 // A held joint (an axis not simulated) in the mass matrix's system: its row and column the
 // identity's and its right-hand side 0, so its qdd is 0 and the free joints get the reduced
 // system's solution (solve_spd3: the zeros enter only as exact products).
@@ -708,17 +735,7 @@ void mech_step(hg_plant* s, double dt, const double* ia, const double* ib, hg_pl
         for (int i = 0; i < 3; ++i) tq[i] -= g[i];
     }
     double fdev[3] = {0, 0, 0};
-    if (P.hand == 1) {
-        double p[3], pt[3], vt[3];
-        fk_t(P.arm, kq, p);
-        target(s, s->t, pt, vt);
-#pragma GCC unroll 3
-        for (int i = 0; i < 3; ++i) {
-            const double v = J[3 * i] * qd[0] + J[3 * i + 1] * qd[1] + J[3 * i + 2] * qd[2];
-            fdev[i] = P.hand_k * (pt[i] - p[i]) + P.hand_b * (vt[i] - v);
-        }
-        for (int i = 0; i < 3; ++i) s->f_hand[i] = -fdev[i];
-    }
+    if (P.hand == 1) hand_force(s, kq, J, qd, fdev);
     const bool fixed = P.hand == 2;
     if (fixed || s->held) {
         if (fixed) {  // rigid grip: static equilibrium tau + J^T F_dev = 0, F_hand = -F_dev
@@ -740,14 +757,7 @@ void mech_step(hg_plant* s, double dt, const double* ia, const double* ib, hg_pl
     // (J_r I + m J^T J) qdd = tau + J^T w - friction,  w = F_dev - m Jdot qd,
     // Jdot qd = (J - Jprev) qd / dt (one division, m / dt, instead of one per element)
     double w[3] = {fdev[0], fdev[1], fdev[2]};
-    if (s->have_prev) {
-        const double m_dt = m / dt;
-        const double* Jp = s->Jprev;
-#pragma GCC unroll 3
-        for (int r = 0; r < 3; ++r)
-            w[r] -= m_dt * ((J[3 * r] - Jp[3 * r]) * qd[0] + (J[3 * r + 1] - Jp[3 * r + 1]) * qd[1] +
-                            (J[3 * r + 2] - Jp[3 * r + 2]) * qd[2]);
-    }
+    if (s->have_prev) coriolis(s, J, qd, m / dt, w);
     double b[3];
 #pragma GCC unroll 3
     for (int i = 0; i < 3; ++i) {
@@ -810,16 +820,7 @@ void mech_step_compliant(hg_plant* s, double dt, const double* ia, const double*
         ts[i] = P.k_link[i] * (s->qm[i] - s->q[i]) + P.b_link[i] * (s->qdm[i] - qd[i]);
     if (P.gravity) grad_u(P, kq, gq);
     double fdev[3] = {0, 0, 0};
-    if (P.hand == 1) {
-        double p[3], pt[3], vt[3];
-        fk_t(P.arm, kq, p);
-        target(s, s->t, pt, vt);
-        for (int i = 0; i < 3; ++i) {
-            const double v = J[3 * i] * qd[0] + J[3 * i + 1] * qd[1] + J[3 * i + 2] * qd[2];
-            fdev[i] = P.hand_k * (pt[i] - p[i]) + P.hand_b * (vt[i] - v);
-        }
-        for (int i = 0; i < 3; ++i) s->f_hand[i] = -fdev[i];
-    }
+    if (P.hand == 1) hand_force(s, kq, J, qd, fdev);
     if (s->held) {   // the fixture moves both sides together
         for (int i = 0; i < 3; ++i) {
             s->q[i] += dt * qd[i];
@@ -855,13 +856,7 @@ void mech_step_compliant(hg_plant* s, double dt, const double* ia, const double*
     }
     // the linkage
     double w[3] = {fdev[0], fdev[1], fdev[2]};
-    if (s->have_prev) {
-        const double m_dt = m / dt;
-        const double* Jp = s->Jprev;
-        for (int r = 0; r < 3; ++r)
-            w[r] -= m_dt * ((J[3 * r] - Jp[3 * r]) * qd[0] + (J[3 * r + 1] - Jp[3 * r + 1]) * qd[1] +
-                            (J[3 * r + 2] - Jp[3 * r + 2]) * qd[2]);
-    }
+    if (s->have_prev) coriolis(s, J, qd, m / dt, w);
     double b[3];
     for (int i = 0; i < 3; ++i) b[i] = ts[i] - gq[i] + J[i] * w[0] + J[3 + i] * w[1] + J[6 + i] * w[2];
     double m00 = m * (J[0] * J[0] + J[3] * J[3] + J[6] * J[6]);
