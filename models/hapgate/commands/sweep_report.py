@@ -283,7 +283,7 @@ def seu_plot(campaigns: dict[str, list[dict[str, Any]]], path: Any) -> None:
                     hatch="//" if j else None, edgecolor="white", linewidth=0.3)
             left += share
         dang = sum(1 for r in rows if r["dangerous"])
-        ax.annotate(f"{name}: SPFM {seu.spfm(dang, len(rows)):.2f} % ({len(rows)} runs)",
+        ax.annotate(f"{name}: SPFM {100 * seu.spfm(dang, len(rows)):.2f} % ({len(rows)} runs)",
                     (0.01, 0.97 - 0.06 * j), xycoords="axes fraction", fontsize=8, va="top")
     ax.set_yticks(np.arange(len(blocks)), blocks)
     ax.set_xlabel("share of runs, %  (bars: " + " / ".join(names) + ", hatched after the first)")
