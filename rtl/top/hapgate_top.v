@@ -281,12 +281,13 @@ module hapgate_top #(
                 end
             end
             assign faults_k = clr_pend ? faults : (held | faults);
+            assign fault_k  = {|faults_k[8:6], |faults_k[5:3], |faults_k[2:0]};
+            wire unused_fault = &{1'b0, fault};   // (fault_k: the same OR, of the held copy)
         end else begin : g_fault_live
             assign faults_k = faults;
+            assign fault_k  = fault;
         end
     endgenerate
-    assign fault_k = {|faults_k[8:6], |faults_k[5:3], |faults_k[2:0]};
-    wire unused_fault = &{1'b0, fault};   // (fault_k: the same OR of the held copy)
     wire [95:0] cal_ofs_w, cal_gain_w, cal_stat_w;
 
     genvar ax;
