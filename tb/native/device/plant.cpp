@@ -659,6 +659,25 @@ void joint_trig(hg_plant* s, double* sp, double* cp) {
     }
 }
 
+// A mechanics step's motor torques from the currents (ia, ib) at the electrical angles' sines
+// and cosines (sp, cp), the read-out of the state before the step (out, if asked: the
+// amplifier's present currents at the same angles) and the Jacobian at the joints' kq. Shared by
+// both mechanics steps.
+[[gnu::always_inline]] inline void step_torques(hg_plant* s, const double* ia, const double* ib,
+                                                const double* sp, const double* cp,
+                                                const Trig& kq, hg_plant_out* out,
+                                                double* tau, double* J) {
+    torque_pq(s, ia, ib, sp, cp, tau);
+    if (out) {
+        double th[3], tau_now[3];
+        elec_angles(s, th);
+        torque_pq(s, s->ia, s->ib, sp, cp, tau_now);
+        fill_out(s, kq, tau_now, th, out);
+    }
+    for (int i = 0; i < 3; ++i) s->tau[i] = tau[i];
+    jac_t(s->P.arm, kq, J);
+}
+
 // The spring hand's force on the device at the step's pose (fdev; the hand's own, f_hand, is
 // its negative): k (p_target - p) + b (v_target - J qd). Shared by both mechanics steps.
 [[gnu::always_inline]] inline void hand_force(hg_plant* s, const Trig& kq, const double* J,
@@ -716,17 +735,9 @@ void mech_step(hg_plant* s, double dt, const double* ia, const double* ib, hg_pl
     const double m = s->m_end;
     double sp[3], cp[3], tau[3];
     joint_trig(s, sp, cp);
-    torque_pq(s, ia, ib, sp, cp, tau);
     const Trig kq = trig_sc(s->tc_s, s->tc_c);
-    if (out) {   // the read-out's torques: the amplifier's present currents at the same angles
-        double th[3], tau_now[3];
-        elec_angles(s, th);
-        torque_pq(s, s->ia, s->ib, sp, cp, tau_now);
-        fill_out(s, kq, tau_now, th, out);
-    }
-    for (int i = 0; i < 3; ++i) s->tau[i] = tau[i];
     double J[9];
-    jac_t(P.arm, kq, J);
+    step_torques(s, ia, ib, sp, cp, kq, out, tau, J);
     const double qd[3] = {s->qd[0], s->qd[1], s->qd[2]};
     double tq[3] = {tau[0], tau[1], tau[2]};
     if (P.gravity) {
@@ -803,17 +814,9 @@ void mech_step_compliant(hg_plant* s, double dt, const double* ia, const double*
     const double m = s->m_end;
     double sp[3], cp[3], tau[3];
     for (int i = 0; i < 3; ++i) sincos(P.pole_pairs * s->qm[i], &sp[i], &cp[i]);
-    torque_pq(s, ia, ib, sp, cp, tau);
     const Trig kq = trig(s->q);
-    if (out) {
-        double th[3], tau_now[3];
-        elec_angles(s, th);
-        torque_pq(s, s->ia, s->ib, sp, cp, tau_now);
-        fill_out(s, kq, tau_now, th, out);
-    }
-    for (int i = 0; i < 3; ++i) s->tau[i] = tau[i];
     double J[9];
-    jac_t(P.arm, kq, J);
+    step_torques(s, ia, ib, sp, cp, kq, out, tau, J);
     const double qd[3] = {s->qd[0], s->qd[1], s->qd[2]};
     double ts[3], gq[3] = {0, 0, 0};
     for (int i = 0; i < 3; ++i)
